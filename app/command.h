@@ -1,0 +1,51 @@
+// Subcommand registry of the `ttp` program. Each cmd_<area>.cpp registers
+// its subcommands with a static TTP_REGISTER_COMMANDS(fn); main() builds the
+// CLI from the registry, runs the chosen callback and maps errors to exit
+// codes: 0 ok, 1 a judged failure, 2 bad input or usage.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "ttp/geometry/config.h"
+
+namespace ttp::app {
+
+constexpr int kExitOk = 0;
+constexpr int kExitJudgedFailure = 1;
+constexpr int kExitBadInput = 2;
+
+struct GlobalOptions {
+  std::string config_path;  // --config FILE (TOML/JSON), empty = defaults
+  bool quiet = false;       // --quiet: no progress, no info messages
+  int exit_code = kExitOk;  // set by a command to report a judged failure
+
+  // The config from --config, or the embedded defaults.
+  Config LoadConfig() const;
+};
+
+using Registrar = std::function<void(CLI::App& root, GlobalOptions& global)>;
+
+// Called from static initialisers; returns a dummy so it can run there.
+int AddRegistrar(int order, Registrar registrar);
+void RegisterAll(CLI::App& root, GlobalOptions& global);
+
+// Writes JSON (pretty, stable key order) atomically; "-" = stdout.
+void WriteJson(const std::string& path, const nlohmann::json& doc);
+// Writes text atomically; "-" = stdout.
+void WriteText(const std::string& path, const std::string& text);
+
+// True when stdout is a terminal (progress displays only then).
+bool StdoutIsTerminal();
+
+}  // namespace ttp::app
+
+#define TTP_CONCAT_INNER(a, b) a##b
+#define TTP_CONCAT(a, b) TTP_CONCAT_INNER(a, b)
+// order: position in `ttp --help` (lower first).
+#define TTP_REGISTER_COMMANDS(order, fn)                  \
+  static const int TTP_CONCAT(ttp_registrar_, __LINE__) = \
+      ::ttp::app::AddRegistrar(order, fn)

@@ -1,0 +1,34 @@
+// ttp: the thermal test piece toolkit.
+#include <spdlog/spdlog.h>
+
+#include <iostream>
+
+#include "command.h"
+#include "ttp/geometry/error.h"
+
+int main(int argc, char** argv) {
+  using namespace ttp::app;
+  CLI::App root{
+      "ttp - thermal test pieces: G-code, inspection, TALC log checks and "
+      "diagnosis.\nExit codes: 0 ok, 1 judged failure, 2 bad input."};
+  root.require_subcommand(1);
+  GlobalOptions global;
+  root.add_option("--config", global.config_path,
+                  "part/machine/process description (TOML or JSON)")
+      ->check(CLI::ExistingFile);
+  root.add_flag("-q,--quiet", global.quiet, "no progress or info output");
+  RegisterAll(root, global);
+  try {
+    root.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = root.exit(e);
+    return rc == 0 ? kExitOk : kExitBadInput;
+  } catch (const ttp::InputError& e) {
+    std::cerr << "ttp: error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "ttp: error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+  return global.exit_code;
+}

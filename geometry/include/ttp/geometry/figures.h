@@ -1,0 +1,54 @@
+// The thermal figures of test-piece.md section 4 from per-feature results.
+// Both inspection (measured planes) and simulation (predicted planes) feed
+// FeatureResult values here, so the two are computed by the same code.
+#pragma once
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "ttp/geometry/config.h"
+
+namespace ttp {
+
+struct FeatureResult {
+  bool present = false;
+  // Facets: distance of the plane to W's origin along its outward normal.
+  // Strips: depth below the top face at (0, y_k), positive downwards.
+  double d_mm = 0;
+  double var_d_mm2 = 0;  // variance of d
+  // Strips: slope angle beta = atan(dz/dx) in W (rad). Facets: the normal's
+  // angle error about Z (rad, positive counter-clockwise seen from +Z).
+  double angle_rad = 0;
+  double var_angle_rad2 = 0;
+  // Facets: tilt of the normal out of the XY plane (rad).
+  double tilt_rad = 0;
+  int points = 0;
+  double rms_mm = 0;
+};
+
+using FeatureResults = std::map<std::string, FeatureResult>;
+
+// Which figures a cycle has; NaN marks a figure that cannot be computed
+// (a feature it needs is missing).
+struct CycleFigures {
+  int cycle = 0;
+  double e_x_mm = 0, e_y_mm = 0, e_z_mm = 0, e_b_rad = 0, e_ttp_mm = 0;
+  // Standard uncertainties (k = 1) propagated from the feature variances.
+  double u_x_mm = 0, u_y_mm = 0, u_z_mm = 0, u_b_rad = 0, u_ttp_mm = 0;
+};
+
+// Figures for cycles 1..cycles() from results keyed by feature id.
+std::vector<CycleFigures> ComputeFigures(const PartSpec& part,
+                                         const FeatureResults& results);
+
+// Temperature change implied by a radial growth (thesis 7.10), K.
+double TemperatureChangeK(double radial_growth_mm, double alpha_per_k,
+                          double radius_mm);
+
+// {"figures": [{"cycle":1,"E_X":..(um),...,"E_B":..(um/m),"U":{...}}]};
+// U is the expanded uncertainty (k = 2). Missing figures are null.
+nlohmann::json FiguresToJson(const std::vector<CycleFigures>& figures);
+
+}  // namespace ttp

@@ -1,0 +1,514 @@
+#include "ttp/geometry/config.h"
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
+
+namespace ttp {
+namespace {
+
+using nlohmann::json;
+
+// One list of fields per struct serves reading and writing.
+template <class V>
+void VisitTool(V& v, ToolSpec& t) {
+  v("name", t.name);
+  v("number", t.number);
+  v("diameter_mm", t.diameter_mm);
+  v("flutes", t.flutes);
+  v("material", t.material);
+  v("length_mm", t.length_mm);
+  v("flute_length_mm", t.flute_length_mm);
+  v("tip_angle_deg", t.tip_angle_deg);
+  v("spindle_rpm", t.spindle_rpm);
+  v("feed_mm_min", t.feed_mm_min);
+}
+
+template <class V>
+void VisitPart(V& v, PartSpec& p) {
+  v("blank_diameter_mm", p.blank_diameter_mm);
+  v("blank_height_mm", p.blank_height_mm);
+  v("face_depth_mm", p.face_depth_mm);
+  v("material", p.material);
+  v("alpha_per_k", p.alpha_per_k);
+  v("bolt_circle_diameter_mm", p.bolt_circle_diameter_mm);
+  v("bolt_phi_deg", p.bolt_phi_deg);
+  v("bolt_hole_diameter_mm", p.bolt_hole_diameter_mm);
+  v("bolt_hole_depth_mm", p.bolt_hole_depth_mm);
+  v("ref_cylinders", p.ref_cylinders);
+  v("rim_diameter_mm", p.rim_diameter_mm);
+  v("datum_circle_z_min_mm", p.datum_circle_z_min_mm);
+  v("datum_circle_z_max_mm", p.datum_circle_z_max_mm);
+  v("small_notch_half_width_mm", p.small_notch_half_width_mm);
+  v("small_notch_floor_z_mm", p.small_notch_floor_z_mm);
+  v("big_notch_half_width_mm", p.big_notch_half_width_mm);
+  v("big_notch_floor_z_mm", p.big_notch_floor_z_mm);
+  v("segment_centre_deg", p.segment_centre_deg);
+  v("segment_span_deg", p.segment_span_deg);
+  v("facets_per_segment", p.facets_per_segment);
+  v("facet_step_deg", p.facet_step_deg);
+  v("reference_index", p.reference_index);
+  v("facet_pre_distance_mm", p.facet_pre_distance_mm);
+  v("facet_final_distance_mm", p.facet_final_distance_mm);
+  v("facet_bottom_z_mm", p.facet_bottom_z_mm);
+  v("strip_pitch_mm", p.strip_pitch_mm);
+  v("strip_width_mm", p.strip_width_mm);
+  v("strip_floor_z_mm", p.strip_floor_z_mm);
+  v("mark_phi_deg", p.mark_phi_deg);
+  v("mark_r_start_mm", p.mark_r_start_mm);
+  v("mark_r_end_mm", p.mark_r_end_mm);
+  v("mark_depth_mm", p.mark_depth_mm);
+  v("mark_width_mm", p.mark_width_mm);
+  v("adapter_diameter_mm", p.adapter_diameter_mm);
+  v("adapter_height_mm", p.adapter_height_mm);
+}
+
+template <class V>
+void VisitMachine(V& v, MachineProfile& m) {
+  v("name", m.name);
+  v("travel_x_mm", m.travel_x_mm);
+  v("travel_y_mm", m.travel_y_mm);
+  v("travel_z_mm", m.travel_z_mm);
+  v("rapid_mm_min", m.rapid_mm_min);
+  v("max_feed_mm_min", m.max_feed_mm_min);
+  v("c_index_deg_s", m.c_index_deg_s);
+  v("c_max_rpm", m.c_max_rpm);
+  v("c_spinup_s", m.c_spinup_s);
+  v("max_spindle_rpm", m.max_spindle_rpm);
+  v("c_sense", m.c_sense);
+  v("m_c_turning_on", m.m_c_turning_on);
+  v("m_c_turning_off", m.m_c_turning_off);
+  v("m_table_clamp", m.m_table_clamp);
+  v("m_table_unclamp", m.m_table_unclamp);
+  v("program_number", m.program_number);
+  v("table_top_z_mm", m.table_top_z_mm);
+  v("sphere_distance_mm", m.sphere_distance_mm);
+  v("sphere_height_mm", m.sphere_height_mm);
+  v("waiting_position_w_mm", m.waiting_position_w_mm);
+}
+
+template <class V>
+void VisitProcess(V& v, ProcessSpec& p) {
+  v("roughing", p.roughing);
+  v("engraver", p.engraver);
+  v("notch", p.notch);
+  v("finishing", p.finishing);
+  v("roughing_step_down_mm", p.roughing_step_down_mm);
+  v("finish_allowance_mm", p.finish_allowance_mm);
+  v("turning_c_rpm", p.turning_c_rpm);
+  v("nc_hold_after_pre_min", p.nc_hold_after_pre_min);
+  v("cycle_period_s", p.cycle_period_s);
+  v("warmup_cycles", p.warmup_cycles);
+  v("coolant_in_test", p.coolant_in_test);
+  v("coolant_in_pre", p.coolant_in_pre);
+  v("safe_z_w_mm", p.safe_z_w_mm);
+  v("clearance_mm", p.clearance_mm);
+}
+
+// ---- writing --------------------------------------------------------------
+
+json ToJsonValue(const std::string& s) { return s; }
+json ToJsonValue(double d) { return d; }
+json ToJsonValue(int i) { return i; }
+json ToJsonValue(bool b) { return b; }
+json ToJsonValue(const RefCylinder& c) {
+  return json{{"diameter_mm", c.diameter_mm},
+              {"z_bottom_mm", c.z_bottom_mm},
+              {"z_top_mm", c.z_top_mm}};
+}
+json ToJsonValue(const ToolSpec& t);
+template <class T>
+json ToJsonValue(const std::vector<T>& v) {
+  json a = json::array();
+  for (const auto& e : v) a.push_back(ToJsonValue(e));
+  return a;
+}
+template <class T, size_t N>
+json ToJsonValue(const std::array<T, N>& v) {
+  json a = json::array();
+  for (const auto& e : v) a.push_back(ToJsonValue(e));
+  return a;
+}
+
+struct Writer {
+  json out = json::object();
+  template <class T>
+  void operator()(const char* key, T& value) {
+    out[key] = ToJsonValue(value);
+  }
+};
+
+json ToJsonValue(const ToolSpec& t) {
+  Writer w;
+  VisitTool(w, const_cast<ToolSpec&>(t));
+  return w.out;
+}
+
+// ---- reading --------------------------------------------------------------
+
+struct Reader;
+void ReadValue(const json& j, std::string& out, const Reader& r,
+               const std::string& path);
+void ReadValue(const json& j, double& out, const Reader& r,
+               const std::string& path);
+void ReadValue(const json& j, int& out, const Reader& r,
+               const std::string& path);
+void ReadValue(const json& j, bool& out, const Reader& r,
+               const std::string& path);
+void ReadValue(const json& j, RefCylinder& out, const Reader& r,
+               const std::string& path);
+void ReadValue(const json& j, ToolSpec& out, const Reader& r,
+               const std::string& path);
+template <class T>
+void ReadValue(const json& j, std::vector<T>& out, const Reader& r,
+               const std::string& path);
+template <class T, size_t N>
+void ReadValue(const json& j, std::array<T, N>& out, const Reader& r,
+               const std::string& path);
+
+struct Reader {
+  const json* obj;
+  std::string prefix;
+  std::string source;
+  std::set<std::string>* seen;
+  template <class T>
+  void operator()(const char* key, T& value) const {
+    if (!obj->contains(key)) return;
+    seen->insert(key);
+    ReadValue(obj->at(key), value, *this, prefix + key);
+  }
+  [[noreturn]] void Fail(const std::string& path,
+                         const std::string& why) const {
+    throw InputError(source, 0, path, why);
+  }
+};
+
+void ReadValue(const json& j, std::string& out, const Reader& r,
+               const std::string& path) {
+  if (!j.is_string()) r.Fail(path, "expected a string");
+  out = j.get<std::string>();
+}
+void ReadValue(const json& j, double& out, const Reader& r,
+               const std::string& path) {
+  if (!j.is_number()) r.Fail(path, "expected a number");
+  out = j.get<double>();
+  if (!std::isfinite(out)) r.Fail(path, "must be finite");
+}
+void ReadValue(const json& j, int& out, const Reader& r,
+               const std::string& path) {
+  if (!j.is_number_integer()) r.Fail(path, "expected an integer");
+  out = j.get<int>();
+}
+void ReadValue(const json& j, bool& out, const Reader& r,
+               const std::string& path) {
+  if (!j.is_boolean()) r.Fail(path, "expected true or false");
+  out = j.get<bool>();
+}
+
+void CheckKnownKeys(const json& j, const std::set<std::string>& seen,
+                    const Reader& r, const std::string& path) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (!seen.count(it.key())) {
+      r.Fail(path + it.key(), "unknown key");
+    }
+  }
+}
+
+template <class Visit, class T>
+void ReadObject(const json& j, T& out, const Reader& parent,
+                const std::string& path, Visit visit) {
+  if (!j.is_object()) parent.Fail(path, "expected a table/object");
+  std::set<std::string> seen;
+  Reader r{&j, path + ".", parent.source, &seen};
+  visit(r, out);
+  CheckKnownKeys(j, seen, r, path + ".");
+}
+
+void ReadValue(const json& j, RefCylinder& out, const Reader& r,
+               const std::string& path) {
+  ReadObject(j, out, r, path, [](Reader& rr, RefCylinder& c) {
+    rr("diameter_mm", c.diameter_mm);
+    rr("z_bottom_mm", c.z_bottom_mm);
+    rr("z_top_mm", c.z_top_mm);
+  });
+}
+void ReadValue(const json& j, ToolSpec& out, const Reader& r,
+               const std::string& path) {
+  ReadObject(j, out, r, path,
+             [](Reader& rr, ToolSpec& t) { VisitTool(rr, t); });
+}
+template <class T>
+void ReadValue(const json& j, std::vector<T>& out, const Reader& r,
+               const std::string& path) {
+  if (!j.is_array()) r.Fail(path, "expected an array");
+  std::vector<T> values(j.size(), out.empty() ? T{} : out.front());
+  for (size_t i = 0; i < j.size(); ++i) {
+    ReadValue(j[i], values[i], r, path + "[" + std::to_string(i) + "]");
+  }
+  out = std::move(values);
+}
+template <class T, size_t N>
+void ReadValue(const json& j, std::array<T, N>& out, const Reader& r,
+               const std::string& path) {
+  if (!j.is_array() || j.size() != N) {
+    r.Fail(path, "expected an array of " + std::to_string(N) + " values");
+  }
+  for (size_t i = 0; i < N; ++i) {
+    ReadValue(j[i], out[i], r, path + "[" + std::to_string(i) + "]");
+  }
+}
+
+json TomlToJson(const toml::node& node) {
+  if (const auto* t = node.as_table()) {
+    json o = json::object();
+    for (const auto& [k, v] : *t) o[std::string(k.str())] = TomlToJson(v);
+    return o;
+  }
+  if (const auto* a = node.as_array()) {
+    json arr = json::array();
+    for (const auto& v : *a) arr.push_back(TomlToJson(v));
+    return arr;
+  }
+  if (const auto* v = node.as_integer()) return v->get();
+  if (const auto* v = node.as_floating_point()) return v->get();
+  if (const auto* v = node.as_boolean()) return v->get();
+  if (const auto* v = node.as_string()) return v->get();
+  return json();  // dates and times: no field takes them, rejected later
+}
+
+void Require(bool ok, const std::string& source, const std::string& field,
+             const std::string& why) {
+  if (!ok) throw InputError(source, 0, field, why);
+}
+
+void ValidateTool(const ToolSpec& t, const std::string& source,
+                  const std::string& name, const MachineProfile& m) {
+  const std::string f = "process." + name + ".";
+  Require(t.number >= 1 && t.number <= 99, source, f + "number",
+          "must be 1..99");
+  Require(t.diameter_mm > 0, source, f + "diameter_mm", "must be positive");
+  Require(t.flutes >= 1, source, f + "flutes", "must be at least 1");
+  Require(t.length_mm > 0, source, f + "length_mm", "must be positive");
+  Require(t.flute_length_mm > 0, source, f + "flute_length_mm",
+          "must be positive");
+  Require(t.tip_angle_deg >= 0 && t.tip_angle_deg < 180, source,
+          f + "tip_angle_deg", "must be in [0, 180)");
+  Require(t.spindle_rpm > 0 && t.spindle_rpm <= m.max_spindle_rpm, source,
+          f + "spindle_rpm", "must be in (0, machine.max_spindle_rpm]");
+  Require(t.feed_mm_min > 0 && t.feed_mm_min <= m.max_feed_mm_min, source,
+          f + "feed_mm_min", "must be in (0, machine.max_feed_mm_min]");
+}
+
+}  // namespace
+
+Config ConfigFromJson(const json& doc, const std::string& source) {
+  Config c;
+  if (!doc.is_object()) throw InputError(source, 0, "", "expected a table");
+  std::set<std::string> seen;
+  Reader top{&doc, "", source, &seen};
+  auto section = [&](const char* key, auto visit, auto& target) {
+    if (!doc.contains(key)) return;
+    seen.insert(key);
+    ReadObject(doc.at(key), target, top, key, visit);
+  };
+  section(
+      "part", [](Reader& r, PartSpec& p) { VisitPart(r, p); }, c.part);
+  section(
+      "machine", [](Reader& r, MachineProfile& m) { VisitMachine(r, m); },
+      c.machine);
+  section(
+      "process", [](Reader& r, ProcessSpec& p) { VisitProcess(r, p); },
+      c.process);
+  CheckKnownKeys(doc, seen, top, "");
+  ValidateConfig(c, source);
+  return c;
+}
+
+Config LoadConfig(const std::filesystem::path& path) {
+  const std::string text = ReadTextFile(path);
+  const std::string source = path.string();
+  std::string ext = path.extension().string();
+  for (auto& ch : ext) ch = static_cast<char>(std::tolower(ch));
+  const bool looks_json =
+      ext == ".json" ||
+      (ext != ".toml" &&
+       text.find_first_not_of(" \t\r\n") != std::string::npos &&
+       text[text.find_first_not_of(" \t\r\n")] == '{');
+  json doc;
+  if (looks_json) {
+    try {
+      doc = json::parse(text);
+    } catch (const json::parse_error& e) {
+      // nlohmann reports a byte offset; turn it into a line number.
+      const size_t at = std::min<size_t>(e.byte, text.size());
+      const int line =
+          1 + static_cast<int>(std::count(
+                  text.begin(), text.begin() + static_cast<long>(at), '\n'));
+      throw InputError(source, line, "", "not valid JSON");
+    }
+  } else {
+    try {
+      doc = TomlToJson(toml::parse(text, source));
+    } catch (const toml::parse_error& e) {
+      throw InputError(
+          source, static_cast<int>(e.source().begin.line), "",
+          std::string("not valid TOML: ") + std::string(e.description()));
+    }
+  }
+  return ConfigFromJson(doc, source);
+}
+
+json ConfigToJson(const Config& config) {
+  Config c = config;
+  Writer part, machine, process;
+  VisitPart(part, c.part);
+  VisitMachine(machine, c.machine);
+  VisitProcess(process, c.process);
+  return json{
+      {"part", part.out}, {"machine", machine.out}, {"process", process.out}};
+}
+
+void ValidateConfig(const Config& c, const std::string& source) {
+  const PartSpec& p = c.part;
+  const MachineProfile& m = c.machine;
+  const ProcessSpec& pr = c.process;
+  auto positive = [&](double v, const char* field) {
+    Require(v > 0, source, std::string("part.") + field, "must be positive");
+  };
+  positive(p.blank_diameter_mm, "blank_diameter_mm");
+  positive(p.blank_height_mm, "blank_height_mm");
+  Require(p.face_depth_mm >= 0 && p.face_depth_mm < p.blank_height_mm, source,
+          "part.face_depth_mm", "must be in [0, blank_height_mm)");
+  positive(p.alpha_per_k, "alpha_per_k");
+  positive(p.rim_diameter_mm, "rim_diameter_mm");
+  Require(p.rim_diameter_mm <= p.blank_diameter_mm, source,
+          "part.rim_diameter_mm", "larger than the blank");
+  Require(!p.ref_cylinders.empty(), source, "part.ref_cylinders",
+          "at least one reference cylinder is needed");
+  for (size_t i = 0; i < p.ref_cylinders.size(); ++i) {
+    const auto& rc = p.ref_cylinders[i];
+    const std::string f = "part.ref_cylinders[" + std::to_string(i) + "]";
+    Require(rc.diameter_mm > 0, source, f + ".diameter_mm", "must be positive");
+    Require(rc.diameter_mm <= p.blank_diameter_mm, source, f + ".diameter_mm",
+            "larger than the blank: the part does not fit the blank");
+    Require(rc.z_bottom_mm < rc.z_top_mm, source, f,
+            "z_bottom_mm must be below z_top_mm");
+    Require(rc.z_bottom_mm >= -p.height_mm() - 1e-9, source, f + ".z_bottom_mm",
+            "below the bottom of the piece");
+  }
+  Require(p.big_notch_floor_z_mm < 0 && p.big_notch_floor_z_mm > -p.height_mm(),
+          source, "part.big_notch_floor_z_mm", "must lie inside the piece");
+  Require(
+      p.small_notch_floor_z_mm < 0 && p.small_notch_floor_z_mm > -p.height_mm(),
+      source, "part.small_notch_floor_z_mm", "must lie inside the piece");
+  positive(p.small_notch_half_width_mm, "small_notch_half_width_mm");
+  positive(p.big_notch_half_width_mm, "big_notch_half_width_mm");
+  Require(p.facets_per_segment >= 3 && p.facets_per_segment % 2 == 1, source,
+          "part.facets_per_segment", "must be odd and at least 3");
+  Require(p.reference_index >= 1 && p.reference_index <= p.facets_per_segment,
+          source, "part.reference_index", "must be a facet index");
+  positive(p.facet_step_deg, "facet_step_deg");
+  Require(p.facet_final_distance_mm > 0 &&
+              p.facet_final_distance_mm < p.facet_pre_distance_mm,
+          source, "part.facet_final_distance_mm",
+          "must be positive and below facet_pre_distance_mm");
+  Require(p.facet_pre_distance_mm < p.rim_diameter_mm / 2, source,
+          "part.facet_pre_distance_mm", "outside the rim: nothing to cut");
+  Require(p.facet_bottom_z_mm < 0 && p.facet_bottom_z_mm > -p.height_mm(),
+          source, "part.facet_bottom_z_mm", "must lie inside the piece");
+  positive(p.strip_pitch_mm, "strip_pitch_mm");
+  positive(p.strip_width_mm, "strip_width_mm");
+  const double strip_reach =
+      (p.facets_per_segment - 1) / 2.0 * p.strip_pitch_mm +
+      p.strip_width_mm / 2;
+  Require(strip_reach <= p.big_notch_half_width_mm + 1e-9, source,
+          "part.strip_pitch_mm",
+          "outer strips reach into the big-notch flanks");
+  Require(p.strip_floor_z_mm < p.big_notch_floor_z_mm, source,
+          "part.strip_floor_z_mm", "must be below the big-notch floor");
+  Require(p.mark_r_start_mm > 0 && p.mark_r_start_mm < p.mark_r_end_mm &&
+              p.mark_r_end_mm < p.facet_final_distance_mm,
+          source, "part.mark_r_end_mm",
+          "mark must run from mark_r_start_mm out to below the facets");
+  positive(p.mark_depth_mm, "mark_depth_mm");
+  positive(p.mark_width_mm, "mark_width_mm");
+  positive(p.adapter_diameter_mm, "adapter_diameter_mm");
+  positive(p.adapter_height_mm, "adapter_height_mm");
+  Require(p.bolt_circle_diameter_mm + p.bolt_hole_diameter_mm <
+              p.adapter_diameter_mm,
+          source, "part.bolt_circle_diameter_mm", "bolts outside the adapter");
+
+  // Tools.
+  ValidateTool(pr.roughing, source, "roughing", m);
+  ValidateTool(pr.engraver, source, "engraver", m);
+  ValidateTool(pr.notch, source, "notch", m);
+  ValidateTool(pr.finishing, source, "finishing", m);
+  Require(pr.notch.diameter_mm <= 2 * p.small_notch_half_width_mm + 1e-9,
+          source, "process.notch.diameter_mm",
+          "tool larger than the small notch");
+  Require(pr.roughing.diameter_mm <= 2 * p.big_notch_half_width_mm, source,
+          "process.roughing.diameter_mm", "tool larger than the big notch");
+  Require(std::abs(pr.finishing.diameter_mm - p.strip_width_mm) < 1e-9, source,
+          "process.finishing.diameter_mm",
+          "must equal part.strip_width_mm (a strip is one cutter wide)");
+  Require(pr.finishing.flute_length_mm >= -p.facet_bottom_z_mm, source,
+          "process.finishing.flute_length_mm", "shorter than the facet height");
+  Require(pr.roughing_step_down_mm > 0, source, "process.roughing_step_down_mm",
+          "must be positive");
+  Require(pr.finish_allowance_mm >= 0, source, "process.finish_allowance_mm",
+          "must not be negative");
+  Require(pr.turning_c_rpm > 0 && pr.turning_c_rpm <= m.c_max_rpm, source,
+          "process.turning_c_rpm", "must be in (0, machine.c_max_rpm]");
+  Require(pr.nc_hold_after_pre_min >= 0, source,
+          "process.nc_hold_after_pre_min", "must not be negative");
+  Require(pr.cycle_period_s >= 600, source, "process.cycle_period_s",
+          "must be at least 600 s (one cycle must fit)");
+  Require(pr.warmup_cycles >= 0 && pr.warmup_cycles <= p.cycles(), source,
+          "process.warmup_cycles", "must be in [0, cycles]");
+  Require(pr.safe_z_w_mm > 0, source, "process.safe_z_w_mm",
+          "must be above the top face");
+  Require(pr.clearance_mm > 0, source, "process.clearance_mm",
+          "must be positive");
+
+  // Machine.
+  auto range = [&](const std::array<double, 2>& r, const char* field) {
+    Require(r[0] < r[1], source, std::string("machine.") + field,
+            "min must be below max");
+  };
+  range(m.travel_x_mm, "travel_x_mm");
+  range(m.travel_y_mm, "travel_y_mm");
+  range(m.travel_z_mm, "travel_z_mm");
+  Require(m.rapid_mm_min > 0, source, "machine.rapid_mm_min",
+          "must be positive");
+  Require(m.max_feed_mm_min > 0, source, "machine.max_feed_mm_min",
+          "must be positive");
+  Require(m.c_index_deg_s > 0, source, "machine.c_index_deg_s",
+          "must be positive");
+  Require(m.c_max_rpm > 0, source, "machine.c_max_rpm", "must be positive");
+  Require(m.c_sense == 1 || m.c_sense == -1, source, "machine.c_sense",
+          "must be 1 or -1");
+  Require(m.sphere_distance_mm > 0, source, "machine.sphere_distance_mm",
+          "must be positive");
+  Require(m.program_number >= 1 && m.program_number <= 9998, source,
+          "machine.program_number", "must be 1..9998");
+  // The piece must fit the travel: the tool reaches radius R + tool radius.
+  const double reach =
+      p.blank_diameter_mm / 2 + pr.roughing.diameter_mm / 2 + pr.clearance_mm;
+  Require(m.travel_x_mm[0] <= -reach && m.travel_x_mm[1] >= reach, source,
+          "machine.travel_x_mm", "the piece does not fit the X travel");
+  Require(m.travel_y_mm[0] <= -reach && m.travel_y_mm[1] >= reach, source,
+          "machine.travel_y_mm", "the piece does not fit the Y travel");
+  const double w_origin_z =
+      m.table_top_z_mm + p.adapter_height_mm + p.height_mm();
+  Require(m.travel_z_mm[0] <= w_origin_z - p.height_mm() &&
+              m.travel_z_mm[1] >= w_origin_z + pr.safe_z_w_mm,
+          source, "machine.travel_z_mm",
+          "the piece and safe height do not fit the Z travel");
+}
+
+}  // namespace ttp
