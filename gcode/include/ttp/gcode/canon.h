@@ -1,0 +1,44 @@
+// Canonical machine statements: what a program makes the machine do, after
+// reading and interpreting the text (our reader, or rs274's canon output
+// parsed back). Times come from the time model of the machine profile.
+//
+// CONTRACT between gcode (producer) and cam/verify, schedule (consumers).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace ttp::gcode {
+
+enum class CanonKind {
+  kTraverse,     // rapid, straight in XYZ and C
+  kFeed,         // linear feed in XYZ and/or C
+  kDwell,
+  kSpindle,      // rpm (0 = off), clockwise
+  kCSpin,        // C turning mode rpm (0 = off)
+  kCoolant,      // on = value > 0
+  kToolChange,   // tool number
+  kClamp,        // table clamp on = value > 0
+  kReport,       // text = "cut,<feature>,<c_deg>"
+  kComment,
+  kEnd,
+};
+
+struct CanonStatement {
+  CanonKind kind;
+  // Position after the statement (program coordinates, mm) and table angle
+  // (rad); for non-motion statements the unchanged current position.
+  Eigen::Vector3d end_mm = Eigen::Vector3d::Zero();
+  double end_c_rad = 0;
+  double feed_per_min = 0;  // kFeed: mm/min (deg/min if pure C)
+  double value = 0;         // rpm, dwell seconds, tool, on/off
+  bool clockwise = true;
+  std::string text;
+  int source_line = 0;      // line in the program text
+  double start_s = 0;       // program time at start (time model)
+  double duration_s = 0;
+};
+
+}  // namespace ttp::gcode

@@ -1,0 +1,60 @@
+// Program IR: what CAM means to send to the machine, independent of the
+// controller's dialect. The writer turns it into FANUC or LinuxCNC text; the
+// reader turns any text back into canonical statements (canon.h).
+//
+// CONTRACT between cam (producer) and gcode (writer): extend, do not rename.
+// Coordinates are program coordinates (G54: W's origin at C = 0), mm; table
+// angle C in degrees as commanded.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "ttp/geometry/config.h"
+
+namespace ttp::gcode {
+
+enum class Dialect { kFanuc, kLinuxCnc };
+// "fanuc" | "linuxcnc"; throws InputError(source, 0, "dialect", ...).
+Dialect ParseDialect(const std::string& name, const std::string& source);
+const char* DialectName(Dialect d);
+
+struct Axes {
+  std::optional<double> x_mm, y_mm, z_mm, c_deg;
+};
+
+struct Comment { std::string text; };
+struct Rapid { Axes to; };
+// Linear feed move. feed is mm/min, or deg/min for a pure C move.
+struct Feed { Axes to; double feed_per_min; };
+struct Dwell { double seconds; };
+struct SpindleOn { double rpm; bool clockwise = true; };  // M3/M4
+struct SpindleOff {};                                      // M5
+struct Coolant { bool on; };                               // M8/M9
+// M6 T with tool-length compensation (G43 H) switched on afterwards.
+struct ToolChange { int tool; std::string description; };
+// C axis in turning (spindle) mode at rpm; rpm 0 stops it and returns C to
+// positioning mode. FANUC: builder M-codes from the machine profile;
+// LinuxCNC: spindle 1.
+struct CSpin { double rpm; };
+struct TableClamp { bool clamp; };
+// Report to the compensation PC: becomes a `cut` row (feature name of
+// talc-log.md section 5) with the table angle. FANUC DPRNT, LinuxCNC
+// (print,...).
+struct Report { std::string event; std::string feature; double c_deg; };
+struct ProgramEnd {};  // M30
+
+using Statement = std::variant<Comment, Rapid, Feed, Dwell, SpindleOn,
+                               SpindleOff, Coolant, ToolChange, CSpin,
+                               TableClamp, Report, ProgramEnd>;
+
+struct Program {
+  std::string name;   // "pre" or "cycle"
+  int number = 1000;  // FANUC O-number
+  std::string title;  // first comment
+  std::vector<Statement> statements;
+};
+
+}  // namespace ttp::gcode
