@@ -9,10 +9,9 @@
 // extend, do not rename.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace ttp::fit {
 
@@ -95,7 +94,6 @@ SphereFit FitSphere(const Eigen::Matrix3Xd& points,
                     const FitOptions& options = {});
 CylinderFit FitCylinder(const Eigen::Matrix3Xd& points,
                         const FitOptions& options = {});
-ConeFit FitCone(const Eigen::Matrix3Xd& points,
-                const FitOptions& options = {});
+ConeFit FitCone(const Eigen::Matrix3Xd& points, const FitOptions& options = {});
 
 }  // namespace ttp::fit

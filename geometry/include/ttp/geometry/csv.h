@@ -1,0 +1,36 @@
+// Small CSV reader shared by the toolkit's CSV inputs (R-test spheres,
+// probe results, dial readings): comma separated, `#` comment lines, a
+// header row naming the columns, line numbers kept for error messages.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace ttp {
+
+struct CsvRow {
+  int line = 0;  // 1-based line in the file
+  std::vector<std::string> cells;
+};
+
+struct CsvTable {
+  std::string source;
+  int header_line = 0;
+  std::vector<std::string> columns;
+  std::map<std::string, int> index;  // column name -> position
+  std::vector<CsvRow> rows;
+
+  // Column position; throws InputError naming the missing column.
+  int Require(const std::string& column) const;
+  bool Has(const std::string& column) const { return index.count(column); }
+  // The cell as a finite number; throws InputError(source, line, column).
+  double Number(const CsvRow& row, int column) const;
+  const std::string& Text(const CsvRow& row, int column) const;
+};
+
+// Parses CSV text. Rows with a different cell count than the header are an
+// error naming the line. Leading/trailing spaces of cells are trimmed.
+CsvTable ParseCsv(const std::string& text, const std::string& source);
+
+}  // namespace ttp

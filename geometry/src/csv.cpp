@@ -1,0 +1,100 @@
+#include "ttp/geometry/csv.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "ttp/geometry/error.h"
+
+namespace ttp {
+namespace {
+
+std::string Trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return "";
+  const size_t e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+std::vector<std::string> SplitCells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cell;
+  std::istringstream in(line);
+  while (std::getline(in, cell, ',')) cells.push_back(Trim(cell));
+  if (!line.empty() && line.back() == ',') cells.push_back("");
+  return cells;
+}
+
+}  // namespace
+
+int CsvTable::Require(const std::string& column) const {
+  auto it = index.find(column);
+  if (it == index.end()) {
+    throw InputError(source, header_line, column,
+                     "required column is missing from the header");
+  }
+  return it->second;
+}
+
+const std::string& CsvTable::Text(const CsvRow& row, int column) const {
+  return row.cells.at(static_cast<size_t>(column));
+}
+
+double CsvTable::Number(const CsvRow& row, int column) const {
+  const std::string& cell = Text(row, column);
+  const std::string& name = columns.at(static_cast<size_t>(column));
+  if (cell.empty()) throw InputError(source, row.line, name, "empty cell");
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(cell.c_str(), &end);
+  if (end == cell.c_str() || *end != '\0' || errno == ERANGE) {
+    throw InputError(source, row.line, name, "'" + cell + "' is not a number");
+  }
+  if (!std::isfinite(v)) {
+    throw InputError(source, row.line, name, "value is not finite");
+  }
+  return v;
+}
+
+CsvTable ParseCsv(const std::string& text, const std::string& source) {
+  CsvTable table;
+  table.source = source;
+  std::istringstream in(text);
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (number == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+    const std::string trimmed = Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') continue;
+    std::vector<std::string> cells = SplitCells(trimmed);
+    if (table.columns.empty()) {
+      table.columns = cells;
+      table.header_line = number;
+      for (size_t i = 0; i < cells.size(); ++i) {
+        if (cells[i].empty()) {
+          throw InputError(source, number, "header",
+                           "column " + std::to_string(i + 1) + " has no name");
+        }
+        if (!table.index.emplace(cells[i], static_cast<int>(i)).second) {
+          throw InputError(source, number, cells[i], "duplicate column");
+        }
+      }
+      continue;
+    }
+    if (cells.size() != table.columns.size()) {
+      throw InputError(source, number, "",
+                       "row has " + std::to_string(cells.size()) +
+                           " cells, the header has " +
+                           std::to_string(table.columns.size()));
+    }
+    table.rows.push_back({number, std::move(cells)});
+  }
+  if (table.columns.empty()) {
+    throw InputError(source, 0, "", "empty file: no header row");
+  }
+  return table;
+}
+
+}  // namespace ttp

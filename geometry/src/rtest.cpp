@@ -1,0 +1,93 @@
+#include "ttp/geometry/rtest.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/frames.h"
+
+namespace ttp {
+
+Eigen::Vector3d NominalSpherePosition(const RTestGeometry& g, double c_rad) {
+  const double phi = g.sphere_phi0_deg * M_PI / 180.0;
+  const Eigen::Vector3d on_table(g.sphere_distance_mm * std::cos(phi),
+                                 g.sphere_distance_mm * std::sin(phi),
+                                 g.sphere_height_mm);
+  return WorkpieceToMachineRotation(c_rad, g.c_sense) * on_table;
+}
+
+Eigen::MatrixXd RTestDesignMatrix(const RTestGeometry& g,
+                                  const std::vector<double>& c_rad) {
+  Eigen::MatrixXd a(3 * c_rad.size(), 7);
+  for (size_t k = 0; k < c_rad.size(); ++k) {
+    a.block<3, 7>(3 * k, 0) = TableDisplacementJacobian(
+        NominalSpherePosition(g, c_rad[k]), g.sphere_distance_mm);
+  }
+  return a;
+}
+
+namespace {
+// Solves with column scaling so that mm and rad columns are comparable.
+Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& a,
+                              const std::string& source) {
+  Eigen::VectorXd scale = a.colwise().norm();
+  for (int i = 0; i < scale.size(); ++i) {
+    if (scale[i] == 0) scale[i] = 1;
+  }
+  const Eigen::MatrixXd as = a * scale.cwiseInverse().asDiagonal();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(
+      as, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const auto& s = svd.singularValues();
+  if (s.size() < 7 || s[6] < 1e-9 * s[0]) {
+    throw InputError(source, 0, "c_deg",
+                     "these table angles cannot determine all seven errors "
+                     "(need at least three well spread angles, e.g. 0, 90, "
+                     "180, 270 deg)");
+  }
+  const Eigen::MatrixXd pinv_scaled =
+      svd.matrixV() * s.cwiseInverse().asDiagonal() * svd.matrixU().transpose();
+  return scale.cwiseInverse().asDiagonal() * pinv_scaled;
+}
+}  // namespace
+
+RTestSolution SolveRTest(const RTestGeometry& g,
+                         const std::vector<SphereMeasurement>& reference,
+                         const std::vector<SphereMeasurement>& cycle) {
+  if (reference.size() != cycle.size() || reference.empty()) {
+    throw InputError("R-test", 0, "",
+                     "a cycle must measure the same positions as the "
+                     "reference cycle");
+  }
+  std::vector<double> angles;
+  Eigen::VectorXd b(3 * cycle.size());
+  for (size_t k = 0; k < cycle.size(); ++k) {
+    if (std::abs(std::remainder(cycle[k].c_rad - reference[k].c_rad,
+                                2 * M_PI)) > 1e-9) {
+      throw InputError("R-test", 0, "c_deg",
+                       "position " + std::to_string(k + 1) +
+                           " is at another table angle than in the "
+                           "reference cycle");
+    }
+    angles.push_back(cycle[k].c_rad);
+    b.segment<3>(3 * k) = cycle[k].centre_mm - reference[k].centre_mm;
+  }
+  const Eigen::MatrixXd a = RTestDesignMatrix(g, angles);
+  const Eigen::MatrixXd pinv = PseudoInverse(a, "R-test");
+  RTestSolution out;
+  const Eigen::Matrix<double, 7, 1> x = pinv * b;
+  out.errors = CAxisErrors::FromVector(x);
+  out.covariance_unit = pinv * pinv.transpose();
+  const Eigen::VectorXd r = a * x - b;
+  out.rms_residual_mm = std::sqrt(r.squaredNorm() / r.size());
+  return out;
+}
+
+Eigen::Matrix<double, 7, 1> RTestResolution(const RTestGeometry& g,
+                                            const std::vector<double>& c_rad,
+                                            double axis_resolution_mm) {
+  const Eigen::MatrixXd pinv =
+      PseudoInverse(RTestDesignMatrix(g, c_rad), "R-test");
+  return pinv.cwiseAbs().rowwise().maxCoeff() * axis_resolution_mm;
+}
+
+}  // namespace ttp

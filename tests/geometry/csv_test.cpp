@@ -1,0 +1,36 @@
+#include "ttp/geometry/csv.h"
+
+#include <gtest/gtest.h>
+
+#include "ttp/geometry/error.h"
+
+namespace ttp {
+namespace {
+
+TEST(Csv, ParsesHeaderRowsAndLineNumbers) {
+  const CsvTable t =
+      ParseCsv("# comment\nfeature, reading_um\n\nX1-1, -1.5\nZ3,2\n", "d.csv");
+  ASSERT_EQ(t.rows.size(), 2u);
+  EXPECT_EQ(t.header_line, 2);
+  EXPECT_EQ(t.rows[0].line, 4);
+  EXPECT_EQ(t.Text(t.rows[0], t.Require("feature")), "X1-1");
+  EXPECT_DOUBLE_EQ(t.Number(t.rows[1], t.Require("reading_um")), 2.0);
+}
+
+TEST(Csv, ErrorsNameFileLineAndColumn) {
+  const CsvTable t = ParseCsv("a,b\n1,x\n2,nan\n", "f.csv");
+  try {
+    t.Number(t.rows[0], 1);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "f.csv:2: b: 'x' is not a number");
+  }
+  EXPECT_THROW(t.Number(t.rows[1], 1), InputError);  // NaN
+  EXPECT_THROW(t.Require("c"), InputError);
+  EXPECT_THROW(ParseCsv("a,b\n1,2,3\n", "f.csv"), InputError);
+  EXPECT_THROW(ParseCsv("# only\n", "f.csv"), InputError);
+  EXPECT_THROW(ParseCsv("a,a\n", "f.csv"), InputError);
+}
+
+}  // namespace
+}  // namespace ttp

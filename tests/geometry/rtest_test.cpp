@@ -1,0 +1,63 @@
+#include "ttp/geometry/rtest.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "ttp/geometry/error.h"
+
+namespace ttp {
+namespace {
+
+std::vector<double> ThesisAngles() { return {0, M_PI / 2, M_PI, 3 * M_PI / 2}; }
+
+// Thesis table 5.4, resolution column: 1 um axis resolution, d = 0.32 m.
+TEST(RTest, ReproducesTheResolutionColumnOfTable54) {
+  RTestGeometry g;
+  g.sphere_distance_mm = 160;
+  g.sphere_height_mm = 0;  // the thesis refers the cycle to the sphere
+  const auto res = RTestResolution(g, ThesisAngles(), 1e-3);
+  const double expected_um[4] = {0.25, 0.25, 0.25, 0.25};
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(res[i] * 1e3, expected_um[i], 1e-9);
+  EXPECT_NEAR(res[4] * 1e6, 3.125, 1e-9);   // E_A0C um/m
+  EXPECT_NEAR(res[5] * 1e6, 3.125, 1e-9);   // E_B0C
+  EXPECT_NEAR(res[6] * 1e6, 1.5625, 1e-9);  // E_C0C
+}
+
+// Whatever the errors, sphere height, table sense and start angle, the
+// solve returns the errors that displaced the sphere (noise-free).
+TEST(RTest, RecoversRandomErrors) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    RTestGeometry g;
+    g.sphere_height_mm = 40 + 60 * (u(rng) + 1);
+    g.c_sense = trial % 2 ? 1 : -1;
+    g.sphere_phi0_deg = 30 * u(rng);
+    const CAxisErrors truth =
+        CAxisErrors::FromMicro({5 * u(rng), 5 * u(rng), 5 * u(rng), 5 * u(rng),
+                                20 * u(rng), 20 * u(rng), 20 * u(rng)});
+    std::vector<SphereMeasurement> ref, cyc;
+    for (double c : {0.0, M_PI / 2, M_PI, 3 * M_PI / 2, 2 * M_PI}) {
+      const Eigen::Vector3d p = NominalSpherePosition(g, c);
+      const Eigen::Vector3d offset(10 * u(rng), 10 * u(rng), 10 * u(rng));
+      ref.push_back({c, p + offset});  // geometric errors cancel
+      cyc.push_back(
+          {c, p + offset + TableDisplacement(truth, p, g.sphere_distance_mm)});
+    }
+    const RTestSolution s = SolveRTest(g, ref, cyc);
+    const auto got = s.errors.ToMicro(), want = truth.ToMicro();
+    for (int i = 0; i < 7; ++i) EXPECT_NEAR(got[i], want[i], 1e-9) << i;
+    EXPECT_LT(s.rms_residual_mm, 1e-12);
+  }
+}
+
+TEST(RTest, TooFewAnglesIsAnError) {
+  RTestGeometry g;
+  std::vector<SphereMeasurement> two = {{0, {160, 0, 80}},
+                                        {M_PI, {-160, 0, 80}}};
+  EXPECT_THROW(SolveRTest(g, two, two), InputError);
+}
+
+}  // namespace
+}  // namespace ttp
