@@ -98,6 +98,7 @@ void VisitProcess(V& v, ProcessSpec& p) {
   v("engraver", p.engraver);
   v("notch", p.notch);
   v("finishing", p.finishing);
+  v("probe", p.probe);
   v("roughing_step_down_mm", p.roughing_step_down_mm);
   v("finish_allowance_mm", p.finish_allowance_mm);
   v("turning_c_rpm", p.turning_c_rpm);
@@ -231,6 +232,11 @@ void ReadObject(const json& j, T& out, const Reader& parent,
 
 void ReadValue(const json& j, RefCylinder& out, const Reader& r,
                const std::string& path) {
+  // A cylinder of the user's list has no default of its own: every
+  // dimension must be given.
+  if (j.is_object())
+    for (const char* key : {"diameter_mm", "z_bottom_mm", "z_top_mm"})
+      if (!j.contains(key)) r.Fail(path + "." + key, "missing");
   ReadObject(j, out, r, path, [](Reader& rr, RefCylinder& c) {
     rr("diameter_mm", c.diameter_mm);
     rr("z_bottom_mm", c.z_bottom_mm);
@@ -448,6 +454,15 @@ void ValidateConfig(const Config& c, const std::string& source) {
   ValidateTool(pr.engraver, source, "engraver", m);
   ValidateTool(pr.notch, source, "notch", m);
   ValidateTool(pr.finishing, source, "finishing", m);
+  Require(pr.probe.number >= 1 && pr.probe.number <= 99, source,
+          "process.probe.number", "must be 1..99");
+  Require(pr.probe.diameter_mm > 0, source, "process.probe.diameter_mm",
+          "must be positive (stylus ball diameter)");
+  Require(pr.probe.length_mm > 0, source, "process.probe.length_mm",
+          "must be positive");
+  Require(pr.probe.feed_mm_min > 0 && pr.probe.feed_mm_min <= m.max_feed_mm_min,
+          source, "process.probe.feed_mm_min",
+          "must be in (0, machine.max_feed_mm_min]");
   Require(pr.notch.diameter_mm <= 2 * p.small_notch_half_width_mm + 1e-9,
           source, "process.notch.diameter_mm",
           "tool larger than the small notch");

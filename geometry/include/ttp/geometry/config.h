@@ -157,6 +157,19 @@ struct ProcessSpec {
                         0.0,
                         8000.0,
                         300.0};
+  // Touch-trigger probe for on-machine measurement (ttp plan probe):
+  // diameter = stylus ball diameter, length = gauge length to the ball
+  // centre; flutes, speeds and feeds are not used.
+  ToolSpec probe = {"touch-trigger probe, 3 mm ruby stylus",
+                    20,
+                    3.0,
+                    1,
+                    "ruby",
+                    100.0,
+                    30.0,
+                    0.0,
+                    1.0,
+                    100.0};
   double roughing_step_down_mm = 3.0;  // big notch roughing
   double finish_allowance_mm = 0.2;    // big notch wall/floor finish pass
   double turning_c_rpm = 20.0;         // C speed while turning cylinders

@@ -43,6 +43,9 @@ struct LineFit2D {  // point on the line (centroid) and unit direction
 };
 struct LineFit3D {
   Eigen::Vector3d point, direction;
+  // params: offset_u_mm, offset_v_mm (axis shift), tilt_u_rad, tilt_v_rad
+  // (rotations of the direction towards the unit vectors u, v below).
+  Eigen::Vector3d u, v;
   FitSummary summary;
 };
 struct PlaneFit {  // point on the plane (centroid), unit normal
@@ -60,6 +63,9 @@ struct CircleFit2D {
 struct CircleFit3D {  // plane first, then the circle in that plane
   Eigen::Vector3d centre, normal;
   double radius_mm = 0;
+  // params: centre_u_mm, centre_v_mm, centre_normal_mm, tilt_u_rad,
+  // tilt_v_rad, r_mm (u, v: in-plane unit vectors of the plane fit).
+  Eigen::Vector3d u, v;
   FitSummary summary;
 };
 struct SphereFit {
@@ -70,11 +76,21 @@ struct SphereFit {
 struct CylinderFit {  // axis point closest to the data centroid
   Eigen::Vector3d point, axis;
   double radius_mm = 0;
+  // params: shift_u_mm, shift_v_mm (of the axis point), tilt_u_rad,
+  // tilt_v_rad (of the axis towards u, v), r_mm.
+  Eigen::Vector3d u, v;
   FitSummary summary;
 };
 struct ConeFit {  // apex, unit axis pointing into the cone, half angle
   Eigen::Vector3d apex, axis;
   double half_angle_rad = 0;
+  // Axis point closest to the data centroid and the cone radius there
+  // (well defined even for a nearly cylindrical cone whose apex is far).
+  Eigen::Vector3d point;
+  double radius_at_point_mm = 0;
+  // params: shift_u_mm, shift_v_mm, tilt_u_rad, tilt_v_rad,
+  // radius_at_point_mm, half_angle_rad.
+  Eigen::Vector3d u, v;
   FitSummary summary;
 };
 

@@ -1,0 +1,165 @@
+// Shared machinery of the fits (not part of the public API): centring, the
+// scatter eigen decomposition, algebraic seeds and the Ceres driver that
+// fills a FitSummary.
+#pragma once
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/fit.h"
+
+namespace ttp::fit::internal {
+
+// Eigenvalues ascending, eigenvectors as columns, of the centred scatter.
+template <int D>
+struct Scatter {
+  Eigen::Matrix<double, D, 1> centroid;
+  Eigen::Matrix<double, D, 1> eigenvalues;
+  Eigen::Matrix<double, D, D> eigenvectors;
+};
+
+template <int D>
+Scatter<D> ComputeScatter(const Eigen::Matrix<double, D, Eigen::Dynamic>& p) {
+  Scatter<D> s;
+  s.centroid = p.rowwise().mean();
+  const Eigen::Matrix<double, D, Eigen::Dynamic> c = p.colwise() - s.centroid;
+  const Eigen::Matrix<double, D, D> scatter = c * c.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, D, D>> eig(scatter);
+  s.eigenvalues = eig.eigenvalues().cwiseMax(0.0);
+  s.eigenvectors = eig.eigenvectors();
+  return s;
+}
+
+// Throws InputError("fit", 0, shape, ...) unless the points are finite and
+// at least `minimum` in number.
+void RequirePoints(const char* shape, long count, long minimum,
+                   bool all_finite);
+
+// Relative eigenvalue below which the spread along an axis is treated as
+// zero: the scatter's eigenvalues carry rounding of ~1e-16 of the largest,
+// so this means an extent ratio of ~1e-7 (10 nm across 100 mm).
+constexpr double kDegenerateRatio = 1e-14;
+
+// Two unit vectors completing `w` to a right-handed orthonormal frame.
+void CompleteFrame(const Eigen::Vector3d& w, Eigen::Vector3d* u,
+                   Eigen::Vector3d* v);
+
+// Algebraic (Kasa) circle/sphere seed on centred points: centre and radius.
+template <int D>
+bool AlgebraicSphere(const Eigen::Matrix<double, D, Eigen::Dynamic>& centred,
+                     Eigen::Matrix<double, D, 1>* centre, double* radius) {
+  const long n = centred.cols();
+  const double scale = std::sqrt(centred.squaredNorm() / n);
+  if (!(scale > 0)) return false;
+  Eigen::MatrixXd a(n, D + 1);
+  Eigen::VectorXd b(n);
+  for (long i = 0; i < n; ++i) {
+    const Eigen::Matrix<double, D, 1> q = centred.col(i) / scale;
+    a.row(i).head(D) = 2.0 * q.transpose();
+    a(i, D) = 1.0;
+    b(i) = q.squaredNorm();
+  }
+  const Eigen::VectorXd x = a.colPivHouseholderQr().solve(b);
+  if (!x.allFinite()) return false;
+  const Eigen::Matrix<double, D, 1> c = x.head(D);
+  const double r2 = x(D) + c.squaredNorm();
+  if (!(r2 > 0)) return false;
+  *centre = c * scale;
+  *radius = std::sqrt(r2) * scale;
+  return true;
+}
+
+std::unique_ptr<ceres::LossFunction> MakeLoss(const FitOptions& options);
+
+// One residual functor per point; each has
+//   template <class T> bool operator()(const T* params, T* residuals) const
+// and `static constexpr int kResiduals`.
+struct SolveResult {
+  FitSummary summary;
+  double cost = 0;  // Ceres final cost (robustified)
+};
+
+template <int P, class Functor>
+SolveResult Solve(const std::vector<Functor>& functors,
+                  std::array<double, P>* params, const FitOptions& options,
+                  std::vector<std::string> names, bool want_covariance) {
+  constexpr int R = Functor::kResiduals;
+  std::unique_ptr<ceres::LossFunction> loss = MakeLoss(options);
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  for (const Functor& f : functors) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<Functor, R, P>(new Functor(f)),
+        loss.get(), params->data());
+  }
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = 1e-16;
+  solver_options.gradient_tolerance = 1e-18;
+  solver_options.parameter_tolerance = 1e-15;
+  solver_options.num_threads = 1;  // same input -> same output
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary ceres_summary;
+  ceres::Solve(solver_options, &problem, &ceres_summary);
+
+  SolveResult out;
+  out.cost = ceres_summary.final_cost;
+  FitSummary& s = out.summary;
+  s.points = static_cast<int>(functors.size());
+  s.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  s.iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
+  s.message = ceres_summary.message;
+  s.parameter_names = std::move(names);
+
+  // Plain (non-robust) residual statistics; weights of the robust loss for
+  // the variance estimate (IRLS weights rho'(s), all 1 without a loss).
+  double sum_sq = 0, weighted_sq = 0, weight_sum = 0, max_abs = 0;
+  for (const Functor& f : functors) {
+    double r[R];
+    f(params->data(), r);
+    double sq = 0;
+    for (int k = 0; k < R; ++k) sq += r[k] * r[k];
+    double w = 1;
+    if (loss) {
+      double rho[3];
+      loss->Evaluate(sq, rho);
+      w = rho[1];
+    }
+    sum_sq += sq;
+    weighted_sq += w * sq;
+    weight_sum += w * R;
+    max_abs = std::max(max_abs, std::sqrt(sq));
+  }
+  const double n_residuals = static_cast<double>(functors.size()) * R;
+  s.rms_mm = std::sqrt(sum_sq / n_residuals);
+  s.max_abs_mm = max_abs;
+  if (want_covariance) {
+    const double dof = weight_sum - P;
+    const double variance = dof > 0 ? weighted_sq / dof : 0.0;
+    ceres::Covariance::Options cov_options;
+    cov_options.algorithm_type = ceres::DENSE_SVD;
+    cov_options.num_threads = 1;
+    ceres::Covariance covariance(cov_options);
+    std::vector<std::pair<const double*, const double*>> blocks = {
+        {params->data(), params->data()}};
+    Eigen::Matrix<double, P, P, Eigen::RowMajor> c;
+    if (covariance.Compute(blocks, &problem) &&
+        covariance.GetCovarianceBlock(params->data(), params->data(),
+                                      c.data())) {
+      s.covariance = c * variance;
+    } else {
+      s.message += " (covariance: Jacobian rank deficient)";
+    }
+  }
+  return out;
+}
+
+}  // namespace ttp::fit::internal
