@@ -5,26 +5,30 @@
 // CONTRACT between gcode (producer) and cam/verify, schedule (consumers).
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace ttp::gcode {
 
 enum class CanonKind {
-  kTraverse,     // rapid, straight in XYZ and C
-  kFeed,         // linear feed in XYZ and/or C
+  kTraverse,  // rapid, straight in XYZ and C
+  kFeed,      // linear feed in XYZ and/or C
   kDwell,
-  kSpindle,      // rpm (0 = off), clockwise
-  kCSpin,        // C turning mode rpm (0 = off)
-  kCoolant,      // on = value > 0
-  kToolChange,   // tool number
-  kClamp,        // table clamp on = value > 0
-  kReport,       // text = "cut,<feature>,<c_deg>"
+  kSpindle,     // rpm (0 = off), clockwise
+  kCSpin,       // C turning mode rpm (0 = off)
+  kCoolant,     // on = value > 0
+  kToolChange,  // tool number
+  kClamp,       // table clamp on = value > 0
+  kReport,      // text = "cut,<feature>,<c_deg>"
   kComment,
   kEnd,
+  // Probe move (FANUC G31, LinuxCNC G38.2): straight feed towards end_mm
+  // that stops on contact; the nominal end is the commanded target.
+  kProbe,
 };
+
+const char* CanonKindName(CanonKind kind);
 
 struct CanonStatement {
   CanonKind kind;
@@ -36,8 +40,8 @@ struct CanonStatement {
   double value = 0;         // rpm, dwell seconds, tool, on/off
   bool clockwise = true;
   std::string text;
-  int source_line = 0;      // line in the program text
-  double start_s = 0;       // program time at start (time model)
+  int source_line = 0;  // line in the program text
+  double start_s = 0;   // program time at start (time model)
   double duration_s = 0;
 };
 

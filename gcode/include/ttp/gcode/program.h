@@ -25,30 +25,64 @@ struct Axes {
   std::optional<double> x_mm, y_mm, z_mm, c_deg;
 };
 
-struct Comment { std::string text; };
-struct Rapid { Axes to; };
+struct Comment {
+  std::string text;
+};
+struct Rapid {
+  Axes to;
+};
 // Linear feed move. feed is mm/min, or deg/min for a pure C move.
-struct Feed { Axes to; double feed_per_min; };
-struct Dwell { double seconds; };
-struct SpindleOn { double rpm; bool clockwise = true; };  // M3/M4
-struct SpindleOff {};                                      // M5
-struct Coolant { bool on; };                               // M8/M9
+struct Feed {
+  Axes to;
+  double feed_per_min;
+};
+struct Dwell {
+  double seconds;
+};
+struct SpindleOn {
+  double rpm;
+  bool clockwise = true;
+};                     // M3/M4
+struct SpindleOff {};  // M5
+struct Coolant {
+  bool on;
+};  // M8/M9
 // M6 T with tool-length compensation (G43 H) switched on afterwards.
-struct ToolChange { int tool; std::string description; };
+struct ToolChange {
+  int tool;
+  std::string description;
+};
 // C axis in turning (spindle) mode at rpm; rpm 0 stops it and returns C to
 // positioning mode. FANUC: builder M-codes from the machine profile;
 // LinuxCNC: spindle 1.
-struct CSpin { double rpm; };
-struct TableClamp { bool clamp; };
+struct CSpin {
+  double rpm;
+};
+struct TableClamp {
+  bool clamp;
+};
 // Report to the compensation PC: becomes a `cut` row (feature name of
 // talc-log.md section 5) with the table angle. FANUC DPRNT, LinuxCNC
 // (print,...).
-struct Report { std::string event; std::string feature; double c_deg; };
+struct Report {
+  std::string event;
+  std::string feature;
+  double c_deg;
+};
+// Probing move (FANUC G31 skip, LinuxCNC G38.2) towards `to`, stopping at
+// the touch; then the skip position is reported for planned point
+// `point_id`: FANUC `DPRNT[PROBE*<id>*X#5061[44]*Y#5062[44]*Z#5063[44]*
+// C#5064[33]]`, LinuxCNC `(print,probe,<id>,#5061,#5062,#5063,#5064)`.
+struct Probe {
+  Axes to;
+  double feed_per_min;
+  int point_id;
+};
 struct ProgramEnd {};  // M30
 
-using Statement = std::variant<Comment, Rapid, Feed, Dwell, SpindleOn,
-                               SpindleOff, Coolant, ToolChange, CSpin,
-                               TableClamp, Report, ProgramEnd>;
+using Statement =
+    std::variant<Comment, Rapid, Feed, Dwell, SpindleOn, SpindleOff, Coolant,
+                 ToolChange, CSpin, TableClamp, Report, Probe, ProgramEnd>;
 
 struct Program {
   std::string name;   // "pre" or "cycle"

@@ -1,0 +1,58 @@
+// The two NC programs of test-piece.md section 3, as dialect-free program IR
+// (gcode/program.h): the pre-machining (steps 1-5, then an NC hold) and the
+// 8-hour test cycle. Every number comes from the Config; nothing of the
+// drawing is hard-coded.
+//
+// Conventions of both programs:
+// - Program coordinates are W at C = 0 (G54); the table turns the piece, so
+//   a tool position is a machine position (shifted in Z).
+// - Every C index and every move between cuts happens with the tool outside
+//   the blank's cylinder (radius blank + tool radius + clearance); rapids
+//   never cross material. Cuts start and end outside the material.
+// - Facets and big-notch walls are climb-milled with M3 (material on the
+//   right of the tool's heading).
+// - Tool changes happen at tool_change_z (above safe Z by the longest tool),
+//   so the tool tip stays above the piece across G43.
+#pragma once
+
+#include <string>
+
+#include "ttp/gcode/program.h"
+#include "ttp/geometry/config.h"
+
+namespace ttp::cam {
+
+// Steps 1-5 and the NC hold. Throws InputError naming the field when the
+// config is invalid (ValidateConfig) or a move leaves the machine's travel.
+gcode::Program BuildPreMachiningProgram(const Config& config);
+
+// The test cycle: cycle 0 (reference) then cycles 1..8 one cycle period
+// apart (dwells computed with the gcode reader's time model), warm-up with
+// C spinning at c_max_rpm between cycles 0..warmup_cycles, cool-down with C
+// at 0 and the spindle stopped; a Report after each cut. Z is set once at
+// the strip floor before cycle 0 and never moves until the end. A comment
+// "cycle <k>" opens each cycle (its time is the cycle's start).
+gcode::Program BuildTestCycleProgram(const Config& config);
+
+// Geometry of the test-cycle passes, shared with the tests and the
+// schedule: tool tip height during the whole test, the radius outside which
+// the tool moves between cuts, the tool centre's distance from the axis
+// during a facet pass and the half length of a facet pass.
+struct TestCycleLayout {
+  double cut_z_mm;            // tool tip (program Z), = strip floor
+  double route_radius_mm;     // tool centre radius for moves between cuts
+  double facet_offset_mm;     // finished facet distance + tool radius
+  double facet_half_pass_mm;  // pass runs from +half to -half
+  double strip_half_pass_mm;  // strip pass from -half to +half in X
+};
+TestCycleLayout ComputeTestCycleLayout(const Config& config);
+
+// Commanded table angles (deg) of the X facets and the Y facets of facet
+// index j (TableAngleFor with the machine's C sense).
+double XFacetTableAngleDeg(const Config& config, int j);
+double YFacetTableAngleDeg(const Config& config, int j);
+
+// Text of the cycle comment, "cycle <k>".
+std::string CycleCommentText(int cycle);
+
+}  // namespace ttp::cam

@@ -1,0 +1,446 @@
+#include "ttp/cam/programs.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "toolpath.h"
+#include "ttp/gcode/reader.h"
+#include "ttp/gcode/writer.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/frames.h"
+
+namespace ttp::cam {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr const char* kSource = "config";
+// Fraction of the cutter diameter between neighbouring passes.
+constexpr double kStepoverFraction = 0.75;
+
+double BlankRadius(const Config& c) { return c.part.blank_diameter_mm / 2; }
+
+// Above safe Z by the longest tool, so neither the gauge line before G43
+// nor the tool tip after it comes near the piece.
+double ToolChangeZ(const Config& c) {
+  const ProcessSpec& p = c.process;
+  const double longest = std::max({p.roughing.length_mm, p.engraver.length_mm,
+                                   p.notch.length_mm, p.finishing.length_mm});
+  return p.safe_z_w_mm + longest;
+}
+
+// Goes to the tool-change height, changes tool, applies the G43 shift the
+// reader (and rs274) apply, and returns to safe Z. Returns the new length.
+double ChangeTool(PathWriter& path, const Config& c, const ToolSpec& tool,
+                  double active_length_mm) {
+  path.RapidZ(ToolChangeZ(c));
+  path.Add(gcode::SpindleOff{});
+  path.Add(gcode::ToolChange{tool.number, tool.name});
+  Eigen::Vector3d p = path.position();
+  p.z() -= tool.length_mm - active_length_mm;
+  path.Assume(p, path.c_deg());
+  path.RapidZ(c.process.safe_z_w_mm);
+  return tool.length_mm;
+}
+
+// Checks every commanded position against the machine's travel (tool tip
+// in M; C turns the piece, not the tool, so program XY are machine XY).
+void CheckTravel(const gcode::Program& program, const Config& c) {
+  const MachineProfile& m = c.machine;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (const gcode::Statement& s : program.statements) {
+    const gcode::Axes* axes = nullptr;
+    if (const auto* r = std::get_if<gcode::Rapid>(&s)) axes = &r->to;
+    if (const auto* f = std::get_if<gcode::Feed>(&s)) axes = &f->to;
+    if (!axes) continue;
+    if (axes->x_mm) p.x() = *axes->x_mm;
+    if (axes->y_mm) p.y() = *axes->y_mm;
+    if (axes->z_mm) p.z() = *axes->z_mm;
+    const Eigen::Vector3d machine = ProgramToMachine(c, p);
+    const auto check = [&](double v, const std::array<double, 2>& range,
+                           const char* field, const char* axis) {
+      if (v < range[0] - 1e-9 || v > range[1] + 1e-9)
+        throw InputError(
+            kSource, 0, field,
+            fmt::format("the {} program moves {} to {:.3f} mm, outside the "
+                        "travel [{}, {}]",
+                        program.name, axis, v, range[0], range[1]));
+    };
+    check(machine.x(), m.travel_x_mm, "machine.travel_x_mm", "X");
+    check(machine.y(), m.travel_y_mm, "machine.travel_y_mm", "Y");
+    check(machine.z(), m.travel_z_mm, "machine.travel_z_mm", "Z");
+  }
+}
+
+// Step 1: face by rings of C rotation, then turn the rim and the reference
+// cylinders with the tool standing still while C turns one revolution.
+void FaceAndTurn(PathWriter& path, const Config& c) {
+  const PartSpec& part = c.part;
+  const ToolSpec& tool = c.process.roughing;
+  const double r = tool.diameter_mm / 2;
+  const double route = BlankRadius(c) + r + c.process.clearance_mm;
+  const double c_feed_deg_min = c.process.turning_c_rpm * 360.0;
+  // Climb: the table surface must meet the tool's teeth head on, so the
+  // piece turns against the machine's positive sense.
+  const double revolution_deg = -360.0 * c.machine.c_sense;
+
+  path.Add(gcode::Comment{"step 1: face the top, turn the profile by C"});
+  path.RapidXY(Eigen::Vector2d(route, 0));
+  path.RapidC(0);
+  path.RapidZ(0);
+  // Rings from the outside in; the last one covers the axis.
+  const double step = kStepoverFraction * tool.diameter_mm;
+  double ring = BlankRadius(c) + r;
+  int ring_count = 0;
+  do {
+    ring = std::max(0.0, ring - step);
+    path.FeedXY(Eigen::Vector2d(ring, 0), tool.feed_mm_min);
+    path.FeedC(ring_count % 2 == 0 ? revolution_deg : 0.0, c_feed_deg_min);
+    ++ring_count;
+  } while (ring > r);
+  path.FeedXY(Eigen::Vector2d(route, 0), tool.feed_mm_min);
+  path.RapidC(0);
+
+  // Rim first (its band is above every cylinder), then the cylinders from
+  // the bottom up. An end mill cuts everything above its tip to the same
+  // radius, so each higher band must not be larger than the one below.
+  struct Band {
+    double radius_mm, tip_z_mm;
+  };
+  std::vector<RefCylinder> cylinders = part.ref_cylinders;
+  std::sort(cylinders.begin(), cylinders.end(),
+            [](const RefCylinder& a, const RefCylinder& b) {
+              return a.z_bottom_mm < b.z_bottom_mm;
+            });
+  double rim_bottom = -part.height_mm();
+  for (const RefCylinder& rc : cylinders)
+    rim_bottom = std::max(rim_bottom, rc.z_top_mm);
+  std::vector<Band> bands = {{part.rim_diameter_mm / 2, rim_bottom}};
+  for (size_t i = 0; i < cylinders.size(); ++i) {
+    const RefCylinder& rc = cylinders[i];
+    if (i > 0 && rc.diameter_mm > cylinders[i - 1].diameter_mm + 1e-9)
+      throw InputError(kSource, 0, "part.ref_cylinders",
+                       "a cylinder larger than the one below it cannot be "
+                       "turned with an end mill from the side");
+    double tip = rc.z_bottom_mm;
+    // The bottom band: go below the piece for a clean edge when the
+    // adapter is well inside the cut.
+    if (tip <= -part.height_mm() + 1e-9 &&
+        part.adapter_diameter_mm / 2 < rc.diameter_mm / 2 - 1.0)
+      tip -= 0.5;
+    bands.push_back({rc.diameter_mm / 2, tip});
+  }
+  for (const Band& band : bands) {
+    path.RapidZ(band.tip_z_mm);
+    path.FeedXY(Eigen::Vector2d(band.radius_mm + r, 0), tool.feed_mm_min);
+    path.FeedC(revolution_deg, c_feed_deg_min);
+    path.FeedXY(Eigen::Vector2d(route, 0), tool.feed_mm_min);
+    path.RapidC(0);
+  }
+  path.RapidZ(c.process.safe_z_w_mm);
+}
+
+void EngraveMark(PathWriter& path, const Config& c) {
+  const PartSpec& part = c.part;
+  const ToolSpec& tool = c.process.engraver;
+  path.Add(gcode::Comment{"step 2: engrave the mark"});
+  const double phi = part.mark_phi_deg * kDegToRad;
+  const Eigen::Vector2d dir(std::cos(phi), std::sin(phi));
+  path.RapidXY(part.mark_r_start_mm * dir);
+  path.RapidZ(c.process.clearance_mm);
+  path.FeedZ(-part.mark_depth_mm, tool.feed_mm_min);
+  path.FeedXY(part.mark_r_end_mm * dir, tool.feed_mm_min);
+  path.RapidZ(c.process.safe_z_w_mm);
+}
+
+void SmallNotch(PathWriter& path, const Config& c) {
+  const ToolSpec& tool = c.process.notch;
+  path.Add(gcode::Comment{"step 3: small notch"});
+  SlotPass slot;
+  slot.along = 1;
+  slot.half_width_mm = c.part.small_notch_half_width_mm;
+  slot.floor_z_mm = c.part.small_notch_floor_z_mm;
+  slot.tool_radius_mm = tool.diameter_mm / 2;
+  slot.length_mm =
+      BlankRadius(c) + slot.tool_radius_mm + c.process.clearance_mm;
+  slot.step_down_mm = c.process.roughing_step_down_mm;
+  slot.stepover_mm = kStepoverFraction * tool.diameter_mm;
+  slot.feed_mm_min = tool.feed_mm_min;
+  slot.safe_z_mm = c.process.safe_z_w_mm;
+  MillSlot(path, slot);
+}
+
+void BigNotch(PathWriter& path, const Config& c) {
+  const ToolSpec& tool = c.process.roughing;
+  path.Add(gcode::Comment{"step 4: big notch, rough"});
+  SlotPass slot;
+  slot.along = 0;
+  slot.half_width_mm = c.part.big_notch_half_width_mm;
+  slot.floor_z_mm = c.part.big_notch_floor_z_mm;
+  slot.tool_radius_mm = tool.diameter_mm / 2;
+  slot.length_mm =
+      BlankRadius(c) + slot.tool_radius_mm + c.process.clearance_mm;
+  slot.step_down_mm = c.process.roughing_step_down_mm;
+  slot.allowance_mm = c.process.finish_allowance_mm;
+  slot.stepover_mm = kStepoverFraction * tool.diameter_mm;
+  slot.feed_mm_min = tool.feed_mm_min;
+  slot.safe_z_mm = c.process.safe_z_w_mm;
+  MillSlot(path, slot);
+  path.Add(gcode::Comment{"step 4: big notch, finish"});
+  slot.step_down_mm = 0;
+  slot.allowance_mm = 0;
+  MillSlot(path, slot);
+}
+
+// Step 5: every facet with its normal turned to +X, the tool on the +X
+// side moving -Y (climb), down to the facet bottom.
+void PreFacets(PathWriter& path, const Config& c) {
+  const PartSpec& part = c.part;
+  const ToolSpec& tool = c.process.roughing;
+  const double r = tool.diameter_mm / 2;
+  const double keep = BlankRadius(c) + r;
+  const double route = keep + c.process.clearance_mm;
+  const double x = part.facet_pre_distance_mm + r;
+  const double y = std::sqrt(route * route - x * x);
+  path.Add(gcode::Comment{"step 5: facets at the pre-machined distance"});
+  path.RapidXY(Eigen::Vector2d(route, 0));
+  path.RapidZ(part.facet_bottom_z_mm);
+  for (Segment s : kSegments) {
+    for (int j = 1; j <= part.facets_per_segment; ++j) {
+      const double phi = FacetPhiDeg(part, s, j) * kDegToRad;
+      path.RapidC(TableAngleFor(phi, 0.0, c.machine.c_sense) * kRadToDeg);
+      path.RapidAround(Eigen::Vector2d(x, y), keep, route);
+      path.FeedXY(Eigen::Vector2d(x, -y), tool.feed_mm_min);
+    }
+  }
+  path.RapidZ(c.process.safe_z_w_mm);
+}
+
+}  // namespace
+
+std::string CycleCommentText(int cycle) {
+  return fmt::format("cycle {}", cycle);
+}
+
+double XFacetTableAngleDeg(const Config& c, int j) {
+  const double phi = FacetPhiDeg(c.part, Segment::kX1, j) * kDegToRad;
+  return TableAngleFor(phi, 0.0, c.machine.c_sense) * kRadToDeg;
+}
+
+double YFacetTableAngleDeg(const Config& c, int j) {
+  const double phi = FacetPhiDeg(c.part, Segment::kY1, j) * kDegToRad;
+  return TableAngleFor(phi, M_PI / 2, c.machine.c_sense) * kRadToDeg;
+}
+
+TestCycleLayout ComputeTestCycleLayout(const Config& c) {
+  const double r = c.process.finishing.diameter_mm / 2;
+  TestCycleLayout l;
+  l.cut_z_mm = c.part.strip_floor_z_mm;
+  l.route_radius_mm = BlankRadius(c) + r + c.process.clearance_mm;
+  l.facet_offset_mm = c.part.facet_final_distance_mm + r;
+  l.facet_half_pass_mm = std::sqrt(l.route_radius_mm * l.route_radius_mm -
+                                   l.facet_offset_mm * l.facet_offset_mm);
+  l.strip_half_pass_mm = l.route_radius_mm;
+  return l;
+}
+
+gcode::Program BuildPreMachiningProgram(const Config& c) {
+  ValidateConfig(c, kSource);
+  gcode::Program program;
+  program.name = "pre";
+  program.number = c.machine.program_number + 1;
+  program.title = "ttp pre-machining of the thermal test piece";
+  PathWriter path(&program.statements);
+  path.Add(gcode::Comment{"steps 1-5 of test-piece.md section 3, NC hold"});
+  path.RapidZ(ToolChangeZ(c));  // no tool yet: away from the piece
+  double length = ChangeTool(path, c, c.process.roughing, 0.0);
+  path.Add(gcode::SpindleOn{c.process.roughing.spindle_rpm, true});
+  if (c.process.coolant_in_pre) path.Add(gcode::Coolant{true});
+  FaceAndTurn(path, c);
+
+  length = ChangeTool(path, c, c.process.engraver, length);
+  path.Add(gcode::SpindleOn{c.process.engraver.spindle_rpm, true});
+  EngraveMark(path, c);
+
+  length = ChangeTool(path, c, c.process.notch, length);
+  path.Add(gcode::SpindleOn{c.process.notch.spindle_rpm, true});
+  SmallNotch(path, c);
+
+  length = ChangeTool(path, c, c.process.roughing, length);
+  path.Add(gcode::SpindleOn{c.process.roughing.spindle_rpm, true});
+  BigNotch(path, c);
+  PreFacets(path, c);
+
+  path.Add(gcode::SpindleOff{});
+  if (c.process.coolant_in_pre) path.Add(gcode::Coolant{false});
+  path.RapidC(0);
+  if (c.process.nc_hold_after_pre_min > 0) {
+    path.Add(gcode::Comment{"NC hold: let the machine settle"});
+    path.Add(gcode::Dwell{c.process.nc_hold_after_pre_min * 60.0});
+  }
+  path.Add(gcode::ProgramEnd{});
+  CheckTravel(program, c);
+  return program;
+}
+
+namespace {
+
+// One cycle of the test: strip at C = 0, X1 and X2 at the X angle, Y1 and
+// Y2 at the Y angle, back to the waiting position with C at 0.
+void TestCycle(PathWriter& path, const Config& c, int cycle) {
+  const PartSpec& part = c.part;
+  const ToolSpec& tool = c.process.finishing;
+  const TestCycleLayout l = ComputeTestCycleLayout(c);
+  const double keep = BlankRadius(c) + tool.diameter_mm / 2;
+  const double route = l.route_radius_mm;
+  const double xf = l.facet_offset_mm, yf = l.facet_half_pass_mm;
+  const double feed = tool.feed_mm_min;
+  const int j = IndexForCycle(part, cycle);
+  const Eigen::Vector2d waiting(c.machine.waiting_position_w_mm[0],
+                                c.machine.waiting_position_w_mm[1]);
+  const auto report = [&](const std::string& feature) {
+    path.Add(gcode::Report{"cut", feature, path.c_deg()});
+  };
+  const auto index_table = [&](double c_deg) {
+    path.Add(gcode::TableClamp{false});
+    path.RapidC(c_deg);
+    path.Add(gcode::TableClamp{true});
+  };
+
+  path.Add(gcode::Comment{CycleCommentText(cycle)});
+  path.Add(gcode::SpindleOn{tool.spindle_rpm, true});
+  if (c.process.coolant_in_test) path.Add(gcode::Coolant{true});
+  index_table(0.0);
+  // Strip: from the -X side, moving +X along y_j.
+  const double y = StripY(part, j);
+  path.RapidAround(Eigen::Vector2d(-route, 0), keep, route);
+  path.RapidXY(Eigen::Vector2d(-l.strip_half_pass_mm, y));
+  path.FeedXY(Eigen::Vector2d(l.strip_half_pass_mm, y), feed);
+  report(StripId(j));
+  path.RapidXY(Eigen::Vector2d(route, 0));
+
+  index_table(XFacetTableAngleDeg(c, j));
+  // X1 normal along +X: tool on the +X side moving -Y.
+  path.RapidAround(Eigen::Vector2d(xf, yf), keep, route);
+  path.FeedXY(Eigen::Vector2d(xf, -yf), feed);
+  report(FacetId(Segment::kX1, j));
+  // X2 normal along -X: tool on the -X side moving +Y.
+  path.RapidAround(Eigen::Vector2d(-xf, -yf), keep, route);
+  path.FeedXY(Eigen::Vector2d(-xf, yf), feed);
+  report(FacetId(Segment::kX2, j));
+
+  index_table(YFacetTableAngleDeg(c, j));
+  // Y1 normal along +Y: tool on the +Y side moving +X.
+  path.RapidAround(Eigen::Vector2d(-yf, xf), keep, route);
+  path.FeedXY(Eigen::Vector2d(yf, xf), feed);
+  report(FacetId(Segment::kY1, j));
+  // Y2 normal along -Y: tool on the -Y side moving -X.
+  path.RapidAround(Eigen::Vector2d(yf, -xf), keep, route);
+  path.FeedXY(Eigen::Vector2d(-yf, -xf), feed);
+  report(FacetId(Segment::kY2, j));
+
+  path.Add(gcode::TableClamp{false});
+  path.RapidC(0.0);
+  path.RapidAround(waiting, keep, route);
+  path.Add(gcode::SpindleOff{});
+  if (c.process.coolant_in_test) path.Add(gcode::Coolant{false});
+}
+
+void CheckTestCycleConfig(const Config& c) {
+  const TestCycleLayout l = ComputeTestCycleLayout(c);
+  if (std::abs(c.part.facet_bottom_z_mm - c.part.strip_floor_z_mm) > 1e-9)
+    throw InputError(kSource, 0, "part.facet_bottom_z_mm",
+                     "must equal part.strip_floor_z_mm: Z is set once in the "
+                     "test cycle");
+  const Eigen::Vector2d waiting(c.machine.waiting_position_w_mm[0],
+                                c.machine.waiting_position_w_mm[1]);
+  if (waiting.norm() < l.route_radius_mm)
+    throw InputError(
+        kSource, 0, "machine.waiting_position_w_mm",
+        fmt::format("the waiting position must be at least {:.3f} mm from "
+                    "the C axis (blank + tool radius + clearance)",
+                    l.route_radius_mm));
+}
+
+}  // namespace
+
+gcode::Program BuildTestCycleProgram(const Config& c) {
+  ValidateConfig(c, kSource);
+  CheckTestCycleConfig(c);
+  const PartSpec& part = c.part;
+  const ProcessSpec& pr = c.process;
+  gcode::Program program;
+  program.name = "cycle";
+  program.number = c.machine.program_number;
+  program.title = "ttp thermal test cycle";
+  PathWriter path(&program.statements);
+  path.Add(gcode::Comment{"test cycle of test-piece.md section 3"});
+  path.RapidZ(ToolChangeZ(c));  // no tool yet: away from the piece
+  ChangeTool(path, c, pr.finishing, 0.0);
+  path.RapidXY(Eigen::Vector2d(c.machine.waiting_position_w_mm[0],
+                               c.machine.waiting_position_w_mm[1]));
+  path.RapidC(0);
+  path.Add(gcode::Comment{"Z is set here and not moved until the end"});
+  path.RapidZ(ComputeTestCycleLayout(c).cut_z_mm);
+
+  // Waits between cycles, with a placeholder length until the times are
+  // known; the statement indices of the dwells, in order.
+  constexpr double kPlaceholderS = 1.0;
+  std::vector<size_t> dwell_statements;
+  const int cycles = part.cycles();
+  for (int k = 0; k <= cycles; ++k) {
+    TestCycle(path, c, k);
+    if (k == cycles) break;
+    if (k < pr.warmup_cycles) {
+      path.Add(gcode::Comment{"warm-up: C at maximum speed"});
+      path.Add(gcode::CSpin{c.machine.c_max_rpm});
+      dwell_statements.push_back(program.statements.size());
+      path.Add(gcode::Dwell{kPlaceholderS});
+      path.Add(gcode::CSpin{0});
+    } else {
+      path.Add(gcode::Comment{"cool-down: NC hold, C at 0"});
+      path.Add(gcode::TableClamp{true});
+      dwell_statements.push_back(program.statements.size());
+      path.Add(gcode::Dwell{kPlaceholderS});
+    }
+  }
+  path.RapidZ(pr.safe_z_w_mm);
+  path.Add(gcode::ProgramEnd{});
+  CheckTravel(program, c);
+
+  // Times from the reader's time model on the written text, so that the
+  // program, the schedule and a log agree to the written precision.
+  const std::string text =
+      gcode::WriteProgram(program, gcode::Dialect::kLinuxCnc, c);
+  const auto canon =
+      gcode::ReadProgram(text, gcode::Dialect::kLinuxCnc, c, "cycle");
+  std::vector<double> cycle_start_s(cycles + 1, -1.0);
+  for (const gcode::CanonStatement& s : canon) {
+    if (s.kind != gcode::CanonKind::kComment) continue;
+    for (int k = 0; k <= cycles; ++k)
+      if (s.text == CycleCommentText(k)) cycle_start_s[k] = s.start_s;
+  }
+  for (int k = 0; k <= cycles; ++k)
+    if (cycle_start_s[k] < 0)
+      throw std::logic_error("cycle comment lost in the written program");
+  double added_s = 0;  // dwell time added before the current cycle
+  for (int k = 0; k < cycles; ++k) {
+    const double target = cycle_start_s[0] + (k + 1) * pr.cycle_period_s;
+    const double now = cycle_start_s[k + 1] + added_s;
+    // Whole milliseconds: the writers keep 3 decimals of seconds.
+    const double dwell =
+        std::round((kPlaceholderS + target - now) * 1000.0) / 1000.0;
+    if (dwell < 0)
+      throw InputError(kSource, 0, "process.cycle_period_s",
+                       fmt::format("cycle {} takes longer than the period", k));
+    std::get<gcode::Dwell>(program.statements[dwell_statements[k]]).seconds =
+        dwell;
+    added_s += dwell - kPlaceholderS;
+  }
+  return program;
+}
+
+}  // namespace ttp::cam

@@ -1,0 +1,159 @@
+#include "ttp/cam/schedule.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "ttp/cam/programs.h"
+#include "ttp/gcode/reader.h"
+#include "ttp/gcode/writer.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
+
+namespace ttp::cam {
+namespace {
+
+std::string ToolName(const Config& c, int number) {
+  for (const ToolSpec* t : {&c.process.roughing, &c.process.engraver,
+                            &c.process.notch, &c.process.finishing})
+    if (t->number == number) return t->name;
+  return "";
+}
+
+// "cut,<feature>,<deg>" -> feature and angle.
+bool SplitReport(const std::string& text, std::string* feature, double* c_deg) {
+  const size_t a = text.find(',');
+  if (a == std::string::npos || text.substr(0, a) != "cut") return false;
+  const size_t b = text.find(',', a + 1);
+  if (b == std::string::npos) return false;
+  *feature = text.substr(a + 1, b - a - 1);
+  try {
+    *c_deg = std::stod(text.substr(b + 1));
+  } catch (const std::exception&) {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Schedule ScheduleFromCanon(const std::vector<gcode::CanonStatement>& canon,
+                           const Config& config, const std::string& source) {
+  Schedule schedule;
+  schedule.cycle_period_s = config.process.cycle_period_s;
+  schedule.total_s = gcode::TotalDuration(canon);
+  const int cycles = config.part.cycles();
+  schedule.cycle_start_s.assign(cycles + 1, -1.0);
+  int tool = 0;
+  const gcode::CanonStatement* last_feed = nullptr;
+  for (const gcode::CanonStatement& s : canon) {
+    switch (s.kind) {
+      case gcode::CanonKind::kToolChange:
+        tool = static_cast<int>(s.value);
+        break;
+      case gcode::CanonKind::kFeed:
+        last_feed = &s;
+        break;
+      case gcode::CanonKind::kComment:
+        for (int k = 0; k <= cycles; ++k)
+          if (s.text == CycleCommentText(k))
+            schedule.cycle_start_s[k] = s.start_s;
+        break;
+      case gcode::CanonKind::kReport: {
+        ScheduledCut cut;
+        FeatureKind kind;
+        Segment segment;
+        if (!SplitReport(s.text, &cut.feature, &cut.c_deg) ||
+            !ParseFeatureId(cut.feature, &kind, &segment, &cut.index))
+          throw InputError(source, s.source_line, "report",
+                           "not a cut of a test feature: " + s.text);
+        if (!last_feed)
+          throw InputError(source, s.source_line, "report",
+                           "report of a cut without a feed move before it");
+        cut.cycle = CycleForIndex(config.part, cut.index);
+        cut.start_s = last_feed->start_s;
+        cut.end_s = last_feed->start_s + last_feed->duration_s;
+        cut.tool = tool;
+        cut.tool_name = ToolName(config, tool);
+        cut.source_line = s.source_line;
+        schedule.cuts.push_back(cut);
+        last_feed = nullptr;  // one feed pass per reported cut
+        break;
+      }
+      default:
+        break;
+    }
+  }
+  return schedule;
+}
+
+Schedule BuildSchedule(const Config& config) {
+  const gcode::Program program = BuildTestCycleProgram(config);
+  const std::string text =
+      gcode::WriteProgram(program, gcode::Dialect::kLinuxCnc, config);
+  const auto canon =
+      gcode::ReadProgram(text, gcode::Dialect::kLinuxCnc, config, "cycle");
+  return ScheduleFromCanon(canon, config, "cycle");
+}
+
+std::string ScheduleToCsv(const Schedule& schedule) {
+  std::string out =
+      "feature,cycle,index,start_s,end_s,c_deg,tool,tool_name,line\n";
+  for (const ScheduledCut& c : schedule.cuts) {
+    out += fmt::format("{},{},{},{:.3f},{:.3f},{:.3f},{},\"{}\",{}\n",
+                       c.feature, c.cycle, c.index, c.start_s, c.end_s, c.c_deg,
+                       c.tool, c.tool_name, c.source_line);
+  }
+  return out;
+}
+
+nlohmann::json ScheduleToJson(const Schedule& schedule) {
+  nlohmann::json doc;
+  doc["cycle_period_s"] = schedule.cycle_period_s;
+  doc["cycle_start_s"] = schedule.cycle_start_s;
+  doc["total_s"] = schedule.total_s;
+  nlohmann::json cuts = nlohmann::json::array();
+  for (const ScheduledCut& c : schedule.cuts) {
+    nlohmann::json j;
+    j["feature"] = c.feature;
+    j["cycle"] = c.cycle;
+    j["index"] = c.index;
+    j["start_s"] = c.start_s;
+    j["end_s"] = c.end_s;
+    j["c_deg"] = c.c_deg;
+    j["tool"] = c.tool;
+    j["tool_name"] = c.tool_name;
+    j["line"] = c.source_line;
+    cuts.push_back(j);
+  }
+  doc["cuts"] = cuts;
+  return doc;
+}
+
+std::string FormatScheduleTable(const Schedule& schedule) {
+  std::string out =
+      fmt::format("{:<8} {:>5} {:>12} {:>12} {:>9} {:>4}  {}\n", "feature",
+                  "cycle", "start_s", "end_s", "c_deg", "tool", "tool name");
+  for (const ScheduledCut& c : schedule.cuts) {
+    out += fmt::format("{:<8} {:>5} {:>12.3f} {:>12.3f} {:>9.3f} {:>4}  {}\n",
+                       c.feature, c.cycle, c.start_s, c.end_s, c.c_deg, c.tool,
+                       c.tool_name);
+  }
+  out += fmt::format("{} cuts; cycle period {:.0f} s; program {:.3f} s\n",
+                     schedule.cuts.size(), schedule.cycle_period_s,
+                     schedule.total_s);
+  return out;
+}
+
+void WriteScheduleCsv(const std::filesystem::path& path,
+                      const Schedule& schedule) {
+  WriteFileAtomic(path, ScheduleToCsv(schedule));
+}
+
+void WriteScheduleJson(const std::filesystem::path& path,
+                       const Schedule& schedule) {
+  WriteFileAtomic(path, ScheduleToJson(schedule).dump(2) + "\n");
+}
+
+}  // namespace ttp::cam

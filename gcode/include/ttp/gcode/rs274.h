@@ -1,0 +1,55 @@
+// Independent check with LinuxCNC's stand-alone interpreter /usr/bin/rs274,
+// and comparison of two canonical sequences.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ttp/gcode/canon.h"
+#include "ttp/geometry/config.h"
+
+namespace ttp::gcode {
+
+struct Rs274Result {
+  std::vector<CanonStatement> statements;  // parsed, time model applied
+  std::string canon_text;                  // rs274's canon file
+  std::string stderr_text;                 // rs274's diagnostics
+};
+
+// True when /usr/bin/rs274 exists and is executable.
+bool Rs274Available();
+
+// Runs rs274 on LinuxCNC text in a temporary folder with a generated INI
+// (metric, XYZC, SPINDLES=2) and tool table (inches, from the config's
+// tools). The harness numbers every block N<line> so that canon lines carry
+// the source line, and turns `(print,` into `(debug,ttp-report:` so that
+// reports appear in order in the canon file. Throws InputError("rs274",
+// line, "", message) when rs274 rejects the program; std::runtime_error when
+// rs274 cannot be run.
+Rs274Result RunRs274(const std::string& ngc_text, const Config& config);
+
+// Parses rs274's canon output (mm, degrees) into canonical statements with
+// the reader's semantics (state changes only, M30 resets dropped, interpreter
+// comments dropped). source names the text in errors.
+std::vector<CanonStatement> ParseRs274Canon(const std::string& canon_text,
+                                            const std::string& source);
+
+struct ToolpathDifference {
+  bool same = true;
+  // Index in each sequence of the first differing statement (among the
+  // compared ones; comments are skipped); size() when one sequence ended.
+  size_t index_a = 0, index_b = 0;
+  int line_a = 0, line_b = 0;  // source lines, 0 if none
+  std::string what;            // human-readable reason
+};
+
+// Compares motions (kind, end position within tolerance_mm, C within
+// tolerance_rad, feed), dwells, spindle and C turning (rpm, direction),
+// coolant, clamp, tool changes, reports (text) and the end, in order.
+// Comments are ignored; times are not compared.
+ToolpathDifference CompareToolpaths(const std::vector<CanonStatement>& a,
+                                    const std::vector<CanonStatement>& b,
+                                    double tolerance_mm = 1e-6,
+                                    double tolerance_rad = 1e-9);
+
+}  // namespace ttp::gcode

@@ -1,0 +1,634 @@
+#include "ttp/gcode/reader.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include "canon_builder.h"
+#include "ttp/gcode/writer.h"
+#include "ttp/geometry/error.h"
+
+namespace ttp::gcode {
+namespace {
+
+std::string Upper(std::string s) {
+  for (char& ch : s) ch = static_cast<char>(std::toupper(ch));
+  return s;
+}
+std::string Lower(std::string s) {
+  for (char& ch : s) ch = static_cast<char>(std::tolower(ch));
+  return s;
+}
+std::string Trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return "";
+  const size_t e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+// ---- read ------------------------------------------------------------------
+
+struct Word {
+  char letter;  // upper case; '$' for the LinuxCNC spindle selector
+  double value;
+  bool has_point;   // FANUC: no point = least input increments
+  std::string raw;  // as written, for error messages
+};
+
+struct Block {
+  int line = 0;
+  std::vector<Word> words;
+  std::vector<std::string> comments;
+  std::optional<std::string> dprnt;  // FANUC DPRNT[...] contents
+  bool popen = false, pclos = false;
+};
+
+class Lexer {
+ public:
+  Lexer(Dialect dialect, const std::string& source)
+      : dialect_(dialect), source_(source) {}
+
+  std::optional<Block> Lex(const std::string& raw_line, int line_number) {
+    line_ = line_number;
+    std::string text = raw_line;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    const std::string trimmed = Trim(text);
+    if (trimmed.empty() || trimmed == "%") return std::nullopt;
+    if (trimmed[0] == '/') Fail("/", "block delete is not supported");
+    Block block;
+    block.line = line_number;
+    if (dialect_ == Dialect::kFanuc) {
+      const std::string up = Upper(trimmed);
+      if (up == "POPEN") {
+        block.popen = true;
+        return block;
+      }
+      if (up == "PCLOS") {
+        block.pclos = true;
+        return block;
+      }
+      if (up.rfind("DPRNT", 0) == 0) {
+        const size_t open = trimmed.find('[');
+        const size_t close = trimmed.rfind(']');
+        if (open != 5 || close == std::string::npos ||
+            close != trimmed.size() - 1)
+          Fail("DPRNT", "expected DPRNT[...]");
+        const std::string body = trimmed.substr(open + 1, close - open - 1);
+        // Only the skip-position variables of a probing report may be
+        // printed (#5061..#5064 with an [integer digits, decimals] format).
+        static const std::regex kVariable(R"(#(\d+)(\[\d\d\])?)");
+        for (auto it =
+                 std::sregex_iterator(body.begin(), body.end(), kVariable);
+             it != std::sregex_iterator(); ++it) {
+          const int var = std::stoi((*it)[1]);
+          if (var < 5061 || var > 5064 || !(*it)[2].matched)
+            Fail("DPRNT",
+                 "only #5061..#5064[nn] may be printed, not " + it->str());
+        }
+        if (std::count(body.begin(), body.end(), '#') !=
+            std::distance(
+                std::sregex_iterator(body.begin(), body.end(), kVariable),
+                std::sregex_iterator()))
+          Fail("DPRNT", "malformed #variable");
+        block.dprnt = body;
+        return block;
+      }
+    }
+    size_t i = 0;
+    const size_t n = text.size();
+    while (i < n) {
+      const char ch = text[i];
+      if (ch == ' ' || ch == '\t') {
+        ++i;
+      } else if (ch == ';') {
+        break;  // LinuxCNC: comment to end of line; FANUC: end of block
+      } else if (ch == '(') {
+        const size_t close = text.find(')', i + 1);
+        if (close == std::string::npos) Fail("(", "comment is not closed");
+        const std::string comment = text.substr(i + 1, close - i - 1);
+        if (comment.find('(') != std::string::npos) Fail("(", "nested comment");
+        block.comments.push_back(comment);
+        i = close + 1;
+      } else if (ch == '#') {
+        Fail(text.substr(i, 4), "#variables are not supported");
+      } else if (ch == '[') {
+        Fail("[", "expressions are not supported");
+      } else if (std::isalpha(static_cast<unsigned char>(ch)) || ch == '$') {
+        block.words.push_back(LexWord(text, i));
+      } else {
+        Fail(std::string(1, ch), "unexpected character");
+      }
+    }
+    if (block.words.empty() && block.comments.empty()) return std::nullopt;
+    return block;
+  }
+
+ private:
+  [[noreturn]] void Fail(const std::string& field,
+                         const std::string& problem) const {
+    throw InputError(source_, line_, field, problem);
+  }
+
+  Word LexWord(const std::string& text, size_t& i) {
+    const size_t start = i;
+    Word w;
+    w.letter = static_cast<char>(std::toupper(text[i]));
+    ++i;
+    if (i < text.size() && std::isalpha(static_cast<unsigned char>(text[i]))) {
+      size_t end = i;
+      while (end < text.size() &&
+             std::isalpha(static_cast<unsigned char>(text[end])))
+        ++end;
+      const std::string keyword = Upper(text.substr(start, end - start));
+      Fail(keyword, "keyword or macro statement is not supported");
+    }
+    // Both controls ignore spaces between the letter and its number.
+    while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
+    std::string number;
+    if (i < text.size() && (text[i] == '+' || text[i] == '-')) {
+      number += text[i++];
+      while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
+    }
+    size_t digits = 0;
+    w.has_point = false;
+    while (i < text.size() &&
+           (std::isdigit(static_cast<unsigned char>(text[i])) ||
+            (text[i] == '.' && !w.has_point))) {
+      if (text[i] == '.')
+        w.has_point = true;
+      else
+        ++digits;
+      number += text[i++];
+    }
+    size_t end = i;
+    // Anything glued to the number other than the next word is garbage.
+    while (end < text.size() &&
+           !std::isspace(static_cast<unsigned char>(text[end])) &&
+           !std::isalpha(static_cast<unsigned char>(text[end])) &&
+           text[end] != '(' && text[end] != ';' && text[end] != '$')
+      ++end;
+    w.raw = Trim(text.substr(start, end - start));
+    if (digits == 0 || end != i) Fail(w.raw, "bad number");
+    w.value = std::stod(number);
+    if (!std::isfinite(w.value)) Fail(w.raw, "bad number");
+    return w;
+  }
+
+  Dialect dialect_;
+  const std::string& source_;
+  int line_ = 0;
+};
+
+// ---- check + convert -------------------------------------------------------
+
+// G-codes times 10 (G38.2 = 382) and their modal groups.
+enum class GGroup {
+  kNonModal,
+  kMotion,
+  kPlane,
+  kUnits,
+  kCutter,
+  kLength,
+  kCoord,
+  kDistance,
+  kFeedMode
+};
+
+enum class Motion { kNone, kRapid, kFeed, kProbe };
+
+class Interpreter {
+ public:
+  Interpreter(Dialect dialect, const Config& config, const std::string& source)
+      : dialect_(dialect), config_(config), source_(source) {}
+
+  // Returns false after M30 (the rest of the text is not read).
+  bool Run(const Block& block) {
+    line_ = block.line;
+    builder_.SetLine(block.line);
+    if (block.popen) {
+      if (port_open_) Fail("POPEN", "port already open");
+      port_open_ = true;
+      return true;
+    }
+    if (block.pclos) {
+      if (!port_open_) Fail("PCLOS", "PCLOS without POPEN");
+      port_open_ = false;
+      return true;
+    }
+    if (block.dprnt) {
+      if (!port_open_) Fail("DPRNT", "DPRNT before POPEN");
+      builder_.Report(DprntText(*block.dprnt));
+      return true;
+    }
+    Check(block);
+    return Convert(block);
+  }
+
+  std::vector<CanonStatement> Take() { return builder_.Take(); }
+
+ private:
+  [[noreturn]] void Fail(const std::string& field,
+                         const std::string& problem) const {
+    throw InputError(source_, line_, field, problem);
+  }
+  bool Fanuc() const { return dialect_ == Dialect::kFanuc; }
+
+  static int GCode(const Word& w) {
+    return static_cast<int>(std::lround(w.value * 10));
+  }
+
+  std::optional<GGroup> GroupOf(int g10) const {
+    switch (g10) {
+      case 0:
+      case 10:
+      case 800:
+        return GGroup::kMotion;
+      case 40:
+        return GGroup::kNonModal;
+      case 170:
+        return GGroup::kPlane;
+      case 200:
+      case 210:
+        return GGroup::kUnits;
+      case 400:
+        return GGroup::kCutter;
+      case 430:
+      case 490:
+        return GGroup::kLength;
+      case 540:
+        return GGroup::kCoord;
+      case 900:
+      case 910:
+        return GGroup::kDistance;
+      case 940:
+        return GGroup::kFeedMode;
+      case 310:
+        if (Fanuc()) return GGroup::kMotion;
+        break;
+      case 382:
+        if (!Fanuc()) return GGroup::kMotion;
+        break;
+    }
+    return std::nullopt;
+  }
+
+  // M-code groups: spindle 1, tool 2, coolant 3, end 4, C turning 5,
+  // clamp 6, digital outputs 7.
+  std::optional<int> MGroupOf(int m) const {
+    const MachineProfile& p = config_.machine;
+    if (m == 3 || m == 4 || m == 5) return 1;
+    if (m == 6) return 2;
+    if (m == 8 || m == 9) return 3;
+    if (m == 30 || m == 2) return 4;
+    if (Fanuc()) {
+      if (m == p.m_c_turning_on || m == p.m_c_turning_off) return 5;
+      if (m == p.m_table_clamp || m == p.m_table_unclamp) return 6;
+    } else if (m == 64 || m == 65) {
+      return 7;
+    }
+    return std::nullopt;
+  }
+
+  void Check(const Block& block) {
+    std::set<char> seen;
+    std::map<GGroup, const Word*> g_groups;
+    std::map<int, const Word*> m_groups;
+    const std::string allowed = Fanuc() ? "NOGMXYZCFSTHP" : "NGMXYZCFSTHP$";
+    for (const Word& w : block.words) {
+      if (allowed.find(w.letter) == std::string::npos) {
+        if (w.letter == 'O') Fail(w.raw, "O-word control is not supported");
+        Fail(w.raw, "unsupported word");
+      }
+      if (w.letter == 'G') {
+        if (std::abs(w.value * 10 - std::round(w.value * 10)) > 1e-9)
+          Fail(w.raw, "unsupported G-code");
+        const auto group = GroupOf(GCode(w));
+        if (!group) Fail(w.raw, "unsupported G-code");
+        auto [it, inserted] = g_groups.emplace(*group, &w);
+        if (!inserted)
+          Fail(w.raw,
+               "conflicts with " + it->second->raw + " (same modal group)");
+      } else if (w.letter == 'M') {
+        if (w.value != std::floor(w.value)) Fail(w.raw, "unsupported M-code");
+        const auto group = MGroupOf(static_cast<int>(w.value));
+        if (!group) Fail(w.raw, "unsupported M-code");
+        auto [it, inserted] = m_groups.emplace(*group, &w);
+        if (!inserted)
+          Fail(w.raw,
+               "conflicts with " + it->second->raw + " (same modal group)");
+      } else {
+        if (!seen.insert(w.letter).second) Fail(w.raw, "word given twice");
+      }
+      switch (w.letter) {
+        case 'F':
+          if (w.value <= 0) Fail(w.raw, "feed must be > 0");
+          break;
+        case 'S':
+          if (w.value < 0) Fail(w.raw, "speed must be >= 0");
+          break;
+        case 'T':
+        case 'H':
+        case 'N':
+        case 'O':
+        case '$':
+          if (w.value < 0 || w.value != std::floor(w.value))
+            Fail(w.raw, "must be a whole number >= 0");
+          break;
+        default:
+          break;
+      }
+    }
+    if (g_groups.count(GGroup::kNonModal) && g_groups.count(GGroup::kMotion))
+      Fail(g_groups[GGroup::kMotion]->raw, "conflicts with dwell in the block");
+    if (Fanuc() && m_groups.count(1) && m_groups.count(5))
+      Fail(m_groups[5]->raw, "S would be ambiguous with " + m_groups[1]->raw);
+  }
+
+  static const Word* Find(const Block& b, char letter) {
+    for (const Word& w : b.words)
+      if (w.letter == letter) return &w;
+    return nullptr;
+  }
+  const ToolSpec* ToolByNumber(int tool) const {
+    const ProcessSpec& p = config_.process;
+    for (const ToolSpec* t :
+         {&p.roughing, &p.engraver, &p.notch, &p.finishing, &p.probe})
+      if (t->number == tool) return t;
+    return nullptr;
+  }
+  static bool HasG(const Block& b, int g10) {
+    for (const Word& w : b.words)
+      if (w.letter == 'G' && GCode(w) == g10) return true;
+    return false;
+  }
+  static bool HasM(const Block& b, int m) {
+    for (const Word& w : b.words)
+      if (w.letter == 'M' && static_cast<int>(w.value) == m) return true;
+    return false;
+  }
+
+  // FANUC values without a point are least input increments: 0.001 mm,
+  // 0.0001 inch, 0.001 deg, 0.001 s.
+  double Scaled(const Word& w, bool length = false) const {
+    if (!Fanuc() || w.has_point) return w.value;
+    return w.value * (length && units_mm_ != 1.0 ? 0.0001 : 0.001);
+  }
+
+  std::string DprntText(const std::string& body) {
+    // DPRNT prints '*' as a space; we write EVENT*FEATURE*C<deg>.
+    std::vector<std::string> parts;
+    std::stringstream ss(body);
+    std::string part;
+    while (std::getline(ss, part, '*')) parts.push_back(part);
+    if (parts.size() == 3 && parts[2].size() > 1 &&
+        std::toupper(static_cast<unsigned char>(parts[2][0])) == 'C') {
+      return Lower(parts[0]) + "," + parts[1] + "," + parts[2].substr(1);
+    }
+    std::string text;
+    for (size_t i = 0; i < parts.size(); ++i) text += (i ? "," : "") + parts[i];
+    return text;
+  }
+
+  void Comments(const Block& block) {
+    for (const std::string& c : block.comments) {
+      if (!Fanuc()) {
+        const std::string low = Lower(c);
+        const auto prefix = [&](const char* p) { return low.rfind(p, 0) == 0; };
+        if (prefix("print,")) {
+          builder_.Report(c.substr(6));
+          continue;
+        }
+        if (prefix("msg,") || prefix("debug,")) {
+          builder_.Comment(c.substr(c.find(',') + 1));
+          continue;
+        }
+      }
+      builder_.Comment(c);
+    }
+  }
+
+  bool Convert(const Block& block) {
+    Comments(block);
+    if (const Word* o = Find(block, 'O')) (void)o;  // FANUC program number
+    if (HasG(block, 200)) units_mm_ = 25.4;
+    if (HasG(block, 210)) units_mm_ = 1.0;
+    if (const Word* f = Find(block, 'F')) feed_ = f->value;
+    int spindle = 0;
+    if (const Word* sel = Find(block, '$')) {
+      spindle = static_cast<int>(sel->value);
+      if (spindle > 1) Fail(sel->raw, "only spindles 0 and 1 exist");
+    }
+    const MachineProfile& p = config_.machine;
+    const bool c_on = Fanuc() && HasM(block, p.m_c_turning_on);
+    const Word* s_word = Find(block, 'S');
+    if (s_word && !c_on) builder_.SetSpindleSpeed(spindle, s_word->value);
+    if (const Word* t = Find(block, 'T'))
+      selected_tool_ = static_cast<int>(t->value);
+    if (HasM(block, 6)) {
+      if (selected_tool_ < 0) Fail("M6", "tool change without T");
+      builder_.StopSpindle(0);
+      builder_.StopSpindle(1);
+      builder_.ChangeTool(selected_tool_);
+    }
+    if (HasM(block, 3)) builder_.StartSpindle(spindle, true);
+    if (HasM(block, 4)) builder_.StartSpindle(spindle, false);
+    if (HasM(block, 5)) builder_.StopSpindle(spindle);
+    if (HasM(block, 8)) builder_.SetCoolant(true);
+    if (HasM(block, 9)) builder_.SetCoolant(false);
+    if (Fanuc()) {
+      if (c_on) {
+        if (!s_word)
+          Fail(fmt::format("M{}", p.m_c_turning_on), "needs S (C rpm)");
+        builder_.SetSpindleSpeed(1, s_word->value);
+        builder_.StartSpindle(1, true);
+      }
+      if (HasM(block, p.m_c_turning_off)) builder_.StopSpindle(1);
+      if (HasM(block, p.m_table_clamp)) builder_.SetClamp(true);
+      if (HasM(block, p.m_table_unclamp)) builder_.SetClamp(false);
+    } else if (HasM(block, 64) || HasM(block, 65)) {
+      const Word* pw = Find(block, 'P');
+      const int m = HasM(block, 64) ? 64 : 65;
+      if (!pw || pw->value != kLinuxCncClampOutput)
+        Fail(fmt::format("M{}", m),
+             fmt::format("only output P{} (table clamp) is used",
+                         kLinuxCncClampOutput));
+      builder_.SetClamp(m == 64);
+    }
+    if (HasG(block, 430)) {
+      const Word* h = Find(block, 'H');
+      const int tool = h ? static_cast<int>(h->value) : selected_tool_;
+      const ToolSpec* spec = ToolByNumber(tool);
+      if (!spec)
+        Fail(h ? h->raw : "G43",
+             fmt::format("no tool {} in the process", tool));
+      builder_.SetToolLengthOffset(spec->length_mm);
+    }
+    if (HasG(block, 490)) builder_.SetToolLengthOffset(0.0);
+    if (HasG(block, 40)) Dwell(block);
+    if (HasG(block, 900)) absolute_ = true;
+    if (HasG(block, 910)) absolute_ = false;
+    Move(block);
+    if (HasM(block, 30) || HasM(block, 2)) {
+      builder_.End();
+      return false;
+    }
+    return true;
+  }
+
+  void Dwell(const Block& block) {
+    const Word* x = Find(block, 'X');
+    const Word* pw = Find(block, 'P');
+    for (const Word& w : block.words)
+      if (std::string("YZC").find(w.letter) != std::string::npos)
+        Fail(w.raw, "axis word in a dwell block");
+    double seconds = 0;
+    if (Fanuc()) {
+      if (x && pw) Fail(pw->raw, "G04 takes X or P, not both");
+      if (x)
+        seconds = Scaled(*x);
+      else if (pw)
+        seconds = pw->value * 0.001;  // P is in ms
+      else
+        Fail("G04", "dwell without X or P");
+    } else {
+      if (x) Fail(x->raw, "axis word in a dwell block");
+      if (!pw) Fail("G4", "dwell without P");
+      seconds = pw->value;
+    }
+    if (seconds < 0) Fail(x ? x->raw : pw->raw, "dwell must be >= 0");
+    builder_.Dwell(seconds);
+  }
+
+  void Move(const Block& block) {
+    const Word* g_motion = nullptr;
+    for (const Word& w : block.words)
+      if (w.letter == 'G' && GroupOf(GCode(w)) == GGroup::kMotion)
+        g_motion = &w;
+    Motion motion = motion_;
+    if (g_motion) {
+      switch (GCode(*g_motion)) {
+        case 0:
+          motion = Motion::kRapid;
+          break;
+        case 10:
+          motion = Motion::kFeed;
+          break;
+        case 800:
+          motion = Motion::kNone;
+          break;
+        default:
+          motion = Motion::kProbe;
+          break;
+      }
+      // FANUC G31 is one-shot; LinuxCNC G38.2 is modal.
+      if (!(Fanuc() && motion == Motion::kProbe)) motion_ = motion;
+    }
+    if (HasG(block, 40)) return;
+    const Word* axes[4] = {Find(block, 'X'), Find(block, 'Y'), Find(block, 'Z'),
+                           Find(block, 'C')};
+    const bool any_axis = axes[0] || axes[1] || axes[2] || axes[3];
+    if (!any_axis) {
+      if (g_motion && motion == Motion::kProbe)
+        Fail(g_motion->raw, "probe move without a target");
+      return;
+    }
+    if (motion == Motion::kNone)
+      Fail(FirstAxis(axes)->raw, "axis words without a motion mode (G0/G1)");
+    Eigen::Vector3d to = builder_.position_mm();
+    double c = builder_.c_deg();
+    for (int a = 0; a < 3; ++a) {
+      if (!axes[a]) continue;
+      const double v = Scaled(*axes[a], true) * units_mm_;
+      to[a] = absolute_ ? v : to[a] + v;
+    }
+    if (axes[3]) {
+      const double v = Scaled(*axes[3]);
+      c = absolute_ ? v : c + v;
+    }
+    if (motion == Motion::kRapid) {
+      builder_.Traverse(to, c);
+      return;
+    }
+    if (!feed_) {
+      const std::string g =
+          g_motion ? g_motion->raw : (motion == Motion::kFeed ? "G1" : "probe");
+      Fail(g, "feed move without a feed rate (F)");
+    }
+    const bool pure_c = (to - builder_.position_mm()).norm() == 0;
+    const double feed = pure_c ? *feed_ : *feed_ * units_mm_;
+    if (motion == Motion::kFeed)
+      builder_.Feed(to, c, feed);
+    else
+      builder_.Probe(to, c, feed);
+  }
+
+  static const Word* FirstAxis(const Word* const axes[4]) {
+    for (int a = 0; a < 4; ++a)
+      if (axes[a]) return axes[a];
+    return nullptr;
+  }
+
+  Dialect dialect_;
+  const Config& config_;
+  const std::string& source_;
+  CanonBuilder builder_;
+  int line_ = 0;
+  bool port_open_ = false;
+  double units_mm_ = 1.0;
+  bool absolute_ = true;
+  Motion motion_ = Motion::kNone;
+  std::optional<double> feed_;
+  int selected_tool_ = -1;
+};
+
+}  // namespace
+
+Dialect DetectDialect(const std::string& text) {
+  const std::string up = Upper(text);
+  std::stringstream ss(up);
+  std::string line;
+  while (std::getline(ss, line)) {
+    const std::string t = Trim(line);
+    if (t.size() > 1 && t[0] == 'O' &&
+        std::isdigit(static_cast<unsigned char>(t[1])))
+      return Dialect::kFanuc;
+    if (t.rfind("DPRNT", 0) == 0 || t == "POPEN" ||
+        t.find("G04 X") != std::string::npos)
+      return Dialect::kFanuc;
+    if (t.find('$') != std::string::npos ||
+        t.find("(PRINT,") != std::string::npos ||
+        t.find("G4 P") != std::string::npos ||
+        t.find("M64") != std::string::npos ||
+        t.find("M65") != std::string::npos)
+      return Dialect::kLinuxCnc;
+  }
+  return Dialect::kLinuxCnc;
+}
+
+std::vector<CanonStatement> ReadProgram(const std::string& text,
+                                        Dialect dialect, const Config& config,
+                                        const std::string& source) {
+  Lexer lexer(dialect, source);
+  Interpreter interpreter(dialect, config, source);
+  std::stringstream ss(text);
+  std::string line;
+  int line_number = 0;
+  while (std::getline(ss, line)) {
+    ++line_number;
+    const auto block = lexer.Lex(line, line_number);
+    if (!block) continue;
+    if (!interpreter.Run(*block)) break;
+  }
+  auto statements = interpreter.Take();
+  ApplyTimeModel(statements, config.machine);
+  return statements;
+}
+
+}  // namespace ttp::gcode

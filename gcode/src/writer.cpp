@@ -1,0 +1,191 @@
+#include "ttp/gcode/writer.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <type_traits>
+
+#include "ttp/geometry/error.h"
+
+namespace ttp::gcode {
+namespace {
+
+// Parentheses would end a comment early; both controls forbid nesting.
+std::string SafeCommentText(const std::string& text) {
+  std::string out = text;
+  for (char& ch : out) {
+    if (ch == '(') ch = '[';
+    if (ch == ')') ch = ']';
+    if (ch == '\n' || ch == '\r') ch = ' ';
+  }
+  return out;
+}
+
+class Writer {
+ public:
+  Writer(const Program& program, Dialect dialect, const Config& config)
+      : program_(program), dialect_(dialect), config_(config) {}
+
+  std::string Write() {
+    const bool fanuc = dialect_ == Dialect::kFanuc;
+    bool has_report = false;
+    for (const auto& s : program_.statements)
+      if (std::holds_alternative<Report>(s) || std::holds_alternative<Probe>(s))
+        has_report = true;
+    Line("%");
+    if (fanuc) {
+      Line(fmt::format("O{} ({})", program_.number,
+                       SafeCommentText(program_.title)));
+    } else {
+      Line(fmt::format("({})", SafeCommentText(program_.title)));
+    }
+    Line("G21 G90 G17 G40 G49 G80 G94");
+    Line("G54");
+    bool report_open = false;
+    for (size_t i = 0; i < program_.statements.size(); ++i) {
+      index_ = i;
+      const Statement& s = program_.statements[i];
+      if (fanuc && has_report && !report_open &&
+          (std::holds_alternative<Report>(s) ||
+           std::holds_alternative<Probe>(s))) {
+        Line("POPEN");
+        report_open = true;
+      }
+      if (fanuc && report_open && std::holds_alternative<ProgramEnd>(s)) {
+        Line("PCLOS");
+        report_open = false;
+      }
+      std::visit([this](const auto& st) { Emit(st); }, s);
+    }
+    if (report_open) Line("PCLOS");
+    Line("%");
+    return out_;
+  }
+
+ private:
+  [[noreturn]] void Fail(const std::string& problem) const {
+    throw InputError(program_.name, 0, fmt::format("statement {}", index_),
+                     problem);
+  }
+  double Finite(double v, const char* what) const {
+    if (!std::isfinite(v)) Fail(fmt::format("{} is not finite", what));
+    return v;
+  }
+  void Line(const std::string& text) { out_ += text + "\n"; }
+  std::string Mm(double v) { return fmt::format("{:.4f}", Finite(v, "mm")); }
+  std::string Deg(double v) { return fmt::format("{:.3f}", Finite(v, "deg")); }
+  long Rpm(double rpm) {
+    if (!std::isfinite(rpm) || rpm < 0) Fail("rpm must be >= 0");
+    return std::lround(rpm);
+  }
+  std::string AxisWords(const Axes& a) {
+    std::string s;
+    if (a.x_mm) s += " X" + Mm(*a.x_mm);
+    if (a.y_mm) s += " Y" + Mm(*a.y_mm);
+    if (a.z_mm) s += " Z" + Mm(*a.z_mm);
+    if (a.c_deg) s += " C" + Deg(*a.c_deg);
+    if (s.empty()) Fail("move without any axis");
+    return s;
+  }
+
+  void Emit(const Comment& c) { Line("(" + SafeCommentText(c.text) + ")"); }
+  void Emit(const Rapid& r) { Line("G0" + AxisWords(r.to)); }
+  void Emit(const Feed& f) {
+    if (!std::isfinite(f.feed_per_min) || f.feed_per_min <= 0)
+      Fail("feed must be > 0");
+    std::string line = "G1" + AxisWords(f.to);
+    const std::string feed = fmt::format("{:.1f}", f.feed_per_min);
+    if (feed != last_feed_) line += " F" + feed;
+    last_feed_ = feed;
+    Line(line);
+  }
+  void Emit(const Dwell& d) {
+    if (!std::isfinite(d.seconds) || d.seconds < 0) Fail("dwell must be >= 0");
+    if (dialect_ == Dialect::kFanuc)
+      Line(fmt::format("G04 X{:.3f}", d.seconds));
+    else
+      Line(fmt::format("G4 P{:.3f}", d.seconds));
+  }
+  void Emit(const SpindleOn& s) {
+    Line(fmt::format("{} S{}", s.clockwise ? "M3" : "M4", Rpm(s.rpm)));
+  }
+  void Emit(const SpindleOff&) { Line("M5"); }
+  void Emit(const Coolant& c) { Line(c.on ? "M8" : "M9"); }
+  void Emit(const ToolChange& t) {
+    if (t.tool < 0) Fail("tool number must be >= 0");
+    if (!t.description.empty())
+      Line(fmt::format("(T{} {})", t.tool, SafeCommentText(t.description)));
+    Line(fmt::format("T{} M6", t.tool));
+    Line(fmt::format("G43 H{}", t.tool));
+  }
+  void Emit(const CSpin& c) {
+    const long rpm = Rpm(c.rpm);
+    const MachineProfile& m = config_.machine;
+    if (dialect_ == Dialect::kFanuc) {
+      if (rpm == 0)
+        Line(fmt::format("M{}", m.m_c_turning_off));
+      else
+        Line(fmt::format("M{} S{}", m.m_c_turning_on, rpm));
+    } else {
+      if (rpm == 0)
+        Line("M5 $1");
+      else
+        Line(fmt::format("M3 $1 S{}", rpm));
+    }
+  }
+  void Emit(const TableClamp& t) {
+    if (dialect_ == Dialect::kFanuc)
+      Line(fmt::format("M{}", t.clamp ? config_.machine.m_table_clamp
+                                      : config_.machine.m_table_unclamp));
+    else
+      Line(
+          fmt::format("{} P{}", t.clamp ? "M64" : "M65", kLinuxCncClampOutput));
+  }
+  void Emit(const Report& r) {
+    for (char ch : r.event + r.feature)
+      if (ch == '*' || ch == ',' || ch == '[' || ch == ']' || ch == '(' ||
+          ch == ')' || ch == ' ')
+        Fail("report event/feature must not contain separators: " + r.event +
+             " " + r.feature);
+    if (dialect_ == Dialect::kFanuc) {
+      std::string event = r.event;
+      for (char& ch : event) ch = static_cast<char>(std::toupper(ch));
+      Line(fmt::format("DPRNT[{}*{}*C{}]", event, r.feature, Deg(r.c_deg)));
+    } else {
+      Line(fmt::format("(print,{},{},{})", r.event, r.feature, Deg(r.c_deg)));
+    }
+  }
+  void Emit(const Probe& p) {
+    if (!std::isfinite(p.feed_per_min) || p.feed_per_min <= 0)
+      Fail("probe feed must be > 0");
+    if (p.point_id < 0) Fail("probe point id must be >= 0");
+    const std::string feed = fmt::format("{:.1f}", p.feed_per_min);
+    if (dialect_ == Dialect::kFanuc) {
+      Line("G31" + AxisWords(p.to) + " F" + feed);
+      Line(fmt::format(
+          "DPRNT[PROBE*{}*X#5061[44]*Y#5062[44]*Z#5063[44]*C#5064[33]]",
+          p.point_id));
+    } else {
+      Line("G38.2" + AxisWords(p.to) + " F" + feed);
+      Line(fmt::format("(print,probe,{},#5061,#5062,#5063,#5064)", p.point_id));
+    }
+    last_feed_ = feed;
+  }
+  void Emit(const ProgramEnd&) { Line("M30"); }
+
+  const Program& program_;
+  Dialect dialect_;
+  const Config& config_;
+  size_t index_ = 0;
+  std::string last_feed_;
+  std::string out_;
+};
+
+}  // namespace
+
+std::string WriteProgram(const Program& program, Dialect dialect,
+                         const Config& config) {
+  return Writer(program, dialect, config).Write();
+}
+
+}  // namespace ttp::gcode
