@@ -1,0 +1,60 @@
+// Any measurement of a finished piece (measurements.md), read into one
+// shape: per-feature results on the nominal model, the figures E_X..E_TTP
+// computed from them, and the inspection JSON of issue 3.
+//
+// Formats, recognised from the content (then the extension):
+// - point clouds (PLY, PCD, .xyz/.txt/.csv with three numbers per line):
+//   aligned, segmented and fitted by InspectCloud;
+// - an inspection JSON written by `ttp inspect --json` (or any JSON with the
+//   issue 3 "facets"/"strips" keys);
+// - the dial-gauge CSV (header `feature,reading_um`);
+// - a DMIS output file (FA(...) = FEAT/...);
+// - the probe results CSV of `ttp plan probe` (header starting `point_id`).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "ttp/geometry/config.h"
+#include "ttp/inspect/dial.h"
+#include "ttp/inspect/inspect.h"
+#include "ttp/inspect/probe.h"
+
+namespace ttp::inspect {
+
+enum class MeasurementKind { kCloud, kInspectionJson, kDial, kDmis, kProbe };
+const char* MeasurementKindName(MeasurementKind kind);  // "cloud", ...
+
+struct MeasurementOptions {
+  ReadOptions read;        // cloud units
+  InspectOptions inspect;  // cloud inspection rules, instrument
+  DialOptions dial;        // gauge resolution and repeatability
+  ProbeReadOptions probe;  // probe repeatability, point list
+};
+
+struct Measurement {
+  std::string source;  // the file
+  MeasurementKind kind = MeasurementKind::kCloud;
+  // features, figures, extras and warnings are always filled; alignment and
+  // segmentation only for clouds.
+  InspectionResult result;
+};
+
+// Throws InputError naming the file, line and field for anything it cannot
+// read (unknown format, bad values, a file that is not a test piece).
+Measurement LoadMeasurement(const Config& config,
+                            const std::filesystem::path& path,
+                            const MeasurementOptions& options = {});
+
+// The kind of measurement `head` (the file's first bytes) holds: PLY/PCD
+// header -> cloud, '{' -> JSON, DMISMN / FA( -> DMIS, a header starting
+// point_id -> probe, feature + reading_um -> dial; then the extension
+// (.json, .dmi/.dmo/.dmis); else a text cloud.
+MeasurementKind SniffMeasurement(const std::string& head,
+                                 const std::filesystem::path& path);
+
+// InspectionToJson plus "kind" (no "alignment" unless a cloud).
+nlohmann::json MeasurementToJson(const PartSpec& part, const Measurement& m);
+
+}  // namespace ttp::inspect

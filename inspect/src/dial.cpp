@@ -1,0 +1,84 @@
+#include "ttp/inspect/dial.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "ttp/geometry/csv.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+
+namespace ttp::inspect {
+
+void DialOptions::Validate() const {
+  if (!(resolution_um >= 0) || !std::isfinite(resolution_um))
+    throw InputError("DialOptions", 0, "resolution_um", "must be >= 0");
+  if (!(repeatability_um >= 0) || !std::isfinite(repeatability_um))
+    throw InputError("DialOptions", 0, "repeatability_um", "must be >= 0");
+}
+
+FeatureResults ReadDialReadings(const std::string& csv_text,
+                                const std::string& source, const PartSpec& part,
+                                const DialOptions& options) {
+  options.Validate();
+  const CsvTable table = ParseCsv(csv_text, source);
+  const int feature_col = table.Require("feature");
+  const int reading_col = table.Require("reading_um");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double var_reading_mm2 =
+      (options.resolution_um * options.resolution_um / 12.0 +
+       options.repeatability_um * options.repeatability_um) *
+      1e-6;
+
+  FeatureResults results;
+  std::map<std::string, int> seen_on_line;
+  const std::vector<NominalFeature> nominal = TestFeatures(part);
+  std::map<std::string, const NominalFeature*> by_id;
+  for (const NominalFeature& f : nominal) by_id[f.id] = &f;
+
+  for (const CsvRow& row : table.rows) {
+    const std::string& id = table.Text(row, feature_col);
+    auto it = by_id.find(id);
+    if (it == by_id.end())
+      throw InputError(source, row.line, "feature",
+                       "'" + id + "' is not a facet or strip of the piece");
+    if (auto [pos, fresh] = seen_on_line.emplace(id, row.line); !fresh)
+      throw InputError(source, row.line, "feature",
+                       id + " is read twice (first on line " +
+                           std::to_string(pos->second) + ")");
+    const double reading_um = table.Number(row, reading_col);
+    const NominalFeature& f = *it->second;
+    const bool reference = f.index == part.reference_index;
+    if (reference && reading_um != 0.0)
+      throw InputError(
+          source, row.line, "reading_um",
+          id + " is the reference (zero) of its " +
+              (f.kind == FeatureKind::kStrip ? "strips" : "segment") +
+              "; its reading must be 0");
+    FeatureResult r;
+    r.present = true;
+    r.points = 1;
+    r.angle_rad = nan;  // a gauge reads distances only
+    r.var_angle_rad2 = nan;
+    if (f.kind == FeatureKind::kStrip) {
+      r.d_mm = -part.strip_floor_z_mm + reading_um * 1e-3;
+    } else {
+      r.d_mm = f.size_mm - reading_um * 1e-3;
+    }
+    r.var_d_mm2 = reference ? 0.0 : var_reading_mm2;
+    results[id] = r;
+  }
+  // The references are the zero of the readings: present even if not listed.
+  for (const NominalFeature& f : nominal) {
+    if (f.index != part.reference_index || results.count(f.id)) continue;
+    FeatureResult r;
+    r.present = true;
+    r.d_mm = f.kind == FeatureKind::kStrip ? -part.strip_floor_z_mm : f.size_mm;
+    r.angle_rad = nan;
+    r.var_angle_rad2 = nan;
+    results[f.id] = r;
+  }
+  return results;
+}
+
+}  // namespace ttp::inspect

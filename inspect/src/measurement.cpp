@@ -1,0 +1,334 @@
+#include "ttp/inspect/measurement.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+#include "ttp/inspect/dial.h"
+#include "ttp/inspect/dmis.h"
+#include "ttp/inspect/probe.h"
+
+namespace ttp::inspect {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string ReadAll(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path.string(), 0, "", "cannot open the file");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// The first line that is not blank and not a `#` comment, lower case and
+// without spaces (for header sniffing).
+std::string FirstDataLine(const std::string& head) {
+  std::istringstream in(head);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::string t;
+    for (char c : line)
+      if (!std::isspace(static_cast<unsigned char>(c))) t += c;
+    if (t.empty() || t[0] == '#') continue;
+    return Lower(t);
+  }
+  return "";
+}
+
+}  // namespace
+
+const char* MeasurementKindName(MeasurementKind kind) {
+  switch (kind) {
+    case MeasurementKind::kCloud:
+      return "cloud";
+    case MeasurementKind::kInspectionJson:
+      return "inspection-json";
+    case MeasurementKind::kDial:
+      return "dial";
+    case MeasurementKind::kDmis:
+      return "dmis";
+    case MeasurementKind::kProbe:
+      return "probe";
+  }
+  return "?";
+}
+
+MeasurementKind SniffMeasurement(const std::string& head,
+                                 const std::filesystem::path& path) {
+  size_t b = 0;
+  if (head.compare(0, 3, "\xEF\xBB\xBF") == 0) b = 3;  // UTF-8 BOM
+  while (b < head.size() && std::isspace(static_cast<unsigned char>(head[b])))
+    ++b;
+  const std::string start = head.substr(b, 64);
+  if (start.rfind("ply", 0) == 0) return MeasurementKind::kCloud;
+  const std::string lower = Lower(head.substr(b, 4096));
+  if (lower.rfind("# .pcd", 0) == 0 || lower.rfind("version", 0) == 0 ||
+      lower.rfind("fields", 0) == 0)
+    return MeasurementKind::kCloud;
+  if (!start.empty() && start[0] == '{')
+    return MeasurementKind::kInspectionJson;
+  if (lower.rfind("dmismn", 0) == 0 ||
+      lower.find("\nfa(") != std::string::npos || lower.rfind("fa(", 0) == 0 ||
+      lower.find("dmismn/") != std::string::npos)
+    return MeasurementKind::kDmis;
+  const std::string header = FirstDataLine(head.substr(0, 4096));
+  if (header.rfind("point_id", 0) == 0) return MeasurementKind::kProbe;
+  if (header.find("feature") != std::string::npos &&
+      header.find("reading_um") != std::string::npos)
+    return MeasurementKind::kDial;
+  const std::string ext = Lower(path.extension().string());
+  if (ext == ".json") return MeasurementKind::kInspectionJson;
+  if (ext == ".dmi" || ext == ".dmo" || ext == ".dmis")
+    return MeasurementKind::kDmis;
+  return MeasurementKind::kCloud;
+}
+
+namespace {
+
+// Every test feature gets an entry (missing ones present = false) and a
+// diagnostic, so that the JSON lists what is missing.
+void CompleteFeatures(const PartSpec& part, InspectionResult* r) {
+  r->diagnostics.clear();
+  for (const NominalFeature& f : TestFeatures(part)) {
+    FeatureResult& fr = r->features[f.id];
+    FeatureDiagnostic d;
+    d.id = f.id;
+    d.candidates = d.used = fr.points;
+    d.rms_mm = fr.rms_mm;
+    d.status = fr.present ? "ok" : "missing";
+    if (!fr.present) r->warnings.push_back(f.id + " is missing");
+    r->diagnostics.push_back(d);
+  }
+}
+
+double NumberOrNaN(const nlohmann::json& obj, const char* key,
+                   const std::string& source, const std::string& where) {
+  if (!obj.contains(key) || obj.at(key).is_null()) return kNaN;
+  if (!obj.at(key).is_number())
+    throw InputError(source, 0, where + "." + key, "is not a number");
+  return obj.at(key).get<double>();
+}
+
+// Variance (mm^2 or rad^2) from an expanded uncertainty U (k = 2) in um or
+// urad; 0 when the document gives none.
+double VarFromU(double u_micro) {
+  if (!std::isfinite(u_micro)) return 0.0;
+  const double s = u_micro * 1e-6 / 2.0;
+  return s * s;
+}
+
+void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
+                      const char* d_key, const char* a_key, const char* ud_key,
+                      const char* ua_key, const std::string& source,
+                      const PartSpec& part, InspectionResult* r) {
+  if (!doc.contains(block)) return;
+  const nlohmann::json& obj = doc.at(block);
+  if (!obj.is_object())
+    throw InputError(source, 0, block, "must be an object keyed by feature id");
+  std::map<std::string, bool> known;
+  for (const NominalFeature& f : TestFeatures(part)) known[f.id] = true;
+  for (const auto& [id, v] : obj.items()) {
+    const std::string where = std::string(block) + "." + id;
+    if (!known.count(id))
+      throw InputError(source, 0, where, "is not a feature of the piece");
+    if (!v.is_object()) throw InputError(source, 0, where, "must be an object");
+    FeatureResult fr;
+    const double d = NumberOrNaN(v, d_key, source, where);
+    if (!std::isfinite(d)) {
+      r->features[id] = fr;  // missing
+      continue;
+    }
+    fr.present = true;
+    fr.d_mm = d;
+    const double a = NumberOrNaN(v, a_key, source, where);
+    fr.angle_rad = a * 1e-6;  // NaN stays NaN: that figure is missing
+    // U in um (k = 2) -> variance in mm^2.
+    fr.var_d_mm2 = VarFromU(NumberOrNaN(v, ud_key, source, where)) * 1e6;
+    fr.var_angle_rad2 = std::isfinite(a)
+                            ? VarFromU(NumberOrNaN(v, ua_key, source, where))
+                            : kNaN;
+    const double tilt = NumberOrNaN(v, "tilt_urad", source, where);
+    fr.tilt_rad = std::isfinite(tilt) ? tilt * 1e-6 : 0.0;
+    const double pts = NumberOrNaN(v, "points", source, where);
+    fr.points = std::isfinite(pts) ? static_cast<int>(pts) : 0;
+    const double rms = NumberOrNaN(v, "rms_um", source, where);
+    fr.rms_mm = std::isfinite(rms) ? rms * 1e-3 : 0.0;
+    r->features[id] = fr;
+  }
+}
+
+// A JSON with only "figures" (e.g. hand-written or simulated): taken as is.
+std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
+                                          const std::string& source) {
+  const nlohmann::json& arr = doc.at("figures");
+  if (!arr.is_array())
+    throw InputError(source, 0, "figures", "must be an array of cycles");
+  std::vector<CycleFigures> out;
+  for (size_t i = 0; i < arr.size(); ++i) {
+    const nlohmann::json& f = arr[i];
+    const std::string where = "figures[" + std::to_string(i) + "]";
+    if (!f.is_object() || !f.contains("cycle") || !f["cycle"].is_number())
+      throw InputError(source, 0, where, "needs a numeric \"cycle\"");
+    CycleFigures cf;
+    cf.cycle = f["cycle"].get<int>();
+    const nlohmann::json u = f.contains("U") && f["U"].is_object()
+                                 ? f["U"]
+                                 : nlohmann::json::object();
+    auto get = [&](const char* key, double scale, double* v, double* uv) {
+      *v = NumberOrNaN(f, key, source, where) * scale;
+      const double uu = NumberOrNaN(u, key, source, where + ".U");
+      *uv = std::isfinite(uu) ? uu * scale / 2.0 : 0.0;
+    };
+    get("E_X", 1e-3, &cf.e_x_mm, &cf.u_x_mm);
+    get("E_Y", 1e-3, &cf.e_y_mm, &cf.u_y_mm);
+    get("E_Z", 1e-3, &cf.e_z_mm, &cf.u_z_mm);
+    get("E_B", 1e-6, &cf.e_b_rad, &cf.u_b_rad);
+    get("E_TTP", 1e-3, &cf.e_ttp_mm, &cf.u_ttp_mm);
+    out.push_back(cf);
+  }
+  return out;
+}
+
+InspectionResult FromInspectionJson(const PartSpec& part,
+                                    const std::string& text,
+                                    const std::string& source) {
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(source, 0, "", std::string("not valid JSON: ") + e.what());
+  }
+  if (!doc.is_object())
+    throw InputError(source, 0, "", "the JSON document is not an object");
+  InspectionResult r;
+  r.source = source;
+  if (doc.contains("facets") || doc.contains("strips")) {
+    ReadFeatureBlock(doc, "facets", "distance_mm", "angle_error_urad",
+                     "U_distance_um", "U_angle_urad", source, part, &r);
+    ReadFeatureBlock(doc, "strips", "depth_mm", "beta_urad", "U_depth_um",
+                     "U_beta_urad", source, part, &r);
+    CompleteFeatures(part, &r);
+    ComputeResultFigures(part, &r);
+  } else if (doc.contains("figures")) {
+    r.figures = FiguresFromJson(doc, source);
+    for (const CycleFigures& cf : r.figures) {
+      CycleExtras ex;
+      ex.cycle = cf.cycle;
+      ex.e_c_rad = ex.u_c_rad = kNaN;
+      ex.delta_t_k = TemperatureChangeK(cf.e_ttp_mm, part.alpha_per_k,
+                                        part.facet_final_distance_mm);
+      ex.u_delta_t_k = TemperatureChangeK(cf.u_ttp_mm, part.alpha_per_k,
+                                          part.facet_final_distance_mm);
+      r.extras.push_back(ex);
+    }
+    r.warnings.push_back(
+        "the JSON holds figures only: per-feature results are not known");
+  } else {
+    throw InputError(source, 0, "",
+                     "JSON without \"facets\", \"strips\" or \"figures\": not "
+                     "an inspection result");
+  }
+  if (doc.contains("warnings") && doc["warnings"].is_array()) {
+    for (const auto& w : doc["warnings"])
+      if (w.is_string()) r.warnings.push_back(w.get<std::string>());
+  }
+  return r;
+}
+
+InspectionResult FromFeatures(const PartSpec& part, FeatureResults features,
+                              const std::string& source,
+                              std::vector<std::string> warnings) {
+  InspectionResult r;
+  r.source = source;
+  r.features = std::move(features);
+  r.warnings = std::move(warnings);
+  int present = 0;
+  for (const auto& [id, f] : r.features) present += f.present;
+  if (present == 0)
+    throw InputError(source, 0, "",
+                     "no facet or strip of the piece is in the file");
+  CompleteFeatures(part, &r);
+  ComputeResultFigures(part, &r);
+  return r;
+}
+
+}  // namespace
+
+Measurement LoadMeasurement(const Config& config,
+                            const std::filesystem::path& path,
+                            const MeasurementOptions& options) {
+  Measurement m;
+  m.source = path.string();
+  const PartSpec& part = config.part;
+  if (!std::filesystem::exists(path))
+    throw InputError(m.source, 0, "", "no such file");
+  if (std::filesystem::is_directory(path))
+    throw InputError(m.source, 0, "", "is a directory, not a measurement");
+  std::string head;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(m.source, 0, "", "cannot open the file");
+    head.resize(4096);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<size_t>(in.gcount()));
+  }
+  if (head.find_first_not_of(" \t\r\n") == std::string::npos)
+    throw InputError(m.source, 0, "", "the file is empty");
+  m.kind = SniffMeasurement(head, path);
+  switch (m.kind) {
+    case MeasurementKind::kCloud: {
+      const PointCloud cloud = ReadPointCloud(path, options.read);
+      InspectOptions io = options.inspect;
+      if (options.read.units_given) io.check_units = false;
+      m.result = InspectCloud(part, cloud, io);
+      break;
+    }
+    case MeasurementKind::kInspectionJson:
+      m.result = FromInspectionJson(part, ReadAll(path), m.source);
+      break;
+    case MeasurementKind::kDial: {
+      FeatureResults f =
+          ReadDialReadings(ReadAll(path), m.source, part, options.dial);
+      m.result = FromFeatures(part, std::move(f), m.source,
+                              {"dial gauge: angles are not measured, E_B and "
+                               "E_C are missing"});
+      break;
+    }
+    case MeasurementKind::kDmis: {
+      const DmisResults dmis = ParseDmisOutput(ReadAll(path), m.source);
+      DmisImport imp = DmisToFeatureResults(dmis, part);
+      m.result = FromFeatures(part, std::move(imp.results), m.source,
+                              std::move(imp.warnings));
+      break;
+    }
+    case MeasurementKind::kProbe: {
+      const ProbeImport imp =
+          ReadProbeResults(config, ReadAll(path), m.source, options.probe);
+      m.result = FromFeatures(part, imp.results, m.source, imp.warnings);
+      break;
+    }
+  }
+  m.result.source = m.source;
+  return m;
+}
+
+nlohmann::json MeasurementToJson(const PartSpec& part, const Measurement& m) {
+  nlohmann::json doc = InspectionToJson(part, m.result);
+  doc["kind"] = MeasurementKindName(m.kind);
+  if (m.kind != MeasurementKind::kCloud) doc.erase("alignment");
+  return doc;
+}
+
+}  // namespace ttp::inspect

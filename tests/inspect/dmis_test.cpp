@@ -1,0 +1,154 @@
+#include "ttp/inspect/dmis.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
+
+namespace ttp::inspect {
+namespace {
+
+std::string ErrorOf(const std::string& text) {
+  try {
+    ParseDmisOutput(text, "r.dmo");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The I++ simple part's output file: one inner circle.
+TEST(DmisTest, ReadsTheNistSimplePartOutput) {
+  const std::string path =
+      std::string(TTP_SHARED_DIR) + "/reference/cmm-files/output.dms";
+  const DmisResults r = ParseDmisOutput(ReadTextFile(path), path);
+  ASSERT_EQ(r.features.size(), 1u);
+  const DmisFeature& c = r.features[0];
+  EXPECT_EQ(c.label, "A_CIRCLE");
+  EXPECT_EQ(c.type, "CIRCLE");
+  EXPECT_EQ(c.line, 5);  // the statement starts there, continued with $
+  EXPECT_DOUBLE_EQ(c.point_mm.x(), 50.0);
+  EXPECT_DOUBLE_EQ(c.point_mm.z(), 40.0);
+  EXPECT_DOUBLE_EQ(c.direction.z(), 1.0);
+  EXPECT_DOUBLE_EQ(c.diameter_mm, 50.0);
+}
+
+TEST(DmisTest, HonoursUnitsAndComments) {
+  const DmisResults r = ParseDmisOutput(
+      "$$ inch file\nUNITS/INCH,ANGDEC\n"
+      "FA(P1)=FEAT/PLANE,CART,1,2,3,0,0,2 $$ normal not unit\n",
+      "in.dmo");
+  ASSERT_EQ(r.features.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.features[0].point_mm.y(), 50.8);
+  EXPECT_DOUBLE_EQ(r.features[0].direction.z(), 1.0);
+}
+
+TEST(DmisTest, BadFilesNameLineAndWord) {
+  EXPECT_NE(ErrorOf("UNITS/FURLONG\n").find("r.dmo:1: UNITS"),
+            std::string::npos);
+  EXPECT_NE(
+      ErrorOf("\nFA(A)=FEAT/PLANE,POL,1,2,3,0,0,1\n").find("r.dmo:2: POL"),
+      std::string::npos);
+  EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,2\n").find("expected 6 values"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,x,3,0,0,1\n").find("value 2"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,2,3,0,0,0\n").find("zero"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("").find("empty"), std::string::npos);
+}
+
+TEST(DmisTest, LabelsMapToFeatureIds) {
+  EXPECT_EQ(TestFeatureIdForDmisLabel("x1_5"), "X1-5");
+  EXPECT_EQ(TestFeatureIdForDmisLabel("Y2-9"), "Y2-9");
+  EXPECT_EQ(TestFeatureIdForDmisLabel("STRIP_3"), "Z3");
+  EXPECT_EQ(TestFeatureIdForDmisLabel("FLANK_PY"), "FLANK+Y");
+  EXPECT_EQ(TestFeatureIdForDmisLabel("A_CIRCLE"), "");
+}
+
+// A CMM report of the whole piece in an arbitrary pose with known plane
+// deviations: aligned from the datums, the results come back exactly.
+TEST(DmisTest, RecoversDeviationsInAnyPoseFromTheDatums) {
+  const PartSpec part;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> dev(-0.01, 0.01);  // mm
+  std::uniform_real_distribution<double> ang(-5e-5, 5e-5);  // rad
+  const Eigen::Isometry3d pose =
+      Eigen::Translation3d(412.5, -230.25, 81.0) *
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, -0.2, 1).normalized());
+  std::string text = "UNITS/MM,ANGDEC\n";
+  const auto feature = [&](const std::string& label, const char* type,
+                           const Eigen::Vector3d& p, const Eigen::Vector3d& n,
+                           double sign, const std::string& extra) {
+    const Eigen::Vector3d q = pose * p;
+    const Eigen::Vector3d m = pose.linear() * n * sign;
+    text += fmt::format(
+        "FA({})=FEAT/{},CART, $\n  {:.12f},{:.12f},{:.12f},"
+        "{:.12f},{:.12f},{:.12f}{}\n",
+        label, type, q.x(), q.y(), q.z(), m.x(), m.y(), m.z(), extra);
+  };
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  feature("TOP", "PLANE", {30, 40, 0}, z, 1, "");
+  feature("FLANK_PY", "PLANE", {20, 53, -5}, {0, -1, 0}, 1, "");
+  feature("FLANK_NY", "PLANE", {-10, -53, -7}, {0, 1, 0}, -1, "");
+  feature("CYL199", "CIRCLE", {0, 0, -15}, z, 1, ",199.0");
+  std::map<std::string, std::pair<double, double>> truth;  // d, angle
+  for (const NominalFeature& f : TestFeatures(part)) {
+    const double dd = dev(rng), a = ang(rng);
+    std::string label = f.id;  // X1-5 is written X1_5, as DMIS needs
+    std::replace(label.begin(), label.end(), '-', '_');
+    if (f.kind == FeatureKind::kStrip) {
+      // Depth d = 12.1 + dd at (0, y_k), slope beta = a.
+      const Eigen::Vector3d n(-std::sin(a), 0, std::cos(a));
+      const Eigen::Vector3d p(0, f.point.y(), -(12.1 + dd));
+      feature(label, "PLANE", p + Eigen::Vector3d(30, 0, 30 * std::tan(a)), n,
+              1, "");
+      truth[f.id] = {12.1 + dd, a};
+    } else {
+      const Eigen::Vector3d n =
+          Eigen::AngleAxisd(a, z) * f.normal;  // turned about Z
+      const Eigen::Vector3d t = z.cross(n);
+      const Eigen::Vector3d p = (f.size_mm + dd) * n + 2.0 * t - 6.0 * z;
+      feature(label, "PLANE", p, n, 1, "");
+      truth[f.id] = {f.size_mm + dd, a};
+    }
+  }
+  const DmisImport got =
+      DmisToFeatureResults(ParseDmisOutput(text, "piece.dmo"), part);
+  EXPECT_TRUE(got.aligned_from_datums);
+  ASSERT_EQ(got.results.size(), truth.size());
+  for (const auto& [id, t] : truth) {
+    const FeatureResult& r = got.results.at(id);
+    EXPECT_NEAR(r.d_mm, t.first, 1e-9) << id;
+    EXPECT_NEAR(r.angle_rad, t.second, 1e-10) << id;
+    EXPECT_GT(r.var_d_mm2, 0) << id;
+  }
+}
+
+TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
+  const PartSpec part;
+  const DmisImport got = DmisToFeatureResults(
+      ParseDmisOutput("FA(X1_1)=FEAT/PLANE,CART,97.301,0,-6,1,0,0\n", "a"),
+      part);
+  EXPECT_FALSE(got.aligned_from_datums);
+  ASSERT_EQ(got.warnings.size(), 1u);
+  // X1-1's nominal normal is not +X: its angle error is the difference.
+  const NominalFeature x11 = [&] {
+    for (const auto& f : TestFeatures(part))
+      if (f.id == "X1-1") return f;
+    return NominalFeature{};
+  }();
+  const double phi = std::atan2(x11.normal.y(), x11.normal.x());
+  EXPECT_NEAR(got.results.at("X1-1").angle_rad, -phi, 1e-12);
+  EXPECT_NEAR(got.results.at("X1-1").d_mm, 97.301, 1e-12);
+}
+
+}  // namespace
+}  // namespace ttp::inspect

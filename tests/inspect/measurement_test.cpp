@@ -1,0 +1,241 @@
+#include "ttp/inspect/measurement.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
+
+namespace ttp::inspect {
+namespace {
+
+namespace fs = std::filesystem;
+
+class MeasurementTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           fmt::format(
+               "ttp_measurement_test_{}",
+               ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path Write(const std::string& name, const std::string& text) {
+    const fs::path p = dir_ / name;
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+  }
+  std::string ErrorOf(const fs::path& p) {
+    try {
+      LoadMeasurement(config_, p);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  fs::path dir_;
+  Config config_;
+};
+
+TEST(SniffTest, RecognisesEachFormatFromItsContent) {
+  const fs::path any = "m.dat";
+  EXPECT_EQ(SniffMeasurement("ply\nformat ascii 1.0\n", any),
+            MeasurementKind::kCloud);
+  EXPECT_EQ(SniffMeasurement("# .PCD v0.7\nVERSION 0.7\n", any),
+            MeasurementKind::kCloud);
+  EXPECT_EQ(SniffMeasurement("  \n{\"figures\": []}", any),
+            MeasurementKind::kInspectionJson);
+  EXPECT_EQ(SniffMeasurement("# sheet\nfeature,reading_um\nX1-1,2\n", any),
+            MeasurementKind::kDial);
+  EXPECT_EQ(SniffMeasurement("DMISMN/'x',5.0\nFA(A)=FEAT/PLANE\n", any),
+            MeasurementKind::kDmis);
+  EXPECT_EQ(SniffMeasurement("UNITS/MM\nFA(X1_1)=FEAT/PLANE,CART\n", any),
+            MeasurementKind::kDmis);
+  EXPECT_EQ(SniffMeasurement("point_id,x,y,z,c_deg\n1,0,0,0,0\n", any),
+            MeasurementKind::kProbe);
+  EXPECT_EQ(SniffMeasurement("1 2 3\n4 5 6\n", "p.xyz"),
+            MeasurementKind::kCloud);
+  // The extension decides only when the content does not.
+  EXPECT_EQ(SniffMeasurement("1 2 3\n", "p.dmo"), MeasurementKind::kDmis);
+  EXPECT_EQ(SniffMeasurement("ply\n", "p.json"), MeasurementKind::kCloud);
+}
+
+// Random per-feature results -> inspection JSON -> LoadMeasurement: the
+// figures and their U come back as computed from the features directly.
+TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
+  const PartSpec& part = config_.part;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> dev(0.0, 3e-3);
+  std::uniform_real_distribution<double> u(0.2e-3, 2e-3);
+  InspectionResult r;
+  r.source = "synthetic";
+  for (const NominalFeature& f : TestFeatures(part)) {
+    FeatureResult fr;
+    fr.present = true;
+    fr.d_mm =
+        (f.kind == FeatureKind::kStrip ? -part.strip_floor_z_mm : f.size_mm) +
+        dev(rng);
+    fr.var_d_mm2 = std::pow(u(rng), 2);
+    fr.angle_rad = dev(rng) * 1e-2;
+    fr.var_angle_rad2 = std::pow(u(rng) * 1e-2, 2);
+    r.features[f.id] = fr;
+  }
+  r.features["Y2-3"].present = false;  // cycle of index 3 loses E_Y, E_TTP
+  ComputeResultFigures(part, &r);
+  const nlohmann::json doc = InspectionToJson(part, r);
+  const fs::path p = Write("inspection.json", doc.dump(1));
+  const Measurement m = LoadMeasurement(config_, p);
+  EXPECT_EQ(m.kind, MeasurementKind::kInspectionJson);
+  ASSERT_EQ(m.result.figures.size(), r.figures.size());
+  int missing = 0;
+  for (size_t i = 0; i < r.figures.size(); ++i) {
+    const CycleFigures &a = r.figures[i], &b = m.result.figures[i];
+    if (std::isnan(a.e_y_mm)) {
+      ++missing;
+      EXPECT_TRUE(std::isnan(b.e_y_mm));
+      EXPECT_TRUE(std::isnan(b.e_ttp_mm));
+      EXPECT_FALSE(std::isnan(b.e_x_mm));
+      continue;
+    }
+    EXPECT_NEAR(a.e_x_mm, b.e_x_mm, 1e-12);
+    EXPECT_NEAR(a.e_y_mm, b.e_y_mm, 1e-12);
+    EXPECT_NEAR(a.e_z_mm, b.e_z_mm, 1e-12);
+    EXPECT_NEAR(a.e_b_rad, b.e_b_rad, 1e-12);
+    EXPECT_NEAR(a.e_ttp_mm, b.e_ttp_mm, 1e-12);
+    EXPECT_NEAR(a.u_x_mm, b.u_x_mm, 1e-9);
+    EXPECT_NEAR(a.u_b_rad, b.u_b_rad, 1e-9);
+    EXPECT_NEAR(r.extras[i].e_c_rad, m.result.extras[i].e_c_rad, 1e-12);
+  }
+  EXPECT_EQ(missing, 1);
+  const nlohmann::json out = MeasurementToJson(part, m);
+  EXPECT_EQ(out["kind"], "inspection-json");
+  EXPECT_FALSE(out.contains("alignment"));
+  EXPECT_EQ(out["segmentation"]["missing"], nlohmann::json({"Y2-3"}));
+}
+
+TEST_F(MeasurementTest, FiguresOnlyJsonIsTakenAsIs) {
+  const fs::path p =
+      Write("f.json",
+            R"({"figures": [{"cycle": 1, "E_X": 1.5, "E_Y": -2, "E_Z": 3,
+           "E_B": 4, "E_TTP": null, "U": {"E_X": 0.4}}]})");
+  const Measurement m = LoadMeasurement(config_, p);
+  ASSERT_EQ(m.result.figures.size(), 1u);
+  EXPECT_DOUBLE_EQ(m.result.figures[0].e_x_mm, 1.5e-3);
+  EXPECT_DOUBLE_EQ(m.result.figures[0].u_x_mm, 0.2e-3);
+  EXPECT_DOUBLE_EQ(m.result.figures[0].e_b_rad, 4e-6);
+  EXPECT_TRUE(std::isnan(m.result.figures[0].e_ttp_mm));
+}
+
+// Gauge readings: g on X1 and X2 of one index; E_X = (gX1 - gX2) / 2 and
+// no angles, so E_B and E_C are missing.
+TEST_F(MeasurementTest, DialReadings) {
+  const PartSpec& part = config_.part;
+  const int j = IndexForCycle(part, 2);
+  const fs::path p =
+      Write("dial.csv",
+            fmt::format("feature,reading_um\n{},3.0\n{},-1.0\n",
+                        FacetId(Segment::kX1, j), FacetId(Segment::kX2, j)));
+  const Measurement m = LoadMeasurement(config_, p);
+  EXPECT_EQ(m.kind, MeasurementKind::kDial);
+  const CycleFigures& f = m.result.figures[1];
+  EXPECT_EQ(f.cycle, 2);
+  EXPECT_NEAR(f.e_x_mm, 2.0e-3, 1e-12);
+  EXPECT_TRUE(std::isnan(f.e_y_mm));  // Y facets of index j not read
+  EXPECT_TRUE(std::isnan(f.e_b_rad));
+  EXPECT_TRUE(std::isnan(m.result.extras[1].e_c_rad));
+  EXPECT_GT(f.u_x_mm, 0.0);
+}
+
+// A DMIS output with every facet and strip at nominal, one facet moved out
+// by 2 um: the figures are zero but for |E_X| = 1 um and E_TTP = 0.5 um of
+// that facet's cycle.
+TEST_F(MeasurementTest, DmisFeatureResults) {
+  const PartSpec& part = config_.part;
+  const int cycle = 3;
+  const std::string moved = FacetId(Segment::kX1, IndexForCycle(part, cycle));
+  std::string text = "DMISMN/'ttp test',05.0\nUNITS/MM,ANGDEC\n";
+  for (const NominalFeature& f : TestFeatures(part)) {
+    std::string label = f.id;
+    std::replace(label.begin(), label.end(), '-', '_');
+    const Eigen::Vector3d pt =
+        f.point + (f.id == moved ? 2e-3 : 0.0) * f.normal;
+    text += fmt::format(
+        "FA({})=FEAT/PLANE,CART,{:.9f},{:.9f},{:.9f},{:.12f},"
+        "{:.12f},{:.12f}\n",
+        label, pt.x(), pt.y(), pt.z(), f.normal.x(), f.normal.y(),
+        f.normal.z());
+  }
+  text += "ENDFIL\n";
+  const Measurement m = LoadMeasurement(config_, Write("r.dmo", text));
+  EXPECT_EQ(m.kind, MeasurementKind::kDmis);
+  for (const CycleFigures& f : m.result.figures) {
+    const double ex = f.cycle == cycle ? 1e-3 : 0.0;
+    EXPECT_NEAR(std::abs(f.e_x_mm), ex, 1e-9) << f.cycle;
+    EXPECT_NEAR(std::abs(f.e_ttp_mm), ex / 2, 1e-9) << f.cycle;
+    EXPECT_NEAR(f.e_y_mm, 0.0, 1e-9);
+    EXPECT_NEAR(f.e_z_mm, 0.0, 1e-9);
+    EXPECT_NEAR(f.e_b_rad, 0.0, 1e-9);
+    EXPECT_GT(f.u_x_mm, 0.0);
+  }
+}
+
+TEST_F(MeasurementTest, BadFilesNameTheProblem) {
+  EXPECT_NE(ErrorOf(dir_ / "nope.ply").find("no such file"), std::string::npos);
+  EXPECT_NE(ErrorOf(Write("empty.json", "  \n")).find("empty"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("bad.json", "{\"facets\": ")).find("not valid JSON"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("other.json", "{\"a\": 1}"))
+                .find("not an inspection result"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("unk.json", R"({"facets": {"Q7-1": {}}})"))
+                .find("facets.Q7-1"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("str.json",
+                          R"({"facets": {"X1-1": {"distance_mm": "a"}}})"))
+                .find("distance_mm: is not a number"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("dial.csv", "feature,reading_um\nX9-1,2\n"))
+                .find("dial.csv:2: feature"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("none.dmo", "DMISMN/'x',05.0\nENDFIL\n"))
+                .find("no facet or strip"),
+            std::string::npos);
+  // Probe results reach the probe reader (which names line and field).
+  EXPECT_NE(ErrorOf(Write("probe.csv", "point_id,x,y,z,c_deg\n0,1,2,3,0\n"))
+                .find("probe.csv:2: point_id"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("words.txt", "hello world\n")).find("words.txt"),
+            std::string::npos);
+}
+
+// The sample run made outside the project: a cloud through LoadMeasurement
+// gives its truth figures.
+TEST_F(MeasurementTest, SampleCloudAgreesWithItsTruth) {
+  const std::string dir = std::string(TTP_SHARED_DIR) + "/samples/run-a/";
+  const Measurement m = LoadMeasurement(config_, dir + "piece.ply");
+  EXPECT_EQ(m.kind, MeasurementKind::kCloud);
+  const nlohmann::json truth =
+      nlohmann::json::parse(ReadTextFile(dir + "truth.json"));
+  const nlohmann::json got = MeasurementToJson(config_.part, m);
+  EXPECT_TRUE(got.contains("alignment"));
+  for (size_t i = 0; i < 8; ++i) {
+    for (const char* k : {"E_X", "E_Y", "E_Z", "E_TTP"}) {
+      const double t = truth["figures"][i][k].get<double>();
+      const double v = got["figures"][i][k].get<double>();
+      const double u = got["figures"][i]["U"][k].get<double>();
+      EXPECT_NEAR(v, t, 0.3) << k << " cycle " << i + 1;
+      EXPECT_LT(std::abs(v - t), u) << k << " cycle " << i + 1;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ttp::inspect

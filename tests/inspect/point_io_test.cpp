@@ -1,0 +1,148 @@
+#include "ttp/inspect/point_io.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
+#include "ttp/inspect/measurement.h"
+#include "ttp/inspect/synth.h"
+
+namespace ttp::inspect {
+namespace {
+
+namespace fs = std::filesystem;
+
+class PointIoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           fmt::format(
+               "ttp_point_io_test_{}",
+               ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path Write(const std::string& name, const std::string& bytes) {
+    const fs::path p = dir_ / name;
+    std::ofstream(p, std::ios::binary) << bytes;
+    return p;
+  }
+  static std::string ErrorOf(const fs::path& p, ReadOptions o = {}) {
+    try {
+      ReadPointCloud(p, o);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  fs::path dir_;
+};
+
+SynthPiece SmallPiece() {
+  static const PartMesh mesh = BuildPartMesh(PartSpec{}, Stage::kFinished);
+  SynthOptions o;
+  o.points = 20000;
+  o.seed = 77;
+  return SynthesizePiece(PartSpec{}, mesh, RandomDeviations(PartSpec{}, o), o);
+}
+
+// A synthetic measured piece written in every format and read back through
+// LoadMeasurement gives the same points and the same figures.
+TEST_F(PointIoTest, EveryFormatRoundTripsToTheSameFigures) {
+  const SynthPiece s = SmallPiece();
+  const Config config;
+  std::vector<CycleFigures> first;
+  for (CloudFormat f : kAllCloudFormats) {
+    const fs::path p = dir_ / (std::string("piece-") + CloudFormatName(f) +
+                               CloudFormatExtension(f));
+    WritePointCloud(p, s.cloud, f);
+    const PointCloud back = ReadPointCloud(p);
+    ASSERT_EQ(back.size(), s.cloud.size()) << CloudFormatName(f);
+    EXPECT_LT((back.xyz_mm - s.cloud.xyz_mm).cwiseAbs().maxCoeff(), 1e-9)
+        << CloudFormatName(f);
+    const Measurement m = LoadMeasurement(config, p);
+    EXPECT_EQ(m.kind, MeasurementKind::kCloud);
+    if (first.empty()) {
+      first = m.result.figures;
+      continue;
+    }
+    for (size_t c = 0; c < first.size(); ++c) {
+      EXPECT_NEAR(m.result.figures[c].e_x_mm, first[c].e_x_mm, 1e-9);
+      EXPECT_NEAR(m.result.figures[c].e_b_rad, first[c].e_b_rad, 1e-9);
+    }
+  }
+  // Metres, when the user says so.
+  PointCloud metres = s.cloud;
+  metres.xyz_mm *= 1e-3;
+  const fs::path pm = dir_ / "piece-m.xyz";
+  WritePointCloud(pm, metres, CloudFormat::kXyz);
+  MeasurementOptions mo;
+  mo.read.units = LengthUnit::kMetre;
+  mo.read.units_given = true;
+  const Measurement m = LoadMeasurement(config, pm, mo);
+  EXPECT_NEAR(m.result.figures[0].e_x_mm, first[0].e_x_mm, 1e-9);
+  // ... and an error naming the problem when they do not.
+  try {
+    LoadMeasurement(config, pm);
+    ADD_FAILURE() << "metres accepted as millimetres";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--units m"), std::string::npos);
+  }
+}
+
+TEST_F(PointIoTest, BadFilesNameTheProblem) {
+  const SynthPiece s = SmallPiece();
+  const fs::path ply = dir_ / "good.ply";
+  WritePointCloud(ply, s.cloud, CloudFormat::kPlyBinary);
+  std::string bytes = ReadTextFile(ply);
+  // Truncated binary: cut in the middle of the vertex data.
+  EXPECT_NE(ErrorOf(Write("cut.ply", bytes.substr(0, bytes.size() / 2)))
+                .find("cut.ply"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("cut.ply", bytes.substr(0, bytes.size() / 2)))
+                .find("vertex"),
+            std::string::npos);
+  // Truncated header.
+  EXPECT_NE(ErrorOf(Write("head.ply", "ply\nformat ascii 1.0\nelement vertex"))
+                .find("head.ply"),
+            std::string::npos);
+  // Wrong header for the extension.
+  EXPECT_NE(ErrorOf(Write("wrong.ply", "PLX\n1 2 3\n")).find("wrong header"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("wrong.pcd", "hello\n")).find("wrong header"),
+            std::string::npos);
+  // Empty.
+  EXPECT_NE(ErrorOf(Write("empty.xyz", "")).find("empty"), std::string::npos);
+  EXPECT_NE(ErrorOf(Write("comments.xyz", "# nothing\n\n")).find("no points"),
+            std::string::npos);
+  // NaN and junk in a text cloud, named by line.
+  EXPECT_NE(ErrorOf(Write("nan.xyz", "1 2 3\n4 nan 6\n")).find("nan.xyz:2"),
+            std::string::npos);
+  EXPECT_NE(
+      ErrorOf(Write("junk.csv", "1,2,3\n4,5,6\n7,x,9\n")).find("junk.csv:3"),
+      std::string::npos);
+  EXPECT_NE(ErrorOf(Write("two.xyz", "1 2 3\n4 5\n")).find("two.xyz:2"),
+            std::string::npos);
+  // NaN in a binary PLY.
+  {
+    std::string nan_bytes = bytes;
+    const size_t data = nan_bytes.find("end_header\n") + 11;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::memcpy(&nan_bytes[data + 24 * 5 + 8], &nan, 8);
+    const std::string e = ErrorOf(Write("nan.ply", nan_bytes));
+    EXPECT_NE(e.find("vertex 5"), std::string::npos) << e;
+  }
+  // Unknown format: binary junk without a known header.
+  EXPECT_NE(ErrorOf(Write("blob.bin", std::string("\x01\x02\x03\xff", 4)))
+                .find("unknown point cloud format"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace ttp::inspect
