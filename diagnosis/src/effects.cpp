@@ -1,0 +1,184 @@
+#include "ttp/diagnosis/effects.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "ttp/geometry/features.h"
+
+namespace ttp::diagnosis {
+
+const char* CauseName(Cause cause) {
+  switch (cause) {
+    case Cause::kNone:
+      return "none";
+    case Cause::kWorkpieceExpansion:
+      return "workpiece_expansion";
+    case Cause::kToolWear:
+      return "tool_wear";
+    case Cause::kClampingDistortion:
+      return "clamping_distortion";
+    case Cause::kCAxisIndexing:
+      return "c_axis_indexing";
+  }
+  return "?";
+}
+
+Cause CauseFromName(const std::string& name) {
+  for (Cause c : kAllCauses)
+    if (name == CauseName(c)) return c;
+  throw std::invalid_argument(
+      "unknown cause '" + name +
+      "' (none, workpiece_expansion, tool_wear, clamping_distortion, "
+      "c_axis_indexing)");
+}
+
+std::vector<std::string> CauseParameterNames(Cause cause) {
+  switch (cause) {
+    case Cause::kNone:
+      return {};
+    case Cause::kWorkpieceExpansion:
+      return {"tau_wp_s", "gain_K_per_K"};
+    case Cause::kToolWear:
+      return {"wear_um_per_m"};
+    case Cause::kClampingDistortion:
+      return {"cos3_um", "sin3_um"};
+    case Cause::kCAxisIndexing:
+      return {"cos_urad", "sin_urad"};
+  }
+  return {};
+}
+
+CutState MakeCutState(const Config& config, const std::string& feature,
+                      double t_s, double c_rad) {
+  const PartSpec& part = config.part;
+  CutState s;
+  s.feature = feature;
+  s.t_s = t_s;
+  s.c_rad = c_rad;
+  FeatureKind kind;
+  Segment segment;
+  int index = 0;
+  if (!ParseFeatureId(feature, &kind, &segment, &index))
+    throw std::invalid_argument("not a test feature: " + feature);
+  s.is_facet = kind == FeatureKind::kFacet;
+  if (s.is_facet) {
+    s.phi_w_rad = FacetPhiDeg(part, segment, index) * M_PI / 180.0;
+    s.radius_mm = part.facet_final_distance_mm;
+  }
+  // W's origin (top face) sits adapter + piece above the table.
+  s.height_above_table_mm =
+      part.adapter_height_mm + part.height_mm() + part.strip_floor_z_mm;
+  return s;
+}
+
+EffectContext MakeEffectContext(const Config& config,
+                                const std::vector<CutState>& cuts_in_order) {
+  EffectContext context;
+  context.piece_alpha_per_k = config.part.alpha_per_k;
+  context.c_sense = config.machine.c_sense;
+  const PartSpec& part = config.part;
+  // Path lengths of the finishing passes: a facet is cut across its width
+  // plus about 1 mm overrun on each side; a strip across the piece minus
+  // the small notch.
+  const double facet_width_mm =
+      2 * part.facet_final_distance_mm *
+      std::tan(part.facet_step_deg / 2 * M_PI / 180.0);
+  const double facet_path_mm = facet_width_mm + 2.0;
+  const double strip_path_mm =
+      part.blank_diameter_mm - 2 * part.small_notch_half_width_mm;
+  double cut_m = 0;
+  for (CutState s : cuts_in_order) {
+    const double path_m = (s.is_facet ? facet_path_mm : strip_path_mm) / 1000;
+    s.cut_length_mid_m = cut_m + path_m / 2;
+    cut_m += path_m;
+    context.cuts.push_back(s);
+  }
+  return context;
+}
+
+std::vector<double> LagFilter(const std::vector<double>& input, double step_s,
+                              double tau_s) {
+  std::vector<double> out(input.size(), 0.0);
+  if (input.empty()) return out;
+  const double a = std::exp(-step_s / std::max(tau_s, 1e-9));
+  out[0] = input[0];
+  // Exact for an input linear across each step (first-order hold).
+  const double ramp = 1 - tau_s / step_s * (1 - a);
+  for (size_t i = 1; i < input.size(); ++i)
+    out[i] = a * out[i - 1] + (1 - a) * input[i - 1] +
+             (input[i] - input[i - 1]) * ramp;
+  return out;
+}
+
+namespace {
+double Sample(const std::vector<double>& v, double t0, double step, double t) {
+  if (v.empty()) return 0;
+  const double x = (t - t0) / step;
+  if (x <= 0) return v.front();
+  const size_t i = static_cast<size_t>(x);
+  if (i + 1 >= v.size()) return v.back();
+  const double f = x - i;
+  return v[i] * (1 - f) + v[i + 1] * f;
+}
+}  // namespace
+
+double LaggedMachineTemperatureK(const EffectContext& context, double tau_s,
+                                 double t_s) {
+  const auto lagged =
+      LagFilter(context.machine_dT_K, context.grid_step_s, tau_s);
+  return Sample(lagged, context.grid_t0_s, context.grid_step_s, t_s);
+}
+
+EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
+                           const EffectContext& context) {
+  EffectDeltas out;
+  std::vector<double> lagged;
+  if (cause == Cause::kWorkpieceExpansion)
+    lagged = LagFilter(context.machine_dT_K, context.grid_step_s, params[0]);
+  for (const CutState& s : context.cuts) {
+    FeatureDelta d;
+    switch (cause) {
+      case Cause::kNone:
+        break;
+      case Cause::kWorkpieceExpansion: {
+        // The piece (and adapter) grow with their own temperature instead
+        // of the table's: a hot piece is cut to the programmed size and
+        // shrinks when it cools.
+        const double dT_piece = params[1] * Sample(lagged, context.grid_t0_s,
+                                                   context.grid_step_s, s.t_s);
+        const double dT_table = Sample(context.machine_dT_K, context.grid_t0_s,
+                                       context.grid_step_s, s.t_s);
+        if (s.is_facet) {
+          d.d_mm = -s.radius_mm * (context.piece_alpha_per_k * dT_piece -
+                                   kTableAlphaPerK * dT_table);
+        } else {
+          d.d_mm =
+              s.height_above_table_mm * context.piece_alpha_per_k * dT_piece;
+        }
+        break;
+      }
+      case Cause::kToolWear:
+        // A smaller cutter leaves the facet further out; strips are cut
+        // with the cutter's end, whose wear is not modelled.
+        if (s.is_facet) d.d_mm = params[0] * 1e-3 * s.cut_length_mid_m;
+        break;
+      case Cause::kClampingDistortion:
+        if (s.is_facet)
+          d.d_mm = 1e-3 * (params[0] * std::cos(3 * s.phi_w_rad) +
+                           params[1] * std::sin(3 * s.phi_w_rad));
+        break;
+      case Cause::kCAxisIndexing:
+        // The table stops at c + dc: the facet is cut turned by dc about Z
+        // (sense of the table); its distance from the axis is unchanged.
+        if (s.is_facet)
+          d.angle_rad =
+              context.c_sense * 1e-6 *
+              (params[0] * std::cos(s.c_rad) + params[1] * std::sin(s.c_rad));
+        break;
+    }
+    out[s.feature] = d;
+  }
+  return out;
+}
+
+}  // namespace ttp::diagnosis

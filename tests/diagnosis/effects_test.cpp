@@ -1,0 +1,82 @@
+// The causes as model extensions: each shows where diagnosis.md says.
+#include "ttp/diagnosis/effects.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "ttp/geometry/features.h"
+
+namespace ttp::diagnosis {
+namespace {
+
+EffectContext Context(const Config& config) {
+  std::vector<CutState> cuts;
+  const PartSpec& part = config.part;
+  for (int cycle = 0; cycle <= part.cycles(); ++cycle) {
+    const int j = IndexForCycle(part, cycle);
+    const double t = 320 + 3600 * cycle;
+    const double c = FacetPhiDeg(part, Segment::kX1, j) * M_PI / 180;
+    cuts.push_back(MakeCutState(config, StripId(j), t, 0));
+    cuts.push_back(MakeCutState(config, FacetId(Segment::kX1, j), t + 10, c));
+    cuts.push_back(MakeCutState(config, FacetId(Segment::kY1, j), t + 20, c));
+  }
+  EffectContext ctx = MakeEffectContext(config, cuts);
+  ctx.grid_step_s = 10;
+  for (int i = 0; i < 3600; ++i)  // machine warms 2 K over 10 h
+    ctx.machine_dT_K.push_back(2.0 * (1 - std::exp(-i * 10.0 / 7200)));
+  return ctx;
+}
+
+TEST(Effects, LagFilterOfAStepIsTheExponential) {
+  std::vector<double> step(500, 1.0);
+  step[0] = 0;
+  const auto out = LagFilter(step, 10, 600);
+  for (int i : {10, 60, 200})
+    EXPECT_NEAR(out[i], 1 - std::exp(-(i * 10.0 - 10) / 600), 0.01) << i;
+}
+
+TEST(Effects, EachCauseShowsWhereTheSpecSays) {
+  const Config config;
+  const EffectContext ctx = Context(config);
+  const auto wear = PredictEffect(Cause::kToolWear, {2.0}, ctx);
+  const auto clamp = PredictEffect(Cause::kClampingDistortion, {1, 0.5}, ctx);
+  const auto index = PredictEffect(Cause::kCAxisIndexing, {100, 50}, ctx);
+  const auto wp = PredictEffect(Cause::kWorkpieceExpansion, {2000, 1.0}, ctx);
+  double last_wear = -1;
+  for (const CutState& s : ctx.cuts) {
+    if (!s.is_facet) {
+      EXPECT_EQ(wear.at(s.feature).d_mm, 0) << s.feature;  // radial only
+      EXPECT_EQ(index.at(s.feature).angle_rad, 0);
+      EXPECT_GT(wp.at(s.feature).d_mm, 0);  // hot adapter: strip deeper
+      continue;
+    }
+    // Tool wear: grows with every cut, no angle.
+    EXPECT_GT(wear.at(s.feature).d_mm, last_wear);
+    last_wear = wear.at(s.feature).d_mm;
+    EXPECT_NEAR(wear.at(s.feature).d_mm, 2e-3 * s.cut_length_mid_m, 1e-12);
+    // Clamping: three lobes in the facet's angle, distances only.
+    EXPECT_NEAR(
+        clamp.at(s.feature).d_mm,
+        1e-3 * (std::cos(3 * s.phi_w_rad) + 0.5 * std::sin(3 * s.phi_w_rad)),
+        1e-12);
+    EXPECT_EQ(clamp.at(s.feature).angle_rad, 0);
+    // C indexing: normals turned, distances unchanged.
+    EXPECT_EQ(index.at(s.feature).d_mm, 0);
+    EXPECT_NEAR(
+        index.at(s.feature).angle_rad,
+        ctx.c_sense * 1e-6 * (100 * std::cos(s.c_rad) + 50 * std::sin(s.c_rad)),
+        1e-15);
+  }
+  EXPECT_EQ(PredictEffect(Cause::kNone, {}, ctx).at("X1-1").d_mm, 0);
+}
+
+TEST(Effects, NamesRoundTripAndUnknownIsRejected) {
+  for (Cause c : kAllCauses) EXPECT_EQ(CauseFromName(CauseName(c)), c);
+  EXPECT_THROW(CauseFromName("spindle_growth"), std::invalid_argument);
+  EXPECT_EQ(CauseParameterNames(Cause::kWorkpieceExpansion),
+            (std::vector<std::string>{"tau_wp_s", "gain_K_per_K"}));
+}
+
+}  // namespace
+}  // namespace ttp::diagnosis

@@ -1,0 +1,197 @@
+// Check of a measured piece against its log, and the log <-> program
+// schedule check, with figures from the simulation plus known offsets.
+#include "ttp/thermal/check.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "synthetic_log.h"
+#include "ttp/geometry/error.h"
+
+namespace ttp::thermal {
+namespace {
+
+struct Fixture {
+  Config config;
+  test::SyntheticRun run;
+  TalcLog log;
+  Simulation sim;
+  Fixture() {
+    log = ParseTalcLog(run.Text(config), "syn.csv");
+    sim = SimulatePiece(log, config);
+  }
+  // The simulation's figures as a measurement with U = 2 * u_um.
+  std::vector<CycleFigures> Measured(double u_um) const {
+    std::vector<CycleFigures> m = sim.figures;
+    for (auto& f : m) {
+      f.u_x_mm = f.u_y_mm = f.u_z_mm = f.u_ttp_mm = u_um * 1e-3;
+      f.u_b_rad = u_um * 1e-6;
+    }
+    return m;
+  }
+};
+
+TEST(Check, SimulatedFiguresAgreeWithThemselves) {
+  Fixture fx;
+  const CheckResult r = CheckPiece(fx.log, fx.config, fx.Measured(0.5));
+  EXPECT_EQ(r.compared, 40);
+  EXPECT_EQ(r.disagreements, 0);
+  EXPECT_TRUE(r.agree());
+  for (const auto& c : r.cycles) {
+    for (const auto& f : c.figures) {
+      EXPECT_NEAR(f.difference, 0, 1e-9);
+      EXPECT_NEAR(f.u_measured, 1.0, 1e-12);
+      EXPECT_GE(f.u_combined, f.u_measured);
+    }
+  }
+}
+
+// A known offset larger than the combined U is found, exactly there; one
+// inside U is not.
+TEST(Check, FindsAnOffsetOutsideTheCombinedU) {
+  Fixture fx;
+  std::vector<CycleFigures> m = fx.Measured(0.5);
+  m[2].e_ttp_mm += 3e-3;  // cycle 3, E_TTP + 3 um
+  m[5].e_y_mm += 0.5e-3;  // cycle 6, E_Y + 0.5 um: inside U = 1 um
+  const CheckResult r = CheckPiece(fx.log, fx.config, m);
+  EXPECT_EQ(r.disagreements, 1);
+  EXPECT_FALSE(r.agree());
+  const FigureCheck& f = r.cycles[2].figures[4];
+  EXPECT_FALSE(f.agree);
+  EXPECT_NEAR(f.difference, 3.0, 1e-9);
+  EXPECT_TRUE(r.cycles[5].figures[1].agree);
+  EXPECT_NEAR(r.cycles[5].figures[1].difference, 0.5, 1e-9);
+}
+
+TEST(Check, MissingFiguresAreNotCounted) {
+  Fixture fx;
+  std::vector<CycleFigures> m = fx.Measured(0.5);
+  m[0].e_x_mm = std::nan("");
+  m.pop_back();  // no cycle 8
+  const CheckResult r = CheckPiece(fx.log, fx.config, m);
+  EXPECT_EQ(r.compared, 40 - 1 - 5);
+  EXPECT_FALSE(r.cycles[0].figures[0].available);
+  EXPECT_TRUE(r.agree());
+  const auto j = CheckToJson(r);
+  EXPECT_TRUE(j["cycles"][0]["E_X"]["measured"].is_null());
+  EXPECT_TRUE(j["cycles"][7]["E_Y"]["agree"].is_null());
+  EXPECT_NE(CheckTable(r).find("missing"), std::string::npos);
+}
+
+// The simulated U comes from the estimator's leave-one-out error: it grows
+// with the R-test noise.
+TEST(Check, SimulatedUncertaintyFollowsTheEstimator) {
+  Fixture quiet;
+  test::SyntheticRun noisy_run;
+  noisy_run.rtest_noise_um = 0.5;
+  const TalcLog noisy = ParseTalcLog(noisy_run.Text(Config{}), "n.csv");
+  auto u_of = [](const TalcLog& log) {
+    const auto est = MachineErrorEstimator::Fit(log);
+    const auto u = SimulatedFigureUncertainty(log, Config{}, est, {});
+    double s = 0;
+    for (const auto& f : u) {
+      EXPECT_TRUE(std::isfinite(f.u_ttp_mm));
+      s += f.u_z_mm + f.u_ttp_mm;
+    }
+    return s;
+  };
+  const double a = u_of(quiet.log), b = u_of(noisy);
+  EXPECT_GT(a, 0);
+  EXPECT_GT(b, 3 * a);
+}
+
+// Thesis 7.10: dT = E / (alpha R), piece and table.
+TEST(Check, TemperatureChangeFromETtpAndER0T) {
+  Fixture fx;
+  std::vector<CycleFigures> m = fx.Measured(0.5);
+  m[3].e_ttp_mm = 5e-3;
+  const CheckResult r = CheckPiece(fx.log, fx.config, m);
+  const TemperatureCheck& t = r.cycles[3].temperature;
+  EXPECT_NEAR(t.piece_measured_k, 5e-3 / (23.4e-6 * 97.3), 1e-9);
+  EXPECT_NEAR(t.u_piece_measured_k, 1e-3 / (23.4e-6 * 97.3), 1e-9);
+  // The synthetic ER0T is 3 um per unit load: the table change at cycle 4.
+  const double er =
+      fx.run.TruthMicro(r.cycles[3].t_s)[3] - fx.run.TruthMicro(330)[3];
+  EXPECT_NEAR(t.table_rtest_k, er * 1e-3 / (11e-6 * 160), 0.05);
+  // T_ws in the synthetic log is T_env + 0.5: the same change.
+  EXPECT_NEAR(t.ws_log_k, t.env_log_k, 1e-9);
+  EXPECT_NE(std::abs(t.env_log_k), 0.0);
+}
+
+// ---- schedule ------------------------------------------------------------
+
+// The synthetic log's own cuts as the program's plan, shifted by 250 s.
+std::vector<PlannedCut> PlanFrom(const TalcLog& log) {
+  std::vector<PlannedCut> p;
+  for (const auto& c : log.cuts) {
+    p.push_back(
+        {c.feature, 0, c.t_s - 250 - 15, c.t_s - 250, c.c_rad * 180 / M_PI});
+  }
+  return p;
+}
+
+void ExpectScheduleError(const TalcLog& log,
+                         const std::vector<PlannedCut>& plan,
+                         const std::string& field, const std::string& words) {
+  try {
+    CheckLogAgainstSchedule(log, plan);
+    FAIL() << "accepted: " << words;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), field) << e.what();
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+  }
+}
+
+TEST(CheckSchedule, AcceptsAMatchingLog) {
+  Fixture fx;
+  const ScheduleCheck s = CheckLogAgainstSchedule(fx.log, PlanFrom(fx.log));
+  EXPECT_NEAR(s.offset_s, 250, 1e-9);
+  EXPECT_NEAR(s.max_deviation_s, 0, 1e-9);
+  EXPECT_EQ(s.matched, 45);
+}
+
+TEST(CheckSchedule, NamesEachMismatch) {
+  Fixture fx;
+  const auto plan = PlanFrom(fx.log);
+  // A cut the program does not make.
+  auto fewer = plan;
+  fewer.erase(fewer.begin() + 7);
+  ExpectScheduleError(fx.log, fewer, "feature", "not a feature of the program");
+  // Order: the program cuts X2-1 before X1-1.
+  auto swapped = plan;
+  std::swap(swapped[6].feature, swapped[7].feature);
+  ExpectScheduleError(fx.log, swapped, "feature", "out of the program's order");
+  // A cut an hour late.
+  TalcLog late = fx.log;
+  auto shifted = plan;
+  for (size_t i = 10; i < shifted.size(); ++i) shifted[i].end_s -= 3600;
+  ExpectScheduleError(fx.log, shifted, "t_s", "more than the tolerance");
+  // Table angle.
+  auto angle = plan;
+  angle[3].c_deg += 6;
+  ExpectScheduleError(fx.log, angle, "c_deg", "table angle");
+  // A cut the log lacks.
+  TalcLog missing = fx.log;
+  missing.cuts.erase(missing.cuts.begin() + 12);
+  ExpectScheduleError(missing, plan, "feature", "has no cut row");
+  // The log ends before the program's last cut.
+  auto longer = plan;
+  longer.push_back(plan.back());
+  longer.back().feature = "Z99";
+  longer.back().end_s += 3600;
+  longer.back().start_s += 3600;
+  ExpectScheduleError(fx.log, longer, "t_s", "ends at");
+  // The log starts after the program's first cut.
+  auto earlier = plan;
+  earlier.front().start_s = -1000;
+  ExpectScheduleError(fx.log, earlier, "t_s", "starts at");
+  // No R-test after the last cut.
+  TalcLog no_after = fx.log;
+  while (no_after.rtests.back().t_ref_s > no_after.cuts.back().t_s)
+    no_after.rtests.pop_back();
+  ExpectScheduleError(no_after, plan, "rtest", "no R-test after");
+}
+
+}  // namespace
+}  // namespace ttp::thermal

@@ -1,0 +1,87 @@
+// The simulated piece (test-piece.md section 6): every feature cut in the
+// log is displaced by the machine's errors at its cut time through the
+// rigid-table model, refitted as a plane, and turned into the figures.
+// `ttp check`, `ttp diagnose` and `ttp twin` reuse CutGeometry and
+// SimulatePiece (extensions add their own shift per material point).
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "ttp/geometry/config.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/figures.h"
+#include "ttp/thermal/estimator.h"
+#include "ttp/thermal/talc_log.h"
+
+namespace ttp::thermal {
+
+// Where a feature is cut: material points on its nominal surface (W and M
+// at table angle c), the tool-axis position q for each (facet: p + r n with
+// r the finishing cutter's radius; strip: the tool tip at p) and the
+// outward normal. (u, v) are the in-surface coordinates used for the plane
+// refit: facets (tangential t, z), strips (x, y - y_k). The one place the
+// cut positions come from, so they can be checked against the CAM program.
+struct CutGeometry {
+  NominalFeature feature;
+  double c_rad = 0;
+  std::vector<Eigen::Vector3d> p_w_mm, p_m_mm, q_m_mm;
+  std::vector<Eigen::Vector2d> uv_mm;
+  Eigen::Vector3d n_w = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d n_m = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d tangent_w = Eigen::Vector3d::UnitX();  // u direction
+};
+// Throws std::invalid_argument for a name that is not a test feature.
+CutGeometry ComputeCutGeometry(const Config& config,
+                               const std::string& feature_id, double c_rad,
+                               int samples_u = 7, int samples_v = 4);
+
+// Plane refit of normal shifts s (mm, along the outward normal) at the
+// geometry's points -> FeatureResult (d, strip beta / facet angle, tilt).
+FeatureResult ShiftsToFeatureResult(const PartSpec& part,
+                                    const CutGeometry& geometry,
+                                    const std::vector<double>& shifts_mm);
+
+struct SimulatedCut {
+  std::string feature;
+  int line = 0;
+  double t_s = 0;
+  double c_rad = 0;
+  CAxisErrors machine;         // estimator (ARX smoother)
+  CAxisErrors machine_linear;  // straight line between R-tests
+  CAxisErrors predicted;       // compensation in force (zero if off)
+  FeatureResult result, result_linear;
+};
+
+struct SimulationOptions {
+  EstimatorOptions estimator;
+  int samples_u = 7, samples_v = 4;
+  // Extra normal shift (mm) per material point, for model extensions
+  // (diagnosis): (cut, geometry, point index) -> mm. Empty = none.
+  std::function<double(const SimulatedCut&, const CutGeometry&, int)>
+      extra_shift_mm;
+};
+
+struct Simulation {
+  std::string estimator_description;
+  nlohmann::json estimator_json;
+  std::vector<SimulatedCut> cuts;
+  FeatureResults results, results_linear;
+  std::vector<CycleFigures> figures, figures_linear;
+};
+
+// Throws InputError (naming the cut row) when a cut lies outside the span
+// of the R-tests: the log does not cover the cut times.
+Simulation SimulatePiece(const TalcLog& log, const Config& config,
+                         const SimulationOptions& options = {});
+Simulation SimulatePiece(const TalcLog& log, const Config& config,
+                         const MachineErrorEstimator& estimator,
+                         const SimulationOptions& options);
+
+nlohmann::json SimulationToJson(const Simulation& sim);
+std::string SimulationText(const Simulation& sim);
+
+}  // namespace ttp::thermal

@@ -1,0 +1,478 @@
+#include "ttp/thermal/talc_log.h"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <unordered_set>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
+
+namespace ttp::thermal {
+
+const char* const kNumericColumnNames[kNumericColumnCount] = {
+    "T_env",       "T_ws",      "T_mwf",     "dT_cool",   "c_rpm",
+    "spindle_rpm", "mwf",       "EX0C",      "EY0C",      "EZ0T",
+    "ER0T",        "EA0C",      "EB0C",      "EC0C",      "pred_EX0C",
+    "pred_EY0C",   "pred_EZ0T", "pred_ER0T", "pred_EA0C", "pred_EB0C",
+    "pred_EC0C",   "c_deg",     "dur_s"};
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+const std::pair<const char*, LogEvent> kEvents[] = {
+    {"sample", LogEvent::kSample}, {"rtest", LogEvent::kRTest},
+    {"cut", LogEvent::kCut},       {"phase", LogEvent::kPhase},
+    {"update", LogEvent::kUpdate}, {"note", LogEvent::kNote}};
+
+std::string Trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return "";
+  const auto e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+// Splits a CSV line; double quotes allow commas inside `text`.
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cell;
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char ch = line[i];
+    if (quoted) {
+      if (ch == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        cell += '"';
+        ++i;
+      } else if (ch == '"') {
+        quoted = false;
+      } else {
+        cell += ch;
+      }
+    } else if (ch == '"') {
+      quoted = true;
+    } else if (ch == ',') {
+      cells.push_back(Trim(cell));
+      cell.clear();
+    } else {
+      cell += ch;
+    }
+  }
+  cells.push_back(Trim(cell));
+  return cells;
+}
+
+double ParseNumber(const std::string& cell, const std::string& source, int line,
+                   const std::string& column) {
+  const char* begin = cell.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (end == begin || *end != '\0') {
+    throw InputError(source, line, column,
+                     fmt::format("'{}' is not a number", cell));
+  }
+  if (!std::isfinite(v) || errno == ERANGE) {
+    throw InputError(source, line, column,
+                     fmt::format("'{}' is not a finite number", cell));
+  }
+  return v;
+}
+
+CAxisErrors ErrorsFrom(const LogRow& row, int first_column) {
+  std::array<double, 7> micro;
+  for (int i = 0; i < 7; ++i) micro[i] = row.values[first_column + i];
+  return CAxisErrors::FromMicro(micro);
+}
+
+bool HasAll(const LogRow& row, int first_column) {
+  for (int i = 0; i < 7; ++i) {
+    if (std::isnan(row.values[first_column + i])) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+const char* LogEventName(LogEvent e) {
+  for (const auto& [name, ev] : kEvents) {
+    if (ev == e) return name;
+  }
+  return "note";
+}
+
+int TalcLog::CountEvent(LogEvent e) const {
+  int n = 0;
+  for (const auto& r : rows) n += r.event == e;
+  return n;
+}
+
+TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
+  TalcLog log;
+  log.source = source;
+  std::istringstream in(text);
+  std::string raw;
+  int line_no = 0;
+  bool header_seen = false;
+  int header_line = 0;
+  // Column index of every known field, -1 if absent.
+  std::array<int, kNumericColumnCount> numeric_index;
+  numeric_index.fill(-1);
+  int t_index = -1, event_index = -1, phase_index = -1, feature_index = -1,
+      text_index = -1;
+  double last_t = -std::numeric_limits<double>::infinity();
+  int last_line = 0;
+  std::unordered_set<std::string> lines_at_last_t;  // exact-duplicate check
+  static const std::regex key_value(R"(^#\s*([A-Za-z0-9_.-]+)\s*:\s*(.*)$)");
+  static const std::regex iso8601(
+      R"(^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})$)");
+
+  while (std::getline(in, raw)) {
+    ++line_no;
+    if (!raw.empty() && raw.back() == '\r') raw.pop_back();
+    if (line_no == 1 && raw.rfind("\xEF\xBB\xBF", 0) == 0) raw.erase(0, 3);
+    if (Trim(raw).empty()) continue;  // blank lines carry nothing
+    if (raw[0] == '#') {
+      if (header_seen) {
+        throw InputError(source, line_no, "#",
+                         "comment line after the header row (comments are "
+                         "allowed only before it)");
+      }
+      std::smatch m;
+      if (std::regex_match(raw, m, key_value)) {
+        log.header[m[1]] = Trim(m[2]);
+      }
+      continue;
+    }
+    if (!header_seen) {
+      header_seen = true;
+      header_line = line_no;
+      log.columns = SplitCsv(raw);
+      std::set<std::string> seen;
+      for (int i = 0; i < static_cast<int>(log.columns.size()); ++i) {
+        const std::string& name = log.columns[i];
+        if (!seen.insert(name).second) {
+          throw InputError(source, line_no, name, "column named twice");
+        }
+        bool known = true;
+        if (name == "t_s") {
+          t_index = i;
+        } else if (name == "event") {
+          event_index = i;
+        } else if (name == "phase") {
+          phase_index = i;
+        } else if (name == "feature") {
+          feature_index = i;
+        } else if (name == "text") {
+          text_index = i;
+        } else {
+          known = false;
+          for (int c = 0; c < kNumericColumnCount; ++c) {
+            if (name == kNumericColumnNames[c]) {
+              numeric_index[c] = i;
+              known = true;
+              if (c >= kPredEX0C && c < kPredEX0C + 7) {
+                log.has_pred_columns = true;
+              }
+            }
+          }
+        }
+        if (!known) log.unknown_columns.push_back(name);
+      }
+      if (t_index < 0) {
+        throw InputError(source, line_no, "t_s",
+                         "missing required column 't_s'");
+      }
+      if (event_index < 0) {
+        throw InputError(source, line_no, "event",
+                         "missing required column 'event'");
+      }
+      continue;
+    }
+
+    const std::vector<std::string> cells = SplitCsv(raw);
+    if (cells.size() != log.columns.size()) {
+      throw InputError(source, line_no, "row",
+                       fmt::format("{} cells, the header has {} columns",
+                                   cells.size(), log.columns.size()));
+    }
+    LogRow row;
+    row.line = line_no;
+    row.values.fill(kNaN);
+    if (cells[t_index].empty()) {
+      throw InputError(source, line_no, "t_s", "t_s is required in every row");
+    }
+    row.t_s = ParseNumber(cells[t_index], source, line_no, "t_s");
+    for (int c = 0; c < kNumericColumnCount; ++c) {
+      const int i = numeric_index[c];
+      if (i >= 0 && !cells[i].empty()) {
+        row.values[c] =
+            ParseNumber(cells[i], source, line_no, kNumericColumnNames[c]);
+      }
+    }
+    if (phase_index >= 0) row.phase = cells[phase_index];
+    if (feature_index >= 0) row.feature = cells[feature_index];
+    if (text_index >= 0) row.text = cells[text_index];
+
+    // Order and duplicates come before the row's meaning.
+    if (row.t_s < last_t) {
+      throw InputError(
+          source, line_no, "t_s",
+          fmt::format("rows out of order in time: t_s {} after {} (line {})",
+                      cells[t_index], last_t, last_line));
+    }
+    if (row.t_s == last_t) {
+      if (!lines_at_last_t.insert(raw).second) {
+        log.warnings.push_back(
+            {line_no, "duplicate", "exact duplicate row dropped"});
+        continue;
+      }
+    } else {
+      lines_at_last_t.clear();
+      lines_at_last_t.insert(raw);
+    }
+    if (!log.rows.empty() && row.t_s - last_t > kMaxGapS) {
+      log.gaps.push_back({line_no, last_t, row.t_s});
+      log.warnings.push_back(
+          {line_no, "gap",
+           fmt::format("gap of {:.0f} s between rows (t_s {} to {}), more "
+                       "than {:.0f} s",
+                       row.t_s - last_t, last_t, row.t_s, kMaxGapS)});
+    }
+    last_t = row.t_s;
+    last_line = line_no;
+
+    const std::string event = cells[event_index];
+    if (event.empty()) {
+      throw InputError(source, line_no, "event",
+                       "event is required in every row");
+    }
+    bool known_event = false;
+    for (const auto& [name, ev] : kEvents) {
+      if (event == name) {
+        row.event = ev;
+        known_event = true;
+      }
+    }
+    if (!known_event) {
+      row.event = LogEvent::kNote;
+      if (!row.text.empty()) row.text += " ";
+      row.text += fmt::format("[unknown event '{}']", event);
+      log.warnings.push_back(
+          {line_no, "unknown event",
+           fmt::format("unknown event '{}' kept as a note", event)});
+    }
+
+    switch (row.event) {
+      case LogEvent::kRTest: {
+        for (int i = 0; i < 7; ++i) {
+          if (!row.Has(static_cast<NumericColumn>(kEX0C + i))) {
+            throw InputError(source, line_no, kNumericColumnNames[kEX0C + i],
+                             "rtest row without its R-test value");
+          }
+        }
+        RTestRecord r;
+        r.line = line_no;
+        r.t_end_s = row.t_s;
+        double dur = row.Has(kDurS) ? row.values[kDurS] : 0.0;
+        if (dur < 0) {
+          throw InputError(source, line_no, "dur_s", "negative duration");
+        }
+        if (!row.Has(kDurS)) {
+          log.warnings.push_back(
+              {line_no, "rtest duration",
+               "rtest row without dur_s: values taken at the row's t_s"});
+        }
+        r.t_ref_s = row.t_s - dur / 2;
+        r.measured = ErrorsFrom(row, kEX0C);
+        if (HasAll(row, kPredEX0C)) r.pred = ErrorsFrom(row, kPredEX0C);
+        log.rtests.push_back(r);
+        break;
+      }
+      case LogEvent::kCut: {
+        FeatureKind kind;
+        Segment segment;
+        int index = 0;
+        if (row.feature.empty()) {
+          throw InputError(source, line_no, "feature",
+                           "cut row without a feature name");
+        }
+        if (!ParseFeatureId(row.feature, &kind, &segment, &index)) {
+          throw InputError(
+              source, line_no, "feature",
+              fmt::format("'{}' is not a feature name (Z1..Z9, X1-1..Y2-9)",
+                          row.feature));
+        }
+        if (!row.Has(kCDeg)) {
+          throw InputError(source, line_no, "c_deg",
+                           "cut row without its table angle c_deg");
+        }
+        for (const auto& c : log.cuts) {
+          if (c.feature == row.feature) {
+            throw InputError(source, line_no, "feature",
+                             fmt::format("feature {} cut twice (first on "
+                                         "line {})",
+                                         row.feature, c.line));
+          }
+        }
+        log.cuts.push_back(
+            {line_no, row.t_s, row.feature, row.values[kCDeg] * kDegToRad});
+        break;
+      }
+      case LogEvent::kPhase: {
+        if (row.phase != "CP" && row.phase != "POST" && row.phase != "NG") {
+          throw InputError(
+              source, line_no, "phase",
+              fmt::format("phase '{}' is not CP, POST or NG", row.phase));
+        }
+        log.phases.push_back({line_no, row.t_s, row.phase});
+        break;
+      }
+      default:
+        break;
+    }
+    log.rows.push_back(std::move(row));
+  }
+
+  // Header keys (checked after reading so a missing key names the header).
+  const int key_line = header_seen ? header_line : std::max(line_no, 1);
+  for (const char* key : {"talc-log", "start", "compensation"}) {
+    if (!log.header.count(key)) {
+      throw InputError(source, key_line, key,
+                       fmt::format("missing required header key '# {}:'", key));
+    }
+  }
+  if (!header_seen) {
+    throw InputError(source, key_line, "header", "no header row");
+  }
+  if (log.header["talc-log"] != "1") {
+    throw InputError(
+        source, 1, "talc-log",
+        fmt::format("format version '{}' is not 1", log.header["talc-log"]));
+  }
+  log.start = log.header["start"];
+  if (!std::regex_match(log.start, iso8601)) {
+    throw InputError(
+        source, 1, "start",
+        fmt::format("'{}' is not an ISO 8601 time with offset", log.start));
+  }
+  const std::string comp = log.header["compensation"];
+  if (comp != "on" && comp != "off") {
+    throw InputError(source, 1, "compensation",
+                     fmt::format("'{}' is not on or off", comp));
+  }
+  log.compensation = comp == "on";
+  if (log.header.count("machine")) log.machine = log.header["machine"];
+  if (log.header.count("sphere_distance_mm")) {
+    log.sphere_distance_mm = ParseNumber(log.header["sphere_distance_mm"],
+                                         source, 1, "sphere_distance_mm");
+    if (log.sphere_distance_mm <= 0) {
+      throw InputError(source, 1, "sphere_distance_mm", "must be positive");
+    }
+  }
+  if (log.header.count("sphere_height_mm")) {
+    log.sphere_height_mm = ParseNumber(log.header["sphere_height_mm"], source,
+                                       1, "sphere_height_mm");
+  }
+  return log;
+}
+
+TalcLog ReadTalcLog(const std::string& path) {
+  std::string text;
+  try {
+    text = ReadTextFile(path);
+  } catch (const std::exception& e) {
+    throw InputError(path, 0, "file", e.what());
+  }
+  return ParseTalcLog(text, path);
+}
+
+nlohmann::json LogSummaryJson(const TalcLog& log) {
+  nlohmann::json j;
+  j["source"] = log.source;
+  j["start"] = log.start;
+  j["machine"] = log.machine;
+  j["compensation"] = log.compensation ? "on" : "off";
+  j["has_predictions"] = log.has_pred_columns;
+  j["span_s"] = {log.FirstTimeS(), log.LastTimeS()};
+  j["rows"] = log.rows.size();
+  j["samples"] = log.CountEvent(LogEvent::kSample);
+  j["rtests"] = log.rtests.size();
+  if (log.rtests.size() >= 2) {
+    j["rtest_mean_interval_s"] =
+        (log.rtests.back().t_ref_s - log.rtests.front().t_ref_s) /
+        (log.rtests.size() - 1);
+  }
+  j["cuts"] = log.cuts.size();
+  nlohmann::json cuts = nlohmann::json::array();
+  for (const auto& c : log.cuts) {
+    cuts.push_back({{"feature", c.feature},
+                    {"t_s", c.t_s},
+                    {"c_deg", c.c_rad / kDegToRad}});
+  }
+  j["cut_list"] = cuts;
+  nlohmann::json phases = nlohmann::json::array();
+  for (const auto& p : log.phases) {
+    phases.push_back({{"phase", p.phase}, {"t_s", p.t_s}});
+  }
+  j["phases"] = phases;
+  nlohmann::json gaps = nlohmann::json::array();
+  for (const auto& g : log.gaps) {
+    gaps.push_back({{"line", g.line}, {"from_s", g.from_s}, {"to_s", g.to_s}});
+  }
+  j["gaps"] = gaps;
+  nlohmann::json warnings = nlohmann::json::array();
+  for (const auto& w : log.warnings) {
+    warnings.push_back(
+        {{"line", w.line}, {"rule", w.rule}, {"message", w.message}});
+  }
+  j["warnings"] = warnings;
+  j["unknown_columns"] = log.unknown_columns;
+  return j;
+}
+
+std::string LogSummaryText(const TalcLog& log) {
+  std::string s;
+  s += fmt::format("log           {}\n", log.source);
+  s += fmt::format("start         {}\n", log.start);
+  if (!log.machine.empty()) s += fmt::format("machine       {}\n", log.machine);
+  s += fmt::format("span          {:.0f} .. {:.0f} s ({:.2f} h)\n",
+                   log.FirstTimeS(), log.LastTimeS(),
+                   (log.LastTimeS() - log.FirstTimeS()) / 3600);
+  s += fmt::format("rows          {} ({} samples)\n", log.rows.size(),
+                   log.CountEvent(LogEvent::kSample));
+  s += fmt::format("compensation  {}{}\n", log.compensation ? "on" : "off",
+                   log.has_pred_columns ? " (pred_ columns present)" : "");
+  s += fmt::format("R-tests       {}", log.rtests.size());
+  if (log.rtests.size() >= 2) {
+    s += fmt::format(", every {:.0f} s on average",
+                     (log.rtests.back().t_ref_s - log.rtests.front().t_ref_s) /
+                         (log.rtests.size() - 1));
+  }
+  s += "\n";
+  s += fmt::format("cuts          {}\n", log.cuts.size());
+  for (const auto& c : log.cuts) {
+    s += fmt::format("  {:>6}  t = {:7.0f} s  C = {:7.2f} deg\n", c.feature,
+                     c.t_s, c.c_rad / kDegToRad);
+  }
+  s += fmt::format("phases        {}\n", log.phases.size());
+  s += fmt::format("gaps > {:.0f} s  {}\n", kMaxGapS, log.gaps.size());
+  if (!log.unknown_columns.empty()) {
+    s += "unknown columns (ignored):";
+    for (const auto& c : log.unknown_columns) s += " " + c;
+    s += "\n";
+  }
+  s += fmt::format("warnings      {}\n", log.warnings.size());
+  for (const auto& w : log.warnings) {
+    s += fmt::format("  line {}: {}: {}\n", w.line, w.rule, w.message);
+  }
+  return s;
+}
+
+}  // namespace ttp::thermal
