@@ -1,10 +1,12 @@
 // Runs the built `ttp` binary for end-to-end CLI tests.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 namespace ttp::test {
@@ -28,6 +30,25 @@ inline RunResult RunTtp(const std::string& args) {
   const int status = ::pclose(pipe);
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+// A fresh folder per test in the build tree, named after the test: ctest
+// runs the tests as parallel processes, and /tmp is shared.
+inline std::filesystem::path TestDir(const std::string& prefix) {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name =
+      prefix + "_" + info->test_suite_name() + "_" + info->name();
+  for (char& c : name)
+    if (c == '/') c = '_';
+  const std::filesystem::path d =
+      std::filesystem::path(TTP_BINARY_DIR) / "test-tmp" / name;
+  static std::string made;
+  if (made != name) {
+    std::filesystem::remove_all(d);
+    std::filesystem::create_directories(d);
+    made = name;
+  }
+  return d;
 }
 
 }  // namespace ttp::test

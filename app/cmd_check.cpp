@@ -1,0 +1,94 @@
+// `ttp check --log LOG MEASUREMENT`: measured and simulated figures side by
+// side per cycle with U, and the temperature comparison of thesis 7.10.
+// Before comparing, the log is checked against the program's schedule (cut
+// names, order, times, coverage, R-tests around each cut). Exit 0 when every
+// figure agrees within the combined U, 1 when one does not, 2 bad input.
+#include <fmt/format.h>
+
+#include "command.h"
+#include "planned_cuts.h"
+#include "ttp/geometry/error.h"
+#include "ttp/inspect/measurement.h"
+#include "ttp/thermal/check.h"
+#include "ttp/thermal/talc_log.h"
+
+namespace ttp::app {
+namespace {
+
+// Measured figures from any measurement file (cloud, inspection JSON, dial
+// CSV, DMIS output, probe results).
+std::vector<CycleFigures> LoadMeasuredFigures(const Config& config,
+                                              const std::string& path) {
+  return inspect::LoadMeasurement(config, path).result.figures;
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  auto* cmd = root.add_subcommand(
+      "check",
+      "measured vs simulated figures per cycle with U and the 7.10 "
+      "temperature comparison; exit 0 agree, 1 disagree, 2 bad input");
+  auto log_path = std::make_shared<std::string>();
+  auto measurement = std::make_shared<std::string>();
+  auto json_out = std::make_shared<std::string>();
+  auto tolerance = std::make_shared<double>(120.0);
+  auto no_schedule = std::make_shared<bool>(false);
+  cmd->add_option("--log", *log_path, "TALC log (CSV)")->required();
+  cmd->add_option("measurement", *measurement,
+                  "measured piece: point cloud (PLY/PCD/XYZ), inspection "
+                  "JSON, dial-gauge CSV, DMIS output or probe results")
+      ->required();
+  cmd->add_option("--json", *json_out, "also write the check as JSON");
+  cmd->add_option("--time-tolerance-s", *tolerance,
+                  "how far a logged cut may end from its planned time "
+                  "(default 120 s)");
+  cmd->add_flag("--no-schedule-check", *no_schedule,
+                "skip the log <-> program schedule check");
+  cmd->callback([&global, log_path, measurement, json_out, tolerance,
+                 no_schedule] {
+    const Config config = global.LoadConfig();
+    const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
+    nlohmann::json schedule_json;
+    if (!*no_schedule) {
+      thermal::ScheduleCheckOptions so;
+      so.tolerance_s = *tolerance;
+      const thermal::ScheduleCheck sc =
+          thermal::CheckLogAgainstSchedule(log, PlannedCuts(config), so);
+      schedule_json = {{"offset_s", sc.offset_s},
+                       {"max_deviation_s", sc.max_deviation_s},
+                       {"matched_cuts", sc.matched},
+                       {"tolerance_s", so.tolerance_s}};
+    }
+    const std::vector<CycleFigures> measured =
+        LoadMeasuredFigures(config, *measurement);
+    const thermal::CheckResult result =
+        thermal::CheckPiece(log, config, measured);
+    if (result.compared == 0) {
+      throw InputError(*measurement, 0, "figures",
+                       "the measurement gives no figure the simulation has");
+    }
+    if (!global.quiet || json_out->empty()) {
+      std::string text = thermal::CheckTable(result);
+      if (!schedule_json.is_null()) {
+        text = fmt::format(
+                   "schedule   {} cuts match the program (log = program + "
+                   "{:.0f} s, largest deviation {:.0f} s)\n",
+                   schedule_json["matched_cuts"].get<int>(),
+                   schedule_json["offset_s"].get<double>(),
+                   schedule_json["max_deviation_s"].get<double>()) +
+               text;
+      }
+      WriteText("-", text);
+    }
+    if (!json_out->empty()) {
+      nlohmann::json j = thermal::CheckToJson(result);
+      j["measurement"] = *measurement;
+      j["schedule"] = schedule_json;
+      WriteJson(*json_out, j);
+    }
+    if (!result.agree()) global.exit_code = kExitJudgedFailure;
+  });
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(42, Register);
+}  // namespace ttp::app

@@ -1,0 +1,155 @@
+// `ttp diagnose --log LOG MEASUREMENT`: what the simulation gets wrong
+// (diagnosis.md). `ttp twin`: a synthetic run with a hidden effect.
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "command.h"
+#include "planned_cuts.h"
+#include "ttp/diagnosis/diagnose.h"
+#include "ttp/diagnosis/twin.h"
+#include "ttp/inspect/measurement.h"
+#include "ttp/thermal/talc_log.h"
+
+namespace ttp::app {
+namespace {
+
+// The first bytes of a file, for recognising its format (missing file:
+// empty, and the reader then names it).
+std::string ReadHead(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(512, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(std::max<std::streamsize>(0, in.gcount())));
+  return head;
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  {
+    auto* cmd = root.add_subcommand(
+        "diagnose",
+        "compare a measured piece with its simulation from the TALC log and "
+        "name what the simulation gets wrong");
+    auto log_path = std::make_shared<std::string>();
+    auto measurement = std::make_shared<std::string>();
+    auto json_out = std::make_shared<std::string>();
+    auto threshold = std::make_shared<double>(10.0);
+    cmd->add_option("--log", *log_path, "TALC log (CSV)")->required();
+    cmd->add_option(
+           "measurement", *measurement,
+           "measured piece: the JSON of `ttp inspect --json` (or per-feature "
+           "results, or figures and facet angles as in a truth.json), or any "
+           "measurement `ttp inspect` reads (a point cloud PLY/PCD/XYZ, "
+           "dial CSV, DMIS, probe CSV), which is inspected first")
+        ->required();
+    cmd->add_option("--json", *json_out, "also write the diagnosis as JSON");
+    cmd->add_option("--evidence", *threshold,
+                    "BIC margin over the nominal model needed to name a "
+                    "cause (default 10)");
+    auto no_schedule = std::make_shared<bool>(false);
+    cmd->add_flag("--no-schedule-check", *no_schedule,
+                  "do not check the log's cuts against the program's "
+                  "schedule (for a log of another program)");
+    cmd->callback(
+        [&global, log_path, measurement, json_out, threshold, no_schedule] {
+          const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
+          const Config config = global.LoadConfig();
+          // A log that did not come from this program is an input error.
+          if (!*no_schedule)
+            thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
+          diagnosis::MeasuredPiece measured;
+          if (inspect::SniffMeasurement(ReadHead(*measurement), *measurement) ==
+              inspect::MeasurementKind::kInspectionJson) {
+            measured = diagnosis::ReadMeasuredPiece(*measurement);
+          } else {
+            const inspect::Measurement m =
+                inspect::LoadMeasurement(config, *measurement);
+            measured = diagnosis::MeasuredPieceFromJson(
+                inspect::MeasurementToJson(config.part, m), *measurement);
+          }
+          diagnosis::DiagnosisOptions options;
+          options.evidence_threshold = *threshold;
+          const diagnosis::DiagnosisReport report =
+              diagnosis::DiagnoseRun(log, config, measured, options);
+          if (!global.quiet || json_out->empty())
+            WriteText("-", diagnosis::DiagnosisText(report));
+          if (!json_out->empty())
+            WriteJson(*json_out, diagnosis::DiagnosisToJson(report));
+        });
+  }
+  {
+    auto* cmd = root.add_subcommand(
+        "twin",
+        "synthetic run: TALC log, measured piece and truth, with a hidden "
+        "effect");
+    auto effect = std::make_shared<std::string>("none");
+    auto options = std::make_shared<diagnosis::TwinOptions>();
+    auto compensation = std::make_shared<std::string>("off");
+    auto out_dir = std::make_shared<std::string>();
+    cmd->add_option("--effect", *effect,
+                    "none, workpiece_expansion, tool_wear, "
+                    "clamping_distortion or c_axis_indexing");
+    cmd->add_option("--size", options->size,
+                    "effect size: workpiece_expansion gain, tool_wear um/m, "
+                    "clamping_distortion um, c_axis_indexing urad");
+    cmd->add_option("--seed", options->seed, "random seed (default 1)");
+    cmd->add_option("--compensation", *compensation,
+                    "on (the controller compensates with an imperfect model; "
+                    "pred_* columns in the log) or off (default)")
+        ->check(CLI::IsMember({"on", "off"}));
+    cmd->add_option("--rtest-interval-s", options->rtest_interval_s,
+                    "time between R-tests (default 300)");
+    cmd->add_option("--point-noise-um", options->point_noise_um,
+                    "CMM noise per point (default 0.4)");
+    cmd->add_option("--points", options->cloud_points,
+                    "points in the measured cloud (default 20000)");
+    auto measurement = std::make_shared<std::string>("cloud");
+    cmd->add_option(
+           "--measurement", *measurement,
+           "how the measured piece is written: cloud (= ply: a CMM cloud of "
+           "the cut piece in a random pose, binary PLY with double "
+           "coordinates, piece.ply; default), xyz (the same cloud as text, "
+           "piece.xyz) or json (per-feature results in the `ttp inspect "
+           "--json` format, measured.json)")
+        ->check(CLI::IsMember({"cloud", "ply", "xyz", "json"}));
+    cmd->add_option("--stray-fraction", options->stray_fraction,
+                    "stray points per cloud point (default 0.002)");
+    cmd->add_option("-o,--out", *out_dir,
+                    "output directory: talc.csv (the TALC log), the measured "
+                    "piece and truth.json (the hidden effect and its "
+                    "parameters, the true figures)")
+        ->required();
+    cmd->callback(
+        [&global, effect, options, compensation, out_dir, measurement] {
+          diagnosis::TwinOptions o = *options;
+          o.compensation = *compensation == "on";
+          try {
+            o.effect = diagnosis::CauseFromName(*effect);
+          } catch (const std::invalid_argument& e) {
+            throw CLI::ValidationError("--effect", e.what());
+          }
+          if (o.effect != diagnosis::Cause::kNone && !(o.size > 0))
+            throw CLI::ValidationError("--size", "must be > 0 with an effect");
+          const Config config = global.LoadConfig();
+          const diagnosis::TwinRun run = diagnosis::RunTwin(config, o);
+          const std::string written = diagnosis::WriteTwin(
+              config, run, o, *out_dir,
+              diagnosis::TwinMeasurementFromName(*measurement));
+          if (!global.quiet)
+            WriteText("-", "wrote " +
+                               (std::filesystem::path(*out_dir) / "talc.csv")
+                                   .lexically_normal()
+                                   .string() +
+                               ", " + written + ", " +
+                               (std::filesystem::path(*out_dir) / "truth.json")
+                                   .lexically_normal()
+                                   .string() +
+                               " (cause " +
+                               run.truth["cause"].get<std::string>() + ")\n");
+        });
+  }
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(45, Register);
+}  // namespace ttp::app

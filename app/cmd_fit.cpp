@@ -1,0 +1,186 @@
+// `ttp fit SHAPE POINTS`: least-squares fit (geometry/fit.h, true orthogonal
+// distances, Ceres for the nonlinear shapes) of a user's point file read
+// with inspect's point reader (PLY, PCD, .xyz/.txt/.csv, NIST .ds): the
+// parameters with their standard uncertainties and the residuals.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "command.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/fit.h"
+#include "ttp/inspect/point_io.h"
+
+namespace ttp::app {
+namespace {
+
+constexpr const char* kShapes[] = {"line",   "plane",    "circle2d", "circle3d",
+                                   "sphere", "cylinder", "cone"};
+
+struct FitArgs {
+  std::string shape;
+  std::string points;
+  std::string robust = "none";
+  double loss_scale_mm = 1e-3;
+  std::string units = "mm";
+  std::string json;
+};
+
+nlohmann::json Vec(const Eigen::VectorXd& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v(i));
+  return a;
+}
+
+// Parameters (named, in mm / unit vectors / deg) and the summary.
+nlohmann::json RunFit(const FitArgs& a, const Eigen::Matrix3Xd& p,
+                      const fit::FitOptions& fo) {
+  nlohmann::json out;
+  nlohmann::json& prm = out["parameters"];
+  fit::FitSummary summary;
+  if (a.shape == "line") {
+    const fit::LineFit3D f = fit::FitLine3D(p, fo);
+    prm = {{"point_mm", Vec(f.point)}, {"direction", Vec(f.direction)}};
+    summary = f.summary;
+  } else if (a.shape == "plane") {
+    const fit::PlaneFit f = fit::FitPlane(p, fo);
+    prm = {{"point_mm", Vec(f.point)}, {"normal", Vec(f.normal)}};
+    summary = f.summary;
+  } else if (a.shape == "circle2d") {
+    const fit::CircleFit2D f = fit::FitCircle2D(p.topRows<2>(), fo);
+    prm = {{"centre_mm", Vec(f.centre)},
+           {"radius_mm", f.radius_mm},
+           {"diameter_mm", 2 * f.radius_mm}};
+    summary = f.summary;
+  } else if (a.shape == "circle3d") {
+    const fit::CircleFit3D f = fit::FitCircle3D(p, fo);
+    prm = {{"centre_mm", Vec(f.centre)},
+           {"normal", Vec(f.normal)},
+           {"radius_mm", f.radius_mm},
+           {"diameter_mm", 2 * f.radius_mm}};
+    summary = f.summary;
+  } else if (a.shape == "sphere") {
+    const fit::SphereFit f = fit::FitSphere(p, fo);
+    prm = {{"centre_mm", Vec(f.centre)},
+           {"radius_mm", f.radius_mm},
+           {"diameter_mm", 2 * f.radius_mm}};
+    summary = f.summary;
+  } else if (a.shape == "cylinder") {
+    const fit::CylinderFit f = fit::FitCylinder(p, fo);
+    prm = {{"point_mm", Vec(f.point)},
+           {"axis", Vec(f.axis)},
+           {"radius_mm", f.radius_mm},
+           {"diameter_mm", 2 * f.radius_mm}};
+    summary = f.summary;
+  } else if (a.shape == "cone") {
+    const fit::ConeFit f = fit::FitCone(p, fo);
+    prm = {{"apex_mm", Vec(f.apex)},
+           {"axis", Vec(f.axis)},
+           {"half_angle_deg", f.half_angle_rad * 180.0 / M_PI},
+           {"point_mm", Vec(f.point)},
+           {"radius_at_point_mm", f.radius_at_point_mm}};
+    summary = f.summary;
+  } else {
+    std::string list;
+    for (const char* s : kShapes)
+      list += std::string(list.empty() ? "" : ", ") + s;
+    throw InputError("SHAPE", 0, "shape",
+                     "'" + a.shape + "' is not one of " + list);
+  }
+  nlohmann::json u = nlohmann::json::object();
+  for (size_t i = 0; i < summary.parameter_names.size(); ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    if (k < summary.covariance.rows())
+      u[summary.parameter_names[i]] =
+          std::sqrt(std::max(0.0, summary.covariance(k, k)));
+  }
+  out["standard_uncertainty"] = u;
+  out["residuals"] = {{"rms_mm", summary.rms_mm},
+                      {"max_abs_mm", summary.max_abs_mm}};
+  out["points"] = summary.points;
+  out["converged"] = summary.converged;
+  out["iterations"] = summary.iterations;
+  if (!summary.message.empty()) out["message"] = summary.message;
+  return out;
+}
+
+std::string Text(const nlohmann::json& doc) {
+  std::string s = fmt::format(
+      "{} fit of {} ({} points, {} loss)\n", doc["shape"].get<std::string>(),
+      doc["source"].get<std::string>(), doc["points"].get<int>(),
+      doc["robust"].get<std::string>());
+  for (const auto& [k, v] : doc["parameters"].items()) {
+    if (v.is_array()) {
+      std::string vals;
+      for (const auto& x : v) vals += fmt::format(" {:.9f}", x.get<double>());
+      s += fmt::format("  {:<20}{}\n", k, vals);
+    } else {
+      s += fmt::format("  {:<20} {:.9f}\n", k, v.get<double>());
+    }
+  }
+  s += "standard uncertainties (k = 1):\n";
+  for (const auto& [k, v] : doc["standard_uncertainty"].items())
+    s += fmt::format("  {:<20} {:.3g}\n", k, v.get<double>());
+  s += fmt::format("residuals: rms {:.6g} mm, max |r| {:.6g} mm{}\n",
+                   doc["residuals"]["rms_mm"].get<double>(),
+                   doc["residuals"]["max_abs_mm"].get<double>(),
+                   doc["converged"].get<bool>() ? "" : " (NOT CONVERGED)");
+  return s;
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  auto a = std::make_shared<FitArgs>();
+  auto* cmd = root.add_subcommand(
+      "fit",
+      "least-squares fit of a shape to a point file: parameters, standard "
+      "uncertainties, residuals");
+  cmd->add_option("shape", a->shape,
+                  "line, plane, circle2d (from x, y), circle3d, sphere, "
+                  "cylinder or cone")
+      ->required();
+  cmd->add_option("points", a->points,
+                  "point file: .xyz/.txt/.csv (x y z per line; a first line "
+                  "with the count is allowed, as in NIST .ds), PLY, PCD")
+      ->required();
+  cmd->add_option("--robust", a->robust, "loss: none (default), huber, cauchy");
+  cmd->add_option("--loss-scale-mm", a->loss_scale_mm,
+                  "residual scale of the robust loss (mm, default 0.001)");
+  cmd->add_option("--units", a->units,
+                  "units of the file: mm (default), m, in");
+  cmd->add_option("--json", a->json, "write the result as JSON");
+  cmd->callback([&global, a] {
+    fit::FitOptions fo;
+    if (a->robust == "huber")
+      fo.loss = fit::FitOptions::Loss::kHuber;
+    else if (a->robust == "cauchy")
+      fo.loss = fit::FitOptions::Loss::kCauchy;
+    else if (a->robust != "none")
+      throw InputError("--robust", 0, "robust",
+                       "'" + a->robust + "' is not none, huber or cauchy");
+    fo.loss_scale_mm = a->loss_scale_mm;
+    if (!std::isfinite(a->loss_scale_mm) || a->loss_scale_mm <= 0)
+      throw InputError("--loss-scale-mm", 0, "loss_scale_mm",
+                       "must be a positive number");
+    fo.Validate();
+    bool known = false;
+    for (const char* s : kShapes) known |= a->shape == s;
+    if (!known) RunFit(*a, Eigen::Matrix3Xd(3, 0), fo);  // throws the list
+    inspect::ReadOptions ro;
+    ro.units = inspect::ParseLengthUnit(a->units);
+    ro.units_given = true;
+    const inspect::PointCloud cloud = inspect::ReadPointCloud(a->points, ro);
+    nlohmann::json doc = RunFit(*a, cloud.xyz_mm, fo);
+    doc["shape"] = a->shape;
+    doc["source"] = a->points;
+    doc["robust"] = a->robust;
+    if (a->robust != "none") doc["loss_scale_mm"] = a->loss_scale_mm;
+    doc["units"] = "mm; unit vectors; angles in deg";
+    if (!global.quiet) std::cout << Text(doc);
+    if (!a->json.empty()) WriteJson(a->json, doc);
+  });
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(42, Register);
+}  // namespace ttp::app

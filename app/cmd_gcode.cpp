@@ -1,0 +1,157 @@
+// `ttp gcode pre|cycle|read|translate|check`: the two NC programs of the
+// piece, the program reader, the dialect translation and the independent
+// check with LinuxCNC's rs274.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "command.h"
+#include "ttp/cam/programs.h"
+#include "ttp/gcode/canon_to_program.h"
+#include "ttp/gcode/reader.h"
+#include "ttp/gcode/rs274.h"
+#include "ttp/gcode/writer.h"
+#include "ttp/geometry/file_io.h"
+
+namespace ttp::app {
+namespace {
+
+using namespace ttp::gcode;
+
+struct GcodeOptions {
+  std::string program_path;
+  std::string dialect = "auto";
+  std::string output = "-";
+  std::string to;
+};
+
+Dialect ChooseDialect(const std::string& name, const std::string& text) {
+  return name == "auto" ? DetectDialect(text) : ParseDialect(name, "--dialect");
+}
+
+nlohmann::json CanonToJson(const std::vector<CanonStatement>& statements) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const CanonStatement& s : statements) {
+    nlohmann::json j;
+    j["kind"] = CanonKindName(s.kind);
+    j["line"] = s.source_line;
+    j["end_mm"] = {s.end_mm.x(), s.end_mm.y(), s.end_mm.z()};
+    j["end_c_deg"] = s.end_c_rad * 180.0 / M_PI;
+    if (s.kind == CanonKind::kFeed || s.kind == CanonKind::kProbe)
+      j["feed_per_min"] = s.feed_per_min;
+    j["value"] = s.value;
+    if (s.kind == CanonKind::kSpindle || s.kind == CanonKind::kCSpin)
+      j["clockwise"] = s.clockwise;
+    if (!s.text.empty()) j["text"] = s.text;
+    j["start_s"] = s.start_s;
+    j["duration_s"] = s.duration_s;
+    list.push_back(j);
+  }
+  return list;
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  auto* gcode = root.add_subcommand(
+      "gcode",
+      "write the piece's programs; read, translate and check FANUC / "
+      "LinuxCNC programs");
+  gcode->require_subcommand(1);
+  auto opts = std::make_shared<GcodeOptions>();
+  const auto add_common = [&](CLI::App* cmd) {
+    cmd->add_option("program", opts->program_path, "program text")
+        ->required()
+        ->check(CLI::ExistingFile);
+    cmd->add_option("--dialect", opts->dialect,
+                    "auto (default), fanuc or linuxcnc");
+  };
+
+  // The two programs of the piece.
+  const auto add_program = [&](const char* name, const char* help,
+                               gcode::Program (*build)(const Config&)) {
+    auto* cmd = gcode->add_subcommand(name, help);
+    auto dialect = std::make_shared<std::string>("fanuc");
+    auto output = std::make_shared<std::string>("-");
+    cmd->add_option("--dialect", *dialect, "fanuc (default) or linuxcnc");
+    cmd->add_option("-o,--output", *output, "text here (default stdout)");
+    cmd->callback([&global, dialect, output, build] {
+      const Dialect d = ParseDialect(*dialect, "--dialect");
+      const Config config = global.LoadConfig();
+      WriteText(*output, WriteProgram(build(config), d, config));
+    });
+  };
+  add_program("pre", "write the pre-machining program (steps 1-5, NC hold)",
+              &cam::BuildPreMachiningProgram);
+  add_program("cycle", "write the 8-hour test-cycle program",
+              &cam::BuildTestCycleProgram);
+
+  auto* read = gcode->add_subcommand(
+      "read", "canonical statements and times of a program (JSON)");
+  add_common(read);
+  read->add_option("-o,--output", opts->output, "JSON here (default stdout)");
+  read->callback([&global, opts] {
+    const Config config = global.LoadConfig();
+    const std::string text = ReadTextFile(opts->program_path);
+    const Dialect dialect = ChooseDialect(opts->dialect, text);
+    const auto statements =
+        ReadProgram(text, dialect, config, opts->program_path);
+    nlohmann::json doc;
+    doc["program"] = opts->program_path;
+    doc["dialect"] = DialectName(dialect);
+    doc["total_s"] = TotalDuration(statements);
+    doc["statements"] = CanonToJson(statements);
+    WriteJson(opts->output, doc);
+  });
+
+  auto* translate = gcode->add_subcommand(
+      "translate", "write a program in the other dialect");
+  add_common(translate);
+  translate->add_option("--to", opts->to, "fanuc or linuxcnc")->required();
+  translate->add_option("-o,--output", opts->output,
+                        "text here (default stdout)");
+  translate->callback([&global, opts] {
+    const Config config = global.LoadConfig();
+    const std::string text = ReadTextFile(opts->program_path);
+    const Dialect from = ChooseDialect(opts->dialect, text);
+    const Dialect to = ParseDialect(opts->to, "--to");
+    const auto statements = ReadProgram(text, from, config, opts->program_path);
+    const Program program = ProgramFromCanon(
+        statements, "translated", config.machine.program_number,
+        "translated from " + opts->program_path, opts->program_path);
+    WriteText(opts->output, WriteProgram(program, to, config));
+  });
+
+  auto* check = gcode->add_subcommand(
+      "check",
+      "run LinuxCNC's rs274 on the program (FANUC: on its translation) and "
+      "compare with our reader; exit 1 when they differ");
+  add_common(check);
+  check->callback([&global, opts] {
+    const Config config = global.LoadConfig();
+    const std::string text = ReadTextFile(opts->program_path);
+    const Dialect dialect = ChooseDialect(opts->dialect, text);
+    const auto ours = ReadProgram(text, dialect, config, opts->program_path);
+    std::string ngc = text;
+    if (dialect == Dialect::kFanuc) {
+      ngc = WriteProgram(ProgramFromCanon(ours, "translated", 1, "translated",
+                                          opts->program_path),
+                         Dialect::kLinuxCnc, config);
+    }
+    const Rs274Result rs = RunRs274(ngc, config);
+    const ToolpathDifference d = CompareToolpaths(ours, rs.statements);
+    if (d.same) {
+      if (!global.quiet)
+        std::cout << fmt::format(
+            "same toolpath: {} statements, ours {:.3f} s, rs274 {:.3f} s\n",
+            ours.size(), TotalDuration(ours), TotalDuration(rs.statements));
+    } else {
+      std::cout << fmt::format("differ: {} (program line {}, rs274 line {})\n",
+                               d.what, d.line_a, d.line_b);
+      global.exit_code = kExitJudgedFailure;
+    }
+  });
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(20, Register);
+}  // namespace ttp::app

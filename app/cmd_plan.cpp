@@ -1,0 +1,111 @@
+// `ttp plan probe|cmm|dial`: where and how to measure the finished piece.
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <iostream>
+
+#include "command.h"
+#include "ttp/gcode/writer.h"
+#include "ttp/geometry/frames.h"
+#include "ttp/plan/plan.h"
+
+namespace ttp::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct PlanCliOptions {
+  std::string output = "-";
+  std::string points_csv;
+  std::string dialect = "fanuc";
+  std::string dir = "plan";
+  plan::PlanOptions plan;
+  plan::ProbeOptions probe;
+};
+
+void AddPlanOptions(CLI::App* cmd, PlanCliOptions& o) {
+  cmd->add_option("--facet-columns", o.plan.facet_columns,
+                  "points across each facet");
+  cmd->add_option("--facet-rows", o.plan.facet_rows, "points up each facet");
+  cmd->add_option("--strip-points", o.plan.strip_points_per_side,
+                  "points on each strip, per side of the small notch");
+  cmd->add_option("--edge-margin-mm", o.plan.edge_margin_mm,
+                  "distance of the points from the features' edges");
+}
+
+void Say(const GlobalOptions& global, const std::string& text) {
+  if (!global.quiet) std::cerr << text << "\n";
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  auto* cmd = root.add_subcommand(
+      "plan", "plan the measurement of the finished piece (probe, CMM, dial)");
+  cmd->require_subcommand(1);
+  auto o = std::make_shared<PlanCliOptions>();
+
+  auto* probe = cmd->add_subcommand(
+      "probe", "on-machine probing program + the point list it expects back");
+  probe->add_option("--dialect", o->dialect, "fanuc (G31) or linuxcnc (G38.2)");
+  probe->add_option("-o,--output", o->output, "program file (default stdout)");
+  probe->add_option("--points-csv", o->points_csv,
+                    "write the planned points (id, feature, point, approach)");
+  probe->add_option("--clearance-mm", o->probe.clearance_mm,
+                    "start of each probing move off the surface");
+  probe->add_option("--overtravel-mm", o->probe.overtravel_mm,
+                    "probing move length beyond the surface");
+  AddPlanOptions(probe, *o);
+  probe->callback([&global, o] {
+    const Config config = global.LoadConfig();
+    const auto dialect = gcode::ParseDialect(o->dialect, "--dialect");
+    const auto points = plan::PlanPoints(config.part, o->plan);
+    const std::string text = gcode::WriteProgram(
+        plan::BuildProbeProgram(config, points, o->probe), dialect, config);
+    WriteText(o->output, text);
+    if (!o->points_csv.empty())
+      WriteText(o->points_csv, plan::PointsToCsv(points));
+    // The controller reports the trigger position in the active work
+    // offset (G54: W's origin at C = 0), not in the machine frame M of
+    // measurements.md; `ttp inspect` reads either (--probe-frame).
+    Say(global,
+        fmt::format("{} points; the program prints point id, X, Y, Z (stylus "
+                    "centre, program frame G54 = M - (0, 0, {:g}) mm) and C "
+                    "per point: collect them as CSV point_id,x,y,z,c_deg and "
+                    "run `ttp inspect` on it",
+                    points.size(), WorkpieceOriginHeightMm(config)));
+  });
+
+  auto* cmm = cmd->add_subcommand(
+      "cmm", "CMM point list (CSV) and DMIS program for the same points");
+  cmm->add_option("-o,--output-dir", o->dir, "folder to write into")
+      ->default_val("plan");
+  AddPlanOptions(cmm, *o);
+  cmm->callback([&global, o] {
+    const Config config = global.LoadConfig();
+    const auto points = plan::PlanPoints(config.part, o->plan);
+    fs::create_directories(o->dir);
+    const fs::path csv = fs::path(o->dir) / "cmm_points.csv";
+    const fs::path dmis = fs::path(o->dir) / "cmm_program.dmi";
+    WriteText(csv.string(), plan::PointsToCsv(points));
+    WriteText(dmis.string(), plan::PointsToDmis(points, config.part));
+    std::cout << fmt::format("{} points\n{}\n{}\n", points.size(), csv.string(),
+                             dmis.string());
+  });
+
+  auto* dial = cmd->add_subcommand(
+      "dial", "printable dial-gauge sheet (HTML) and the CSV template");
+  dial->add_option("-o,--output-dir", o->dir, "folder to write into")
+      ->default_val("plan");
+  dial->callback([&global, o] {
+    const Config config = global.LoadConfig();
+    fs::create_directories(o->dir);
+    const fs::path html = fs::path(o->dir) / "dial_sheet.html";
+    const fs::path csv = fs::path(o->dir) / "dial_readings.csv";
+    WriteText(html.string(), plan::DialSheetHtml(config.part));
+    WriteText(csv.string(), plan::DialTemplateCsv(config.part));
+    std::cout << html.string() << "\n" << csv.string() << "\n";
+  });
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(40, Register);
+}  // namespace ttp::app

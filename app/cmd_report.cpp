@@ -1,0 +1,126 @@
+// `ttp report --log LOG MEASUREMENT -o report.html [--json data.json]`: the
+// whole story of a run as one self-contained HTML page (docs/REPORT.md).
+// `ttp report-html DATA.json -o report.html`: renders a report data file.
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "ttp/diagnosis/diagnose.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
+#include "ttp/inspect/measurement.h"
+#include "ttp/report/assemble.h"
+#include "ttp/report/report.h"
+#include "ttp/thermal/talc_log.h"
+
+namespace ttp::app {
+namespace {
+
+// Any measurement file (LoadMeasurement); also the per-feature JSON that
+// `ttp twin` writes and `ttp diagnose` reads (diagnosis::ReadMeasuredPiece).
+void ReadMeasurement(const Config& config, const std::string& path,
+                     inspect::InspectionResult* result, std::string* kind) {
+  try {
+    inspect::Measurement m = inspect::LoadMeasurement(config, path);
+    *result = std::move(m.result);
+    result->source = m.source;
+    *kind = inspect::MeasurementKindName(m.kind);
+  } catch (const InputError& first) {
+    if (std::filesystem::path(path).extension() != ".json") throw;
+    diagnosis::MeasuredPiece piece;
+    try {
+      piece = diagnosis::ReadMeasuredPiece(path);
+    } catch (const InputError&) {
+      throw first;
+    }
+    *result = inspect::InspectionResult{};
+    result->source = path;
+    result->features = piece.features;
+    result->figures = piece.figures;
+    *kind = "feature results (JSON)";
+  }
+}
+
+void RegisterReport(CLI::App& root, GlobalOptions& global) {
+  auto* cmd = root.add_subcommand(
+      "report",
+      "the report of a run: measured piece vs its simulation from the TALC "
+      "log, verdict and diagnosis, as one HTML page");
+  auto log_path = std::make_shared<std::string>();
+  auto measurement = std::make_shared<std::string>();
+  auto out = std::make_shared<std::string>("report.html");
+  auto json_out = std::make_shared<std::string>();
+  auto options = std::make_shared<report::ReportOptions>();
+  cmd->add_option("--log", *log_path, "TALC log (CSV)")->required();
+  cmd->add_option("MEASUREMENT", *measurement,
+                  "measured piece: point cloud (PLY, PCD, XYZ/CSV), "
+                  "inspection JSON, dial-gauge CSV, DMIS output or probe "
+                  "results")
+      ->required();
+  cmd->add_option("-o,--output", *out, "HTML file to write");
+  cmd->add_option("--json", *json_out,
+                  "also write the report data (JSON) the page is made from");
+  cmd->add_option("--limit-linear-um", options->limits.linear_um,
+                  "limit of E_X, E_Y, E_Z, E_TTP (default 5 um)");
+  cmd->add_option("--limit-angular-um-per-m", options->limits.angular_um_per_m,
+                  "limit of E_B (default 15 um/m)");
+  cmd->add_option("--evidence", options->diagnosis.evidence_threshold,
+                  "BIC margin over the nominal model needed to name a cause "
+                  "(default 10)");
+  cmd->add_option("--title", options->title, "title of the page");
+  cmd->callback([&global, log_path, measurement, out, json_out, options] {
+    const Config config = global.LoadConfig();
+    const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
+    inspect::InspectionResult measured;
+    std::string kind;
+    ReadMeasurement(config, *measurement, &measured, &kind);
+    report::ReportOptions o = *options;
+    o.run_info.emplace("measurement kind", kind);
+    const nlohmann::json data =
+        report::WriteReport(log, config, measured, nullptr, *out, *json_out, o);
+    if (!global.quiet) {
+      std::fprintf(stderr, "report written to %s (verdict %s, cause %s)\n",
+                   out->c_str(),
+                   data["grade"]["verdict"].get<std::string>().c_str(),
+                   data["diagnosis"]["cause"].get<std::string>().c_str());
+    }
+  });
+}
+
+void RegisterReportHtml(CLI::App& root, GlobalOptions& global) {
+  auto* cmd = root.add_subcommand(
+      "report-html", "render a report data file (JSON) as one HTML page");
+  auto data_path = std::make_shared<std::string>();
+  auto out = std::make_shared<std::string>("report.html");
+  cmd->add_option("DATA", *data_path, "report data (docs/REPORT.md)")
+      ->required();
+  cmd->add_option("-o,--output", *out, "HTML file to write ('-' = stdout)");
+  cmd->callback([data_path, out, &global] {
+    const std::string text = ReadTextFile(*data_path);
+    nlohmann::json data;
+    try {
+      data = nlohmann::json::parse(text);
+    } catch (const nlohmann::json::parse_error& e) {
+      throw InputError(*data_path, 0, "", std::string("not JSON: ") + e.what());
+    }
+    try {
+      WriteText(*out, RenderReportHtml(data));
+    } catch (const InputError& e) {
+      // Name the data file rather than the renderer's generic source.
+      throw InputError(*data_path, e.line(), e.field(), e.problem());
+    }
+    if (!global.quiet && *out != "-") {
+      std::fprintf(stderr, "report written to %s\n", out->c_str());
+    }
+  });
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  RegisterReport(root, global);
+  RegisterReportHtml(root, global);
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(80, Register);
+}  // namespace ttp::app

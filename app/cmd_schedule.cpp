@@ -1,0 +1,30 @@
+// `ttp schedule`: every test feature with its planned cut start/end time,
+// table angle and tool, from executing the test-cycle program.
+#include <iostream>
+
+#include "command.h"
+#include "ttp/cam/schedule.h"
+
+namespace ttp::app {
+namespace {
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  auto* cmd = root.add_subcommand(
+      "schedule",
+      "print the planned cut times, table angles and tools of the test "
+      "features (from the test-cycle program's time model)");
+  auto csv = std::make_shared<std::string>();
+  auto json = std::make_shared<std::string>();
+  cmd->add_option("--csv", *csv, "also write the schedule as CSV here");
+  cmd->add_option("--json", *json, "also write the schedule as JSON here");
+  cmd->callback([&global, csv, json] {
+    const cam::Schedule schedule = cam::BuildSchedule(global.LoadConfig());
+    if (!csv->empty()) cam::WriteScheduleCsv(*csv, schedule);
+    if (!json->empty()) cam::WriteScheduleJson(*json, schedule);
+    std::cout << cam::FormatScheduleTable(schedule);
+  });
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(25, Register);
+}  // namespace ttp::app

@@ -1,0 +1,207 @@
+// `ttp check`: the sample runs (run-b agrees, run-a's hidden workpiece
+// expansion does not), and logs that do not belong to the program, each a
+// mutated copy of run-a's talc.csv (exit 2 naming line and field).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "run_ttp.h"
+
+namespace ttp {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kSamples = std::string(TTP_SHARED_DIR) + "/samples/";
+
+fs::path TempDir() {
+  const fs::path dir = fs::temp_directory_path() / "ttp_cli_check";
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::vector<std::string> Lines(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  return lines;
+}
+
+double TimeOf(const std::string& line) { return std::stod(line); }
+bool IsData(const std::string& line) {
+  return !line.empty() && std::isdigit(static_cast<unsigned char>(line[0]));
+}
+
+// Writes run-a's log after `mutate` (on the data rows, re-sorted by time).
+std::string Mutated(const std::string& name,
+                    const std::function<void(std::vector<std::string>&)>& f) {
+  std::vector<std::string> head, rows;
+  for (const auto& line : Lines(kSamples + "run-a/talc.csv")) {
+    (IsData(line) ? rows : head).push_back(line);
+  }
+  f(rows);
+  std::stable_sort(rows.begin(), rows.end(),
+                   [](const std::string& a, const std::string& b) {
+                     return TimeOf(a) < TimeOf(b);
+                   });
+  const fs::path path = TempDir() / (name + ".csv");
+  std::ofstream out(path);
+  for (const auto& l : head) out << l << "\n";
+  for (const auto& l : rows) out << l << "\n";
+  return path.string();
+}
+
+// Index of the cut row of `feature`.
+size_t CutRow(const std::vector<std::string>& rows, const std::string& f) {
+  for (size_t i = 0; i < rows.size(); ++i) {
+    if (rows[i].find(",cut,") != std::string::npos &&
+        rows[i].find("," + f + ",") != std::string::npos)
+      return i;
+  }
+  ADD_FAILURE() << "no cut row " << f;
+  return 0;
+}
+
+void Replace(std::string& s, const std::string& from, const std::string& to) {
+  const auto p = s.find(from);
+  ASSERT_NE(p, std::string::npos) << from;
+  s.replace(p, from.size(), to);
+}
+
+test::RunResult Check(const std::string& log, const std::string& extra = "") {
+  return test::RunTtp("check --log " + log + " " + kSamples +
+                      "run-a/piece.ply " + extra);
+}
+
+void ExpectBadLog(const test::RunResult& r,
+                  const std::vector<std::string>& words) {
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  for (const auto& w : words) {
+    EXPECT_NE(r.output.find(w), std::string::npos) << w << "\n" << r.output;
+  }
+}
+
+TEST(CliCheck, RunBAgrees) {
+  const fs::path json = TempDir() / "b.json";
+  const auto r =
+      test::RunTtp("check --log " + kSamples + "run-b/talc.csv " + kSamples +
+                   "run-b/piece.xyz --json " + json.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("45 cuts match the program"), std::string::npos);
+  std::ifstream in(json);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["compared"], 40);
+  EXPECT_EQ(j["agree"], true);
+  EXPECT_EQ(j["cycles"].size(), 8u);
+  EXPECT_TRUE(j["cycles"][0]["temperature"].contains("table_rtest_K"));
+}
+
+// run-a hides a workpiece expansion (truth.json): the measured E_TTP
+// exceeds the rigid-table simulation during the warm-up.
+TEST(CliCheck, RunAsWorkpieceExpansionDisagrees) {
+  const fs::path json = TempDir() / "a.json";
+  const auto r = Check(kSamples + "run-a/talc.csv", "--json " + json.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("DISAGREE"), std::string::npos);
+  std::ifstream in(json);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["agree"], false);
+  const auto& c4 = j["cycles"][3];
+  EXPECT_EQ(c4["E_TTP"]["agree"], false);
+  EXPECT_GT(c4["E_TTP"]["difference"].get<double>(), 2.0);
+  // Thesis 7.10: the piece warmed more than the rigid model says.
+  EXPECT_GT(c4["temperature"]["piece_measured_K"].get<double>(),
+            c4["temperature"]["piece_simulated_K"].get<double>() + 1.0);
+}
+
+TEST(CliCheck, CutNameThatIsNotAFeature) {
+  const auto log = Mutated("name", [](auto& rows) {
+    Replace(rows[CutRow(rows, "X1-3")], ",X1-3,", ",X7-3,");
+  });
+  ExpectBadLog(Check(log), {"name.csv", "feature", "X7-3"});
+}
+
+TEST(CliCheck, CutsOutOfOrder) {
+  const auto log = Mutated("order", [](auto& rows) {
+    const size_t first = CutRow(rows, "X1-1"), second = CutRow(rows, "X2-1");
+    Replace(rows[first], ",X1-1,", ",X2-1,");
+    Replace(rows[second], ",X2-1,", ",X1-1,");
+  });
+  ExpectBadLog(Check(log), {"order.csv", "feature", "out of the program"});
+}
+
+TEST(CliCheck, CutTimeOffTheSchedule) {
+  const auto log = Mutated("time", [](auto& rows) {
+    std::string& row = rows[CutRow(rows, "Y2-2")];
+    row = std::to_string(TimeOf(row) + 400) + row.substr(row.find(','));
+  });
+  ExpectBadLog(Check(log), {"time.csv", "t_s", "Y2-2", "tolerance"});
+  // A wider tolerance accepts it.
+  EXPECT_NE(Check(log, "--time-tolerance-s 600").exit_code, 2);
+}
+
+TEST(CliCheck, TableAngleNotThePlannedOne) {
+  const auto log = Mutated("angle", [](auto& rows) {
+    Replace(rows[CutRow(rows, "Y1-6")], ",Y1-6,", ",Y1-6,1");
+  });
+  ExpectBadLog(Check(log), {"angle.csv", "c_deg", "Y1-6"});
+}
+
+TEST(CliCheck, CutMissingFromTheLog) {
+  const auto log = Mutated("missing", [](auto& rows) {
+    rows.erase(rows.begin() + CutRow(rows, "Z7"));
+  });
+  ExpectBadLog(Check(log), {"missing.csv", "Z7", "no cut row"});
+}
+
+TEST(CliCheck, LogEndsBeforeTheLastCut) {
+  const auto log = Mutated("ends", [](auto& rows) {
+    rows.erase(std::remove_if(rows.begin(), rows.end(),
+                              [](const std::string& r) {
+                                return TimeOf(r) > 8 * 3600 + 100;
+                              }),
+               rows.end());
+  });
+  ExpectBadLog(Check(log), {"ends.csv", "t_s", "ends at", "last cut"});
+}
+
+TEST(CliCheck, LogStartsAfterTheFirstCut) {
+  const auto log = Mutated("starts", [](auto& rows) {
+    rows.erase(
+        std::remove_if(rows.begin(), rows.end(),
+                       [](const std::string& r) { return TimeOf(r) < 300; }),
+        rows.end());
+  });
+  ExpectBadLog(Check(log), {"starts.csv", "t_s", "starts at", "first cut"});
+}
+
+TEST(CliCheck, NoRTestAfterTheLastCut) {
+  const auto log = Mutated("rtest", [](auto& rows) {
+    rows.erase(std::remove_if(rows.begin(), rows.end(),
+                              [](const std::string& r) {
+                                return TimeOf(r) > 8 * 3600 + 354 &&
+                                       r.find(",rtest,") != std::string::npos;
+                              }),
+               rows.end());
+  });
+  ExpectBadLog(Check(log), {"rtest.csv", "rtest", "no R-test after"});
+}
+
+TEST(CliCheck, BadMeasurementOrUsage) {
+  EXPECT_EQ(test::RunTtp("check --log " + kSamples + "run-a/talc.csv " +
+                         (TempDir() / "nothing.ply").string())
+                .exit_code,
+            2);
+  EXPECT_EQ(test::RunTtp("check " + kSamples + "run-a/piece.ply").exit_code, 2);
+}
+
+}  // namespace
+}  // namespace ttp

@@ -1,0 +1,208 @@
+// `ttp diagnose` and `ttp twin` end to end through the program: the sample
+// runs made outside the project, a twin round trip, and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "run_ttp.h"
+
+namespace ttp {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kSamples = fs::path(TTP_SHARED_DIR) / "samples";
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+fs::path FreshDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Every key of diagnosis.md section 2, parameters with units in the names.
+void ExpectReportKeys(const nlohmann::json& d) {
+  ASSERT_TRUE(d.contains("cause")) << d.dump();
+  EXPECT_TRUE(d["cause"].is_string());
+  EXPECT_TRUE(d["baseline"]["rms_um"].is_number());
+  EXPECT_TRUE(d["extended"]["rms_um"].is_number());
+  EXPECT_TRUE(d["extended"]["params"].is_object());
+  EXPECT_TRUE(d["gain_pct"].is_number());
+  ASSERT_TRUE(d["candidates"].is_array());
+  EXPECT_EQ(d["candidates"].size(), 5u);
+  for (const auto& c : d["candidates"]) {
+    EXPECT_TRUE(c["cause"].is_string());
+    EXPECT_TRUE(c["delta_bic"].is_number());
+    EXPECT_TRUE(c["bic"].is_number());
+  }
+  const std::regex unit(".*_(s|um|urad|deg|K_per_K|um_per_m)$");
+  for (const auto& [name, v] : d["extended"]["params"].items()) {
+    EXPECT_TRUE(std::regex_match(name, unit)) << name;
+    EXPECT_TRUE(v.is_number());
+    EXPECT_TRUE(d["extended"]["uncertainty"][name].is_number()) << name;
+  }
+  if (d["cause"] == "none") {
+    EXPECT_TRUE(d["extended"]["params"].empty());
+    EXPECT_EQ(d["gain_pct"], 0.0);
+  }
+}
+
+nlohmann::json InspectAndDiagnose(const std::string& run,
+                                  const std::string& cloud,
+                                  const fs::path& dir) {
+  const fs::path in = kSamples / run;
+  const auto inspected = test::RunTtp("inspect " + (in / cloud).string() +
+                                      " --json " + (dir / "m.json").string());
+  EXPECT_EQ(inspected.exit_code, 0) << inspected.output;
+  const auto r = test::RunTtp("diagnose --log " + (in / "talc.csv").string() +
+                              " " + (dir / "m.json").string() + " --json " +
+                              (dir / "d.json").string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("cause: "), std::string::npos) << r.output;
+  return ReadJson(dir / "d.json");
+}
+
+TEST(CliDiagnosis, SampleRunANamesWorkpieceExpansionWithItsParameters) {
+  const fs::path dir = FreshDir("ttp_cli_diag_a");
+  const nlohmann::json d = InspectAndDiagnose("run-a", "piece.ply", dir);
+  ExpectReportKeys(d);
+  const nlohmann::json truth = ReadJson(kSamples / "run-a/truth.json");
+  ASSERT_EQ(d["cause"], truth["cause"]);
+  const auto& p = d["extended"]["params"];
+  const auto& u = d["extended"]["uncertainty"];
+  // Within the expanded uncertainty (k = 2) of the truth.
+  EXPECT_NEAR(p["tau_wp_s"].get<double>(), truth["params"]["tau_wp_s"],
+              2 * u["tau_wp_s"].get<double>());
+  EXPECT_NEAR(p["gain_K_per_K"].get<double>(), truth["params"]["gain"],
+              2 * u["gain_K_per_K"].get<double>());
+  EXPECT_LT(d["extended"]["rms_um"], d["baseline"]["rms_um"]);
+  EXPECT_GT(d["gain_pct"], 20.0);
+}
+
+TEST(CliDiagnosis, SampleRunBNamesNone) {
+  const fs::path dir = FreshDir("ttp_cli_diag_b");
+  const nlohmann::json d = InspectAndDiagnose("run-b", "piece.xyz", dir);
+  ExpectReportKeys(d);
+  EXPECT_EQ(d["cause"], ReadJson(kSamples / "run-b/truth.json")["cause"]);
+  EXPECT_EQ(d["cause"], "none");
+}
+
+TEST(CliDiagnosis, TwinRoundTripThroughACloud) {
+  const fs::path dir = FreshDir("ttp_cli_diag_twin");
+  const auto t = test::RunTtp(
+      "twin --effect clamping_distortion --size 2 "
+      "--seed 12 --compensation on -o " +
+      dir.string());
+  ASSERT_EQ(t.exit_code, 0) << t.output;
+  ASSERT_TRUE(fs::exists(dir / "piece.ply"));  // a cloud by default
+  const nlohmann::json truth = ReadJson(dir / "truth.json");
+  // The cloud straight into diagnose (inspected on the way).
+  const auto r = test::RunTtp("diagnose --log " + (dir / "talc.csv").string() +
+                              " " + (dir / "piece.ply").string() + " --json " +
+                              (dir / "d.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json d = ReadJson(dir / "d.json");
+  ExpectReportKeys(d);
+  EXPECT_EQ(d["cause"], truth["cause"]);
+  EXPECT_NEAR(
+      d["extended"]["params"]["amplitude_um"].get<double>(),
+      truth["params"]["amplitude_um"].get<double>(),
+      3 * d["extended"]["uncertainty"]["amplitude_um"].get<double>() + 0.1);
+  // Same input, same output.
+  const auto again = test::RunTtp(
+      "twin --effect clamping_distortion --size 2 "
+      "--seed 12 --compensation on -o " +
+      (dir / "again").string());
+  ASSERT_EQ(again.exit_code, 0);
+  std::ifstream a(dir / "piece.ply", std::ios::binary),
+      b(dir / "again/piece.ply", std::ios::binary);
+  std::stringstream sa, sb;
+  sa << a.rdbuf();
+  sb << b.rdbuf();
+  EXPECT_EQ(sa.str(), sb.str());
+}
+
+TEST(CliDiagnosis, TwinJsonAndXyzMeasurements) {
+  const fs::path dir = FreshDir("ttp_cli_diag_twin2");
+  const auto t = test::RunTtp(
+      "twin --effect tool_wear --size 3 --seed 5 --measurement json -o " +
+      dir.string());
+  ASSERT_EQ(t.exit_code, 0) << t.output;
+  const auto r = test::RunTtp("diagnose --log " + (dir / "talc.csv").string() +
+                              " " + (dir / "measured.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("cause: tool_wear"), std::string::npos) << r.output;
+  const auto x = test::RunTtp("twin --seed 5 --measurement xyz -o " +
+                              (dir / "xyz").string());
+  ASSERT_EQ(x.exit_code, 0) << x.output;
+  EXPECT_TRUE(fs::exists(dir / "xyz/piece.xyz"));
+  const auto help = test::RunTtp("twin --help");
+  EXPECT_NE(help.output.find("--measurement"), std::string::npos);
+  const auto bad = test::RunTtp("twin --measurement stl -o " + dir.string());
+  EXPECT_NE(bad.exit_code, 0);
+}
+
+TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
+  const fs::path dir = FreshDir("ttp_cli_diag_bad");
+  const std::string a = (kSamples / "run-a").string();
+  ASSERT_EQ(test::RunTtp("inspect " + a + "/piece.ply --json " +
+                         (dir / "a.json").string())
+                .exit_code,
+            0);
+  const std::string measured = (dir / "a.json").string();
+  // A missing log.
+  const std::string missing = (dir / "no_such_log.csv").string();
+  auto r = test::RunTtp("diagnose --log " + missing + " " + measured);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(missing), std::string::npos) << r.output;
+  // A log that stops after cycle 4: it does not cover the later cuts.
+  {
+    std::ifstream in(a + "/talc.csv");
+    std::ofstream out(dir / "short.csv");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (!line.empty() && std::isdigit(static_cast<unsigned char>(line[0])) &&
+          std::stod(line) > 16000)
+        break;
+      out << line << "\n";
+    }
+  }
+  const std::string short_log = (dir / "short.csv").string();
+  r = test::RunTtp("diagnose --log " + short_log + " " + measured);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(short_log), std::string::npos) << r.output;
+  // Caught by the schedule check (the log ends before the last cut) ...
+  EXPECT_NE(r.output.find("before the program's last cut"), std::string::npos)
+      << r.output;
+  // ... and, without it, by the diagnosis (the log has no cut of them).
+  r = test::RunTtp("diagnose --no-schedule-check --log " + short_log + " " +
+                   measured);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("cover"), std::string::npos) << r.output;
+  // Run-a's piece against run-b's log: they do not belong together.
+  r = test::RunTtp("diagnose --log " + (kSamples / "run-b/talc.csv").string() +
+                   " " + measured);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(measured), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("do not belong together"), std::string::npos)
+      << r.output;
+  // A measurement that is not JSON of a piece.
+  { std::ofstream(dir / "junk.json") << "{\"hello\": 1}"; }
+  r = test::RunTtp("diagnose --log " + a + "/talc.csv " +
+                   (dir / "junk.json").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("junk.json"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace ttp

@@ -1,0 +1,140 @@
+// `ttp gcode`: the two programs in both dialects (same toolpath and total
+// time), rs274's check, and bad configuration fields named with exit 2.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "run_ttp.h"
+
+namespace ttp {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path Dir() { return test::TestDir("ttp_cli_gcode"); }
+
+nlohmann::json Read(const fs::path& program) {
+  const fs::path json = program.string() + ".json";
+  const auto r =
+      test::RunTtp("gcode read " + program.string() + " -o " + json.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return nlohmann::json::parse(std::ifstream(json));
+}
+
+class CliGcodeProgram : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(CliGcodeProgram, FanucAndLinuxCncTwinsGiveTheSameToolpathAndTime) {
+  const std::string name = GetParam();
+  const fs::path nc = Dir() / (name + ".nc"), ngc = Dir() / (name + ".ngc");
+  auto r = test::RunTtp("gcode " + name + " -o " + nc.string());  // fanuc
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::RunTtp("gcode " + name + " --dialect linuxcnc -o " + ngc.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto a = Read(nc), b = Read(ngc);
+  EXPECT_EQ(a.at("dialect"), "fanuc");  // detected from the text
+  EXPECT_EQ(b.at("dialect"), "linuxcnc");
+  EXPECT_GT(a.at("total_s").get<double>(), name == "cycle" ? 8 * 3600 : 600);
+  EXPECT_NEAR(a.at("total_s").get<double>(), b.at("total_s").get<double>(),
+              1e-6);
+  // Statement by statement: same kinds, end points, C and feeds (comments
+  // and line numbers may differ).
+  const auto& sa = a.at("statements");
+  const auto& sb = b.at("statements");
+  ASSERT_EQ(sa.size(), sb.size());
+  int moves = 0;
+  for (size_t i = 0; i < sa.size(); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_EQ(sa[i].at("kind"), sb[i].at("kind"));
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(sa[i]["end_mm"][k].get<double>(),
+                  sb[i]["end_mm"][k].get<double>(), 1e-9);
+    EXPECT_NEAR(sa[i]["end_c_deg"].get<double>(),
+                sb[i]["end_c_deg"].get<double>(), 1e-9);
+    EXPECT_NEAR(sa[i]["start_s"].get<double>(), sb[i]["start_s"].get<double>(),
+                1e-6);
+    if (sa[i].contains("feed_per_min")) {
+      ++moves;
+      EXPECT_NEAR(sa[i]["feed_per_min"].get<double>(),
+                  sb[i]["feed_per_min"].get<double>(), 1e-9);
+    }
+  }
+  EXPECT_GT(moves, 20);
+  // rs274 reads the LinuxCNC text (and the FANUC one's translation) into
+  // the same canonical moves as the project's reader.
+  for (const fs::path& p : {ngc, nc}) {
+    r = test::RunTtp("gcode check " + p.string());
+    if (r.output.find("rs274") != std::string::npos &&
+        r.output.find("not found") != std::string::npos)
+      GTEST_SKIP() << "rs274 missing";
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("same toolpath"), std::string::npos) << r.output;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(BothPrograms, CliGcodeProgram,
+                         ::testing::Values("pre", "cycle"));
+
+struct BadConfig {
+  const char* name;
+  const char* toml;
+  const char* field;  // must appear in the message
+};
+
+class CliGcodeBadConfig : public ::testing::TestWithParam<BadConfig> {};
+
+TEST_P(CliGcodeBadConfig, IsExit2NamingTheField) {
+  const BadConfig& c = GetParam();
+  const fs::path path = Dir() / (std::string(c.name) + ".toml");
+  std::ofstream(path) << c.toml;
+  const fs::path out = Dir() / (std::string(c.name) + ".nc");
+  const auto r = test::RunTtp("--config " + path.string() + " gcode cycle -o " +
+                              out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(c.field), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out));  // nothing written
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Fields, CliGcodeBadConfig,
+    ::testing::Values(
+        BadConfig{"part_larger_than_blank",
+                  "[part]\nref_cylinders = [{diameter_mm = 210.0, "
+                  "z_bottom_mm = -24.0, z_top_mm = -12.0}]\n",
+                  "part.ref_cylinders[0].diameter_mm"},
+        BadConfig{"rim_larger_than_blank", "[part]\nrim_diameter_mm = 250.0\n",
+                  "part.rim_diameter_mm"},
+        BadConfig{"tool_larger_than_notch",
+                  "[process.notch]\ndiameter_mm = 30.0\n",
+                  "process.notch.diameter_mm"},
+        BadConfig{"travel_exceeded", "[machine]\ntravel_x_mm = [-50.0, 50.0]\n",
+                  "machine.travel_x_mm"},
+        BadConfig{"negative_dimension", "[part]\nblank_height_mm = -25.0\n",
+                  "part.blank_height_mm"},
+        BadConfig{"missing_dimension",
+                  "[part]\nref_cylinders = [{z_bottom_mm = -24.0, "
+                  "z_top_mm = -12.0}]\n",
+                  "part.ref_cylinders[0].diameter_mm"},
+        BadConfig{"not_a_number", "[part]\nblank_diameter_mm = \"big\"\n",
+                  "part.blank_diameter_mm"},
+        BadConfig{"unknown_field", "[part]\nblank_diamter_mm = 203.0\n",
+                  "blank_diamter_mm"},
+        BadConfig{"unreadable_profile", "[machine\ntravel = 1\n", ":1"}),
+    [](const ::testing::TestParamInfo<BadConfig>& info) {
+      return std::string(info.param.name);
+    });
+
+TEST(CliGcode, UnknownDialectOrMissingProfileIsExit2) {
+  auto r = test::RunTtp("gcode pre --dialect heidenhain");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--dialect"), std::string::npos) << r.output;
+  r = test::RunTtp("--config " + (Dir() / "missing.toml").string() +
+                   " gcode pre");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("missing.toml"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace ttp
