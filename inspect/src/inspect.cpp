@@ -616,20 +616,17 @@ InspectionResult InspectCloud(const PartSpec& part, const PointCloud& cloud,
   out.alignment.rotation = rz * f.rot;
   const Eigen::Vector3d origin_q(origin2.x(), origin2.y(), 0.0);
   out.alignment.translation = -rz * (f.rot * f.origin + origin_q);
-  const Eigen::Matrix3d& R = out.alignment.rotation;
   const Eigen::Matrix2d rz2 = rz.topLeftCorner<2, 2>();
   const Eigen::Matrix2d origin_cov_w = rz2 * origin_cov * rz2.transpose();
-  const Eigen::Vector3d& T = out.alignment.translation;
 
   // 6. Segmentation in W.
-  // W = R p + T = rz (q - origin): transform q in place (no second copy
-  // of a million-point cloud).
+  // W = rotation p + translation = rz (q - origin): transform q in place (no
+  // second copy of a million-point cloud).
   Eigen::Matrix3Xd& w = q;
   for (Index i = 0; i < n; ++i) {
     const Eigen::Vector3d d = q.col(i) - origin_q;
     w.col(i).noalias() = rz * d;
   }
-  (void)T;
   const int facets = part.facets_per_segment;
   std::vector<Indices> facet_pts(4 * facets), strip_pts(facets);
   const double d_facet = part.facet_final_distance_mm;

@@ -21,12 +21,6 @@ namespace fs = std::filesystem;
 
 const std::string kSamples = std::string(TTP_SHARED_DIR) + "/samples/";
 
-fs::path TempDir() {
-  const fs::path dir = fs::temp_directory_path() / "ttp_cli_check";
-  fs::create_directories(dir);
-  return dir;
-}
-
 std::vector<std::string> Lines(const std::string& path) {
   std::ifstream in(path);
   std::vector<std::string> lines;
@@ -52,7 +46,7 @@ std::string Mutated(const std::string& name,
                    [](const std::string& a, const std::string& b) {
                      return TimeOf(a) < TimeOf(b);
                    });
-  const fs::path path = TempDir() / (name + ".csv");
+  const fs::path path = test::TestDir("check") / (name + ".csv");
   std::ofstream out(path);
   for (const auto& l : head) out << l << "\n";
   for (const auto& l : rows) out << l << "\n";
@@ -90,7 +84,7 @@ void ExpectBadLog(const test::RunResult& r,
 }
 
 TEST(CliCheck, RunBAgrees) {
-  const fs::path json = TempDir() / "b.json";
+  const fs::path json = test::TestDir("check") / "b.json";
   const auto r =
       test::RunTtp("check --log " + kSamples + "run-b/talc.csv " + kSamples +
                    "run-b/piece.xyz --json " + json.string());
@@ -107,7 +101,7 @@ TEST(CliCheck, RunBAgrees) {
 // run-a hides a workpiece expansion (truth.json): the measured E_TTP
 // exceeds the rigid-table simulation during the warm-up.
 TEST(CliCheck, RunAsWorkpieceExpansionDisagrees) {
-  const fs::path json = TempDir() / "a.json";
+  const fs::path json = test::TestDir("check") / "a.json";
   const auto r = Check(kSamples + "run-a/talc.csv", "--json " + json.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("DISAGREE"), std::string::npos);
@@ -197,7 +191,7 @@ TEST(CliCheck, NoRTestAfterTheLastCut) {
 
 TEST(CliCheck, BadMeasurementOrUsage) {
   EXPECT_EQ(test::RunTtp("check --log " + kSamples + "run-a/talc.csv " +
-                         (TempDir() / "nothing.ply").string())
+                         (test::TestDir("check") / "nothing.ply").string())
                 .exit_code,
             2);
   EXPECT_EQ(test::RunTtp("check " + kSamples + "run-a/piece.ply").exit_code, 2);

@@ -18,18 +18,6 @@ namespace fs = std::filesystem;
 
 const fs::path kSamples = fs::path(TTP_SHARED_DIR) / "samples";
 
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
-fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 // Every key of diagnosis.md section 2, parameters with units in the names.
 void ExpectReportKeys(const nlohmann::json& d) {
   ASSERT_TRUE(d.contains("cause")) << d.dump();
@@ -69,14 +57,14 @@ nlohmann::json InspectAndDiagnose(const std::string& run,
                               (dir / "d.json").string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("cause: "), std::string::npos) << r.output;
-  return ReadJson(dir / "d.json");
+  return test::ReadJson(dir / "d.json");
 }
 
 TEST(CliDiagnosis, SampleRunANamesWorkpieceExpansionWithItsParameters) {
-  const fs::path dir = FreshDir("ttp_cli_diag_a");
+  const fs::path dir = test::TestDir("diag_a");
   const nlohmann::json d = InspectAndDiagnose("run-a", "piece.ply", dir);
   ExpectReportKeys(d);
-  const nlohmann::json truth = ReadJson(kSamples / "run-a/truth.json");
+  const nlohmann::json truth = test::ReadJson(kSamples / "run-a/truth.json");
   ASSERT_EQ(d["cause"], truth["cause"]);
   const auto& p = d["extended"]["params"];
   const auto& u = d["extended"]["uncertainty"];
@@ -90,28 +78,28 @@ TEST(CliDiagnosis, SampleRunANamesWorkpieceExpansionWithItsParameters) {
 }
 
 TEST(CliDiagnosis, SampleRunBNamesNone) {
-  const fs::path dir = FreshDir("ttp_cli_diag_b");
+  const fs::path dir = test::TestDir("diag_b");
   const nlohmann::json d = InspectAndDiagnose("run-b", "piece.xyz", dir);
   ExpectReportKeys(d);
-  EXPECT_EQ(d["cause"], ReadJson(kSamples / "run-b/truth.json")["cause"]);
+  EXPECT_EQ(d["cause"], test::ReadJson(kSamples / "run-b/truth.json")["cause"]);
   EXPECT_EQ(d["cause"], "none");
 }
 
 TEST(CliDiagnosis, TwinRoundTripThroughACloud) {
-  const fs::path dir = FreshDir("ttp_cli_diag_twin");
+  const fs::path dir = test::TestDir("diag_twin");
   const auto t = test::RunTtp(
       "twin --effect clamping_distortion --size 2 "
       "--seed 12 --compensation on -o " +
       dir.string());
   ASSERT_EQ(t.exit_code, 0) << t.output;
   ASSERT_TRUE(fs::exists(dir / "piece.ply"));  // a cloud by default
-  const nlohmann::json truth = ReadJson(dir / "truth.json");
+  const nlohmann::json truth = test::ReadJson(dir / "truth.json");
   // The cloud straight into diagnose (inspected on the way).
   const auto r = test::RunTtp("diagnose --log " + (dir / "talc.csv").string() +
                               " " + (dir / "piece.ply").string() + " --json " +
                               (dir / "d.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const nlohmann::json d = ReadJson(dir / "d.json");
+  const nlohmann::json d = test::ReadJson(dir / "d.json");
   ExpectReportKeys(d);
   EXPECT_EQ(d["cause"], truth["cause"]);
   EXPECT_NEAR(
@@ -133,7 +121,7 @@ TEST(CliDiagnosis, TwinRoundTripThroughACloud) {
 }
 
 TEST(CliDiagnosis, TwinJsonAndXyzMeasurements) {
-  const fs::path dir = FreshDir("ttp_cli_diag_twin2");
+  const fs::path dir = test::TestDir("diag_twin2");
   const auto t = test::RunTtp(
       "twin --effect tool_wear --size 3 --seed 5 --measurement json -o " +
       dir.string());
@@ -153,7 +141,7 @@ TEST(CliDiagnosis, TwinJsonAndXyzMeasurements) {
 }
 
 TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
-  const fs::path dir = FreshDir("ttp_cli_diag_bad");
+  const fs::path dir = test::TestDir("diag_bad");
   const std::string a = (kSamples / "run-a").string();
   ASSERT_EQ(test::RunTtp("inspect " + a + "/piece.ply --json " +
                          (dir / "a.json").string())

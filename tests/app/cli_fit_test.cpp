@@ -27,7 +27,7 @@ Eigen::Vector3d V(const nlohmann::json& a) {
 
 nlohmann::json Fit(const std::string& shape, const std::string& file,
                    const std::string& extra = "") {
-  const fs::path out = fs::temp_directory_path() / "ttp_cli_fit.json";
+  const fs::path out = test::TestDir("fit") / "fit.json";
   const auto r = test::RunTtp("fit " + shape + " " + file + " --json " +
                               out.string() + " " + extra);
   EXPECT_EQ(r.exit_code, 0) << r.output;
@@ -103,8 +103,7 @@ TEST(CliFit, NistReferencePairs) {
 
 // circle2d fits x, y only: a 3D circle data set seen from its plane.
 TEST(CliFit, Circle2dAndRobustLoss) {
-  const fs::path dir = fs::temp_directory_path() / "ttp_cli_fit";
-  fs::create_directories(dir);
+  const fs::path dir = test::TestDir("fit");
   {
     std::ofstream f(dir / "circle.xyz");
     f.precision(17);
@@ -142,7 +141,7 @@ TEST(CliFit, BadInputExitsTwo) {
   EXPECT_NE(r.output.find("--robust"), std::string::npos) << r.output;
   r = test::RunTtp("fit plane /nonexistent/points.xyz");
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  const fs::path bad = fs::temp_directory_path() / "ttp_cli_fit_bad.xyz";
+  const fs::path bad = test::TestDir("fit") / "bad.xyz";
   std::ofstream(bad) << "3\n1 2 3\n4 5 6\n";  // says 3, has 2
   r = test::RunTtp("fit plane " + bad.string());
   EXPECT_EQ(r.exit_code, 2);

@@ -14,7 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path Dir() { return test::TestDir("ttp_cli_gcode"); }
+fs::path Dir() { return test::TestDir("gcode"); }
 
 nlohmann::json Read(const fs::path& program) {
   const fs::path json = program.string() + ".json";

@@ -14,7 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path Dir() { return test::TestDir("ttp_cli_inspect"); }
+fs::path Dir() { return test::TestDir("inspect"); }
 
 nlohmann::json Load(const fs::path& p) {
   std::ifstream in(p);

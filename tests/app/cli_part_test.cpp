@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "om_mesh.h"
 #include "run_ttp.h"
 #include "ttp/geometry/config.h"
 
@@ -19,27 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct OmDouble : public OpenMesh::DefaultTraits {
-  using Point = OpenMesh::Vec3d;
-  using Normal = OpenMesh::Vec3d;
-};
-using OmMesh = OpenMesh::TriMesh_ArrayKernelT<OmDouble>;
-
-fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::path(TTP_BINARY_DIR) / "test-tmp" / name;
-  fs::remove_all(dir);
-  return dir;
-}
-
-double Volume(const OmMesh& om) {
-  double six_v = 0;
-  for (auto f : om.faces()) {
-    std::vector<OpenMesh::Vec3d> p;
-    for (auto v : om.fv_range(f)) p.push_back(om.point(v));
-    six_v += OpenMesh::dot(p[0], OpenMesh::cross(p[1], p[2]));
-  }
-  return six_v / 6;
-}
+using test::OmMesh;
+using test::OmVolume;
 
 // Closed (no boundary halfedge) and two-manifold (OpenMesh refuses complex
 // edges on reading; every vertex manifold).
@@ -63,7 +44,7 @@ std::set<std::string> Tags(const fs::path& path, const std::string& prefix) {
 }
 
 TEST(CliPart, ExportsClosedTaggedMeshesAndTheFeatureTable) {
-  const fs::path dir = FreshDir("ttp_cli_part");
+  const fs::path dir = test::TestDir("part");
   const auto r = test::RunTtp("part export -o " + dir.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
 
@@ -130,14 +111,14 @@ TEST(CliPart, ExportsClosedTaggedMeshesAndTheFeatureTable) {
                   id == "OTHER")
           << id;
     }
-    volume[stage] = Volume(ply);
+    volume[stage] = OmVolume(ply);
 
     // OBJ: one group per feature.
     OmMesh obj;
     ASSERT_TRUE(OpenMesh::IO::read_mesh(obj, (dir / (stem + ".obj")).string()));
     EXPECT_EQ(ClosedManifold(obj), "");
     EXPECT_EQ(obj.n_faces(), ply.n_faces());
-    EXPECT_NEAR(Volume(obj), volume[stage], 1e-3 * volume[stage]);
+    EXPECT_NEAR(OmVolume(obj), volume[stage], 1e-3 * volume[stage]);
     EXPECT_EQ(Tags(dir / (stem + ".obj"), "g "), ply_ids);
 
     // STL: one named solid per feature; OpenMesh merges equal points, so
@@ -146,7 +127,7 @@ TEST(CliPart, ExportsClosedTaggedMeshesAndTheFeatureTable) {
     ASSERT_TRUE(OpenMesh::IO::read_mesh(stl, (dir / (stem + ".stl")).string()));
     EXPECT_EQ(ClosedManifold(stl), "");
     EXPECT_EQ(stl.n_faces(), ply.n_faces());
-    EXPECT_NEAR(Volume(stl), volume[stage], 1e-3 * volume[stage]);
+    EXPECT_NEAR(OmVolume(stl), volume[stage], 1e-3 * volume[stage]);
     EXPECT_EQ(Tags(dir / (stem + ".stl"), "solid "), ply_ids);
   }
   EXPECT_NEAR(volume["blank"], blank_volume, 1e-3 * blank_volume);
@@ -159,7 +140,7 @@ TEST(CliPart, ExportsClosedTaggedMeshesAndTheFeatureTable) {
 }
 
 TEST(CliPart, OneFormatOneStage) {
-  const fs::path dir = FreshDir("ttp_cli_part_one");
+  const fs::path dir = test::TestDir("part_one");
   const auto r = test::RunTtp("part export -o " + dir.string() +
                               " --format obj --stage pre");
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -171,8 +152,7 @@ TEST(CliPart, OneFormatOneStage) {
 }
 
 TEST(CliPart, BadOutputOrFormatIsExit2) {
-  const fs::path dir = FreshDir("ttp_cli_part_bad");
-  fs::create_directories(dir);
+  const fs::path dir = test::TestDir("part_bad");
   { std::ofstream(dir / "a_file") << "x"; }
   auto r = test::RunTtp("part export -o " + (dir / "a_file").string());
   EXPECT_EQ(r.exit_code, 2) << r.output;

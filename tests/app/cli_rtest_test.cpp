@@ -14,8 +14,7 @@ namespace {
 
 TEST(CliRTest, EvaluatesASphereFile) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "ttp_cli_rtest";
-  fs::create_directories(dir);
+  const fs::path dir = test::TestDir("rtest");
   RTestGeometry g;  // machine defaults: 160 mm, 80 mm high
   const CAxisErrors truth =
       CAxisErrors::FromMicro({1.5, -2.0, 3.0, 0.5, 4.0, -6.0, 8.0});
@@ -44,8 +43,7 @@ TEST(CliRTest, EvaluatesASphereFile) {
 
 TEST(CliRTest, BadInputExitsTwoNamingTheLine) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "ttp_cli_rtest";
-  fs::create_directories(dir);
+  const fs::path dir = test::TestDir("rtest");
   std::ofstream(dir / "bad.csv")
       << "cycle,c_deg,x,y,z\n0,0,1,2,3\n1,0,1,abc,3\n";
   const auto r = test::RunTtp("rtest " + (dir / "bad.csv").string());

@@ -12,25 +12,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
 std::string ReadText(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-fs::path FreshDir(const std::string& name) {
-  // One folder per test in the build tree: ctest runs tests in parallel.
-  const fs::path dir = fs::path(TTP_BINARY_DIR) / "test-tmp" / name;
-  fs::remove_all(dir);
-  return dir;
-}
-
 TEST(CliRun, WritesEveryStageAndNamesTheHiddenCause) {
-  const fs::path dir = FreshDir("ttp_cli_run");
+  const fs::path dir = test::TestDir("run");
   const auto r = test::RunTtp("run -o " + dir.string() +
                               " --effect workpiece_expansion --seed 7");
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -47,35 +35,35 @@ TEST(CliRun, WritesEveryStageAndNamesTheHiddenCause) {
   }
   // Not a terminal: no progress lines.
   EXPECT_EQ(r.output.find("[1/"), std::string::npos) << r.output;
-  const auto rs = ReadJson(dir / "rs274_check.json");
+  const auto rs = test::ReadJson(dir / "rs274_check.json");
   ASSERT_EQ(rs.size(), 2u);
   for (const auto& p : rs) {
     EXPECT_TRUE(p["rs274_equals_own_reader"].get<bool>()) << p.dump();
     EXPECT_TRUE(p["fanuc_equals_linuxcnc"].get<bool>()) << p.dump();
   }
-  const auto verify = ReadJson(dir / "verify.json");
+  const auto verify = test::ReadJson(dir / "verify.json");
   EXPECT_TRUE(verify["passed"].get<bool>()) << verify.dump(1);
-  const auto inspection = ReadJson(dir / "inspection.json");
+  const auto inspection = test::ReadJson(dir / "inspection.json");
   ASSERT_EQ(inspection["figures"].size(), 8u);
   // Every figure of the complete piece is compared; every planned cut is
   // on the log.
-  const auto check = ReadJson(dir / "check.json");
+  const auto check = test::ReadJson(dir / "check.json");
   EXPECT_EQ(check["compared"].get<int>(),
             static_cast<int>(inspection["figures"].size()) * 5);
   EXPECT_EQ(check["schedule"]["matched_cuts"].get<size_t>(),
-            ReadJson(dir / "schedule.json")["cuts"].size());
+            test::ReadJson(dir / "schedule.json")["cuts"].size());
   // The report names the same cause as the diagnosis (its diagnosis
   // section, not the header that shows the hidden effect).
-  const auto report = ReadJson(dir / "report.json");
+  const auto report = test::ReadJson(dir / "report.json");
   EXPECT_EQ(report["diagnosis"]["cause"], "workpiece_expansion");
-  const auto truth = ReadJson(dir / "twin/truth.json");
+  const auto truth = test::ReadJson(dir / "twin/truth.json");
   EXPECT_EQ(truth["cause"], "workpiece_expansion");
-  const auto diagnosis = ReadJson(dir / "diagnosis.json");
+  const auto diagnosis = test::ReadJson(dir / "diagnosis.json");
   EXPECT_EQ(diagnosis["cause"], "workpiece_expansion") << diagnosis.dump(1);
 }
 
 TEST(CliRun, SameInputSameOutput) {
-  const fs::path a = FreshDir("ttp_cli_run_a"), b = FreshDir("ttp_cli_run_b");
+  const fs::path a = test::TestDir("run_a"), b = test::TestDir("run_b");
   ASSERT_EQ(
       test::RunTtp("--quiet run -o " + a.string() + " --seed 3").exit_code, 0);
   ASSERT_EQ(
@@ -99,15 +87,15 @@ TEST(CliRun, SameInputSameOutput) {
 }
 
 TEST(CliRun, BadOptionsAreUsageErrors) {
-  const fs::path dir = FreshDir("ttp_cli_run_bad");
+  const fs::path dir = test::TestDir("run_bad");
   auto r = test::RunTtp("run -o " + dir.string() + " --effect warping");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("effect"), std::string::npos) << r.output;
   r = test::RunTtp("run");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   // The output folder is a file: nothing is written, exit 2.
-  std::ofstream(dir.string() + "_file") << "x";
-  r = test::RunTtp("run -o " + dir.string() + "_file");
+  std::ofstream(dir / "a_file") << "x";
+  r = test::RunTtp("run -o " + (dir / "a_file").string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
 }
 

@@ -14,31 +14,20 @@ namespace {
 namespace fs = std::filesystem;
 const std::string kSamples = std::string(TTP_SHARED_DIR) + "/samples/";
 
-nlohmann::json ReadJson(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
-fs::path TempDir() {
-  const fs::path dir = fs::temp_directory_path() / "ttp_cli_thermal";
-  fs::create_directories(dir);
-  return dir;
-}
-
 TEST(CliThermal, LogSummarisesTheSampleRun) {
-  const fs::path json = TempDir() / "log.json";
+  const fs::path json = test::TestDir("thermal") / "log.json";
   const auto r = test::RunTtp("log " + kSamples + "run-b/talc.csv --json " +
                               json.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("compensation  on"), std::string::npos);
-  const auto j = ReadJson(json);
+  const auto j = test::ReadJson(json);
   EXPECT_EQ(j["cuts"], 45);
   EXPECT_EQ(j["compensation"], "on");
   EXPECT_TRUE(j["gaps"].empty());
 }
 
 TEST(CliThermal, LogRejectsABadFile) {
-  const fs::path bad = TempDir() / "bad.csv";
+  const fs::path bad = test::TestDir("thermal") / "bad.csv";
   std::ofstream(bad) << "# talc-log: 1\n# compensation: off\nt_s,event\n";
   const auto r = test::RunTtp("log " + bad.string());
   EXPECT_EQ(r.exit_code, 2);
@@ -47,13 +36,14 @@ TEST(CliThermal, LogRejectsABadFile) {
 
 TEST(CliThermal, SimulateWritesFiguresAndTheInterpolationComparison) {
   for (const char* run : {"run-a", "run-b"}) {
-    const fs::path json = TempDir() / (std::string(run) + ".json");
+    const fs::path json =
+        test::TestDir("thermal") / (std::string(run) + ".json");
     const auto r = test::RunTtp("simulate --log " + kSamples + run +
                                 "/talc.csv --compare-interpolation --json " +
                                 json.string());
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_NE(r.output.find("warm-up start"), std::string::npos);
-    const auto j = ReadJson(json);
+    const auto j = test::ReadJson(json);
     EXPECT_EQ(j["figures"].size(), 8u);
     EXPECT_EQ(j["cuts"].size(), 45u);
     const auto& w = j["interpolation_at_load_changes"]["windows"];

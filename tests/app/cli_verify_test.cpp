@@ -15,7 +15,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path Dir() { return test::TestDir("ttp_cli_verify"); }
+fs::path Dir() { return test::TestDir("verify"); }
 
 std::vector<std::string> ReadLines(const fs::path& path) {
   std::ifstream in(path);

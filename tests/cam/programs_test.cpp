@@ -249,7 +249,9 @@ TEST_F(ProgramsTest, WarmUpSpinsCAndCoolDownHoldsAtZero) {
       ++dwells_after[cycle];
       EXPECT_EQ(spindle_rpm, 0.0) << "spindle stopped while waiting";
       EXPECT_GT(s.value, 3000.0);
-      if (cycle >= 4) EXPECT_EQ(s.end_c_rad, 0.0);
+      if (cycle >= 4) {
+        EXPECT_EQ(s.end_c_rad, 0.0);
+      }
     }
   }
   for (int k = 0; k < 8; ++k) {
@@ -291,9 +293,10 @@ TEST_F(ProgramsTest, RapidsAndTableIndexingStayOutsideTheBlank) {
               << "rapid at line " << s.source_line;
         }
         // Turning (C feed) in the pre-machining is the exception: it cuts.
-        if (c_moves && low && s.kind == CanonKind::kTraverse)
+        if (c_moves && low && s.kind == CanonKind::kTraverse) {
           EXPECT_GE(at.head<2>().norm(), blank_r + r - 1e-6)
               << "C index at line " << s.source_line;
+        }
       }
       if (IsMotion(s)) {
         at = s.end_mm;

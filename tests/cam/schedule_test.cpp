@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "cam_testing.h"
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
@@ -76,9 +77,7 @@ TEST_F(ScheduleTest, FanucProgramGivesTheSameSchedule) {
 }
 
 TEST_F(ScheduleTest, CsvAndJsonHoldEveryCut) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("ttp_cam_schedule_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const auto dir = test::TestDir("schedule");
   WriteScheduleCsv(dir / "s.csv", *schedule_);
   WriteScheduleJson(dir / "s.json", *schedule_);
   std::istringstream csv(ReadTextFile(dir / "s.csv"));

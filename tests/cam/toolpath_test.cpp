@@ -104,8 +104,9 @@ TEST(MillSlotTest, ReachesTheFloorInStepsAndClimbsBothWalls) {
     } else if (const auto* r = std::get_if<gcode::Rapid>(&s)) {
       const Eigen::Vector3d to(*r->to.x_mm, *r->to.y_mm, *r->to.z_mm);
       // Rapids below the top happen only outside the piece's length.
-      if (std::min(to.z(), at.z()) < 0)
+      if (std::min(to.z(), at.z()) < 0) {
         EXPECT_DOUBLE_EQ(std::abs(to.y()), slot.length_mm);
+      }
       at = to;
     }
   }

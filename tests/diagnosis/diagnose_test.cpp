@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "test_dir.h"
 #include "ttp/diagnosis/twin.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -18,8 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TempFile(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::temp_directory_path() / "ttp_diagnose_test";
-  fs::create_directories(dir);
+  const fs::path dir = test::TestDir("diagnose");
   WriteFileAtomic(dir / name, text);
   return dir / name;
 }

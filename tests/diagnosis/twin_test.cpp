@@ -6,6 +6,7 @@
 
 #include <filesystem>
 
+#include "test_dir.h"
 #include "ttp/inspect/inspect.h"
 #include "ttp/thermal/talc_log.h"
 
@@ -65,7 +66,7 @@ TEST(Twin, WritesTheChosenMeasurement) {
   TwinOptions o;
   o.seed = 2;
   const TwinRun run = RunTwin(config, o);
-  const auto dir = std::filesystem::temp_directory_path() / "ttp_twin_test";
+  const auto dir = test::TestDir("twin");
   std::filesystem::remove_all(dir);
   EXPECT_EQ(WriteTwin(config, run, o, dir.string(), TwinMeasurement::kXyz),
             (dir / "piece.xyz").string());

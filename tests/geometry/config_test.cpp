@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
 
 namespace ttp {
@@ -12,7 +13,7 @@ namespace {
 
 std::filesystem::path WriteTemp(const std::string& name,
                                 const std::string& text) {
-  auto path = std::filesystem::temp_directory_path() / name;
+  auto path = test::TestDir("config") / name;
   std::ofstream(path) << text;
   return path;
 }

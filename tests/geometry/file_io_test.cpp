@@ -4,6 +4,7 @@
 
 #include <filesystem>
 
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
 
 namespace ttp {
@@ -11,7 +12,7 @@ namespace {
 
 TEST(FileIo, AtomicWriteLeavesNoTemporary) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / "ttp_fileio_test";
+  const fs::path dir = test::TestDir("fileio");
   fs::remove_all(dir);
   WriteFileAtomic(dir / "sub" / "out.txt", "hello\n");
   EXPECT_EQ(ReadTextFile(dir / "sub" / "out.txt"), "hello\n");

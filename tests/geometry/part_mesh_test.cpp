@@ -3,13 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <set>
 
+#include "om_mesh.h"
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
 
 namespace ttp {
@@ -457,32 +458,12 @@ TEST(PartMesh, BadSpecIsAnInputError) {
   EXPECT_THROW(ParseMeshFormat("step", "--format", "format"), InputError);
 }
 
-struct OmDouble : public OpenMesh::DefaultTraits {
-  using Point = OpenMesh::Vec3d;
-  using Normal = OpenMesh::Vec3d;
-};
-using OmMesh = OpenMesh::TriMesh_ArrayKernelT<OmDouble>;
-
-double OmVolume(const OmMesh& om) {
-  double six_v = 0;
-  for (auto f : om.faces()) {
-    std::vector<OpenMesh::Vec3d> p;
-    for (auto v : om.fv_range(f)) p.push_back(om.point(v));
-    six_v += OpenMesh::dot(p[0], OpenMesh::cross(p[1], p[2]));
-  }
-  return six_v / 6;
-}
+using test::OmMesh;
+using test::OmVolume;
 
 class PartMeshFiles : public ::testing::Test {
  protected:
-  void SetUp() override {
-    // One folder per test: ctest runs the tests as parallel processes.
-    dir_ = std::filesystem::path(TTP_BINARY_DIR) / "test-tmp" /
-           (std::string("part_mesh_") +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = test::TestDir("part_mesh"); }
   std::filesystem::path dir_;
 };
 

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <random>
 
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
@@ -19,13 +20,7 @@ namespace fs = std::filesystem;
 
 class MeasurementTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           fmt::format(
-               "ttp_measurement_test_{}",
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = test::TestDir("measurement"); }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path Write(const std::string& name, const std::string& text) {
     const fs::path p = dir_ / name;

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <limits>
 
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/inspect/measurement.h"
@@ -20,13 +21,7 @@ namespace fs = std::filesystem;
 
 class PointIoTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           fmt::format(
-               "ttp_point_io_test_{}",
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = test::TestDir("point_io"); }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path Write(const std::string& name, const std::string& bytes) {
     const fs::path p = dir_ / name;

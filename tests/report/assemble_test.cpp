@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 
+#include "test_dir.h"
 #include "ttp/diagnosis/twin.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -206,9 +207,7 @@ TEST(AssembleReportData, FiguresAloneAreEnough) {
 }
 
 TEST(WriteReport, WritesThePageAndItsData) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / "ttp_write_report_test";
-  std::filesystem::remove_all(dir);
+  const std::filesystem::path dir = test::TestDir("report");
   const json data =
       WriteReport(Twin().log, Twin().config, Twin().measured, nullptr,
                   dir / "report.html", dir / "report.json");

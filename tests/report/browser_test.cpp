@@ -6,11 +6,8 @@
 // to the console and report no script error, and a screenshot is saved to
 // <build>/docs/report.png (copied into docs/report.png for the README).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -19,29 +16,15 @@
 #include <sstream>
 #include <string>
 
+#include "run_ttp.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-struct ShellRun {
-  int exit_code = -1;
-  std::string output;
-};
-
-ShellRun Shell(const std::string& command) {
-  ShellRun r;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) {
-    r.output.append(buf.data(), n);
-  }
-  const int status = ::pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using ttp::test::RunCommand;
+using ttp::test::RunResult;
 
 std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
 
@@ -105,20 +88,21 @@ class BrowserTest : public ::testing::Test {
 
   // Chromium headless, no network: a dead proxy, unresolvable hosts, a
   // fresh profile, no background services. stderr carries the console.
-  static ShellRun Chromium(const std::string& args) {
+  static RunResult Chromium(const std::string& args) {
     const fs::path profile = dir_ / "profile";
     fs::remove_all(profile);
-    return Shell(std::string("timeout 120 ") + TTP_CHROMIUM +
-                 " --headless --no-sandbox --disable-gpu"
-                 " --user-data-dir=" +
-                 Quote(profile) +
-                 " --proxy-server=127.0.0.1:9"
-                 " --host-resolver-rules='MAP * ~NOTFOUND'"
-                 " --disable-background-networking --disable-component-update"
-                 " --disable-sync --no-first-run --disable-extensions"
-                 " --enable-logging=stderr --v=0"
-                 " --hide-scrollbars --virtual-time-budget=10000 " +
-                 args + " 2>&1");
+    return RunCommand(
+        std::string("timeout 120 ") + TTP_CHROMIUM +
+        " --headless --no-sandbox --disable-gpu"
+        " --user-data-dir=" +
+        Quote(profile) +
+        " --proxy-server=127.0.0.1:9"
+        " --host-resolver-rules='MAP * ~NOTFOUND'"
+        " --disable-background-networking --disable-component-update"
+        " --disable-sync --no-first-run --disable-extensions"
+        " --enable-logging=stderr --v=0"
+        " --hide-scrollbars --virtual-time-budget=10000 " +
+        args + " 2>&1");
   }
 
   static fs::path dir_;
@@ -132,10 +116,10 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
          "(scripts/install-deps.sh)";
   const fs::path sample = fs::path(TTP_SHARED_DIR) / "samples" / "run-a";
   const fs::path html = dir_ / "run-a.html", data_path = dir_ / "run-a.json";
-  const ShellRun report =
-      Shell(std::string(TTP_BINARY_DIR) + "/app/ttp report --log " +
-            Quote(sample / "talc.csv") + " " + Quote(sample / "piece.ply") +
-            " -o " + Quote(html) + " --json " + Quote(data_path) + " 2>&1");
+  const RunResult report = RunCommand(
+      std::string(TTP_BINARY_DIR) + "/app/ttp report --log " +
+      Quote(sample / "talc.csv") + " " + Quote(sample / "piece.ply") + " -o " +
+      Quote(html) + " --json " + Quote(data_path) + " 2>&1");
   ASSERT_EQ(report.exit_code, 0) << report.output;
   const json data = json::parse(ReadFile(data_path));
   const std::string page = ReadFile(html);
@@ -148,8 +132,9 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   EXPECT_FALSE(std::regex_search(page, hit, external))
       << "external reference: " << hit.str();
 
-  const ShellRun dom = Chromium("--window-size=1280,1000 --dump-dom " +
-                                Quote("file://" + fs::absolute(html).string()));
+  const RunResult dom =
+      Chromium("--window-size=1280,1000 --dump-dom " +
+               Quote("file://" + fs::absolute(html).string()));
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
   std::string console;
   std::istringstream lines(dom.output);
@@ -204,7 +189,7 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   const fs::path png = fs::path(TTP_BINARY_DIR) / "docs" / "report.png";
   fs::create_directories(png.parent_path());
   fs::remove(png);
-  const ShellRun shot =
+  const RunResult shot =
       Chromium("--window-size=1280,2600 --screenshot=" + Quote(png) + " " +
                Quote("file://" + fs::absolute(html).string()));
   ASSERT_EQ(shot.exit_code, 0) << shot.output;

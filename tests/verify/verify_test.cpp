@@ -42,9 +42,11 @@ TEST(VerifyTest, CorrectPreProgramPasses) {
   EXPECT_EQ(r.Find("surface Z5"), nullptr);
   // The simulation is exact: what is left is the program text's rounding
   // of coordinates to 0.1 um.
-  for (const Finding& f : r.findings)
-    if (f.check.rfind("surface ", 0) == 0)
+  for (const Finding& f : r.findings) {
+    if (f.check.rfind("surface ", 0) == 0) {
       EXPECT_LT(f.measured, 0.1) << f.check;
+    }
+  }
 }
 
 TEST(VerifyTest, CorrectPreProgramPassesInFanucDialect) {
