@@ -1,28 +1,15 @@
 // `ttp diagnose --log LOG MEASUREMENT`: what the simulation gets wrong
 // (diagnosis.md). `ttp twin`: a synthetic run with a hidden effect.
-#include <algorithm>
 #include <filesystem>
-#include <fstream>
 
 #include "command.h"
 #include "planned_cuts.h"
 #include "ttp/diagnosis/diagnose.h"
 #include "ttp/diagnosis/twin.h"
-#include "ttp/inspect/measurement.h"
 #include "ttp/thermal/talc_log.h"
 
 namespace ttp::app {
 namespace {
-
-// The first bytes of a file, for recognising its format (missing file:
-// empty, and the reader then names it).
-std::string ReadHead(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string head(512, '\0');
-  in.read(head.data(), static_cast<std::streamsize>(head.size()));
-  head.resize(static_cast<size_t>(std::max<std::streamsize>(0, in.gcount())));
-  return head;
-}
 
 void Register(CLI::App& root, GlobalOptions& global) {
   {
@@ -57,16 +44,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
           // A log that did not come from this program is an input error.
           if (!*no_schedule)
             thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
-          diagnosis::MeasuredPiece measured;
-          if (inspect::SniffMeasurement(ReadHead(*measurement), *measurement) ==
-              inspect::MeasurementKind::kInspectionJson) {
-            measured = diagnosis::ReadMeasuredPiece(*measurement);
-          } else {
-            const inspect::Measurement m =
-                inspect::LoadMeasurement(config, *measurement);
-            measured = diagnosis::MeasuredPieceFromJson(
-                inspect::MeasurementToJson(config.part, m), *measurement);
-          }
+          const diagnosis::MeasuredPiece measured =
+              diagnosis::LoadMeasuredPiece(config, *measurement);
           diagnosis::DiagnosisOptions options;
           options.evidence_threshold = *threshold;
           const diagnosis::DiagnosisReport report =

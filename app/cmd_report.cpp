@@ -17,31 +17,6 @@
 namespace ttp::app {
 namespace {
 
-// Any measurement file (LoadMeasurement); also the per-feature JSON that
-// `ttp twin` writes and `ttp diagnose` reads (diagnosis::ReadMeasuredPiece).
-void ReadMeasurement(const Config& config, const std::string& path,
-                     inspect::InspectionResult* result, std::string* kind) {
-  try {
-    inspect::Measurement m = inspect::LoadMeasurement(config, path);
-    *result = std::move(m.result);
-    result->source = m.source;
-    *kind = inspect::MeasurementKindName(m.kind);
-  } catch (const InputError& first) {
-    if (std::filesystem::path(path).extension() != ".json") throw;
-    diagnosis::MeasuredPiece piece;
-    try {
-      piece = diagnosis::ReadMeasuredPiece(path);
-    } catch (const InputError&) {
-      throw first;
-    }
-    *result = inspect::InspectionResult{};
-    result->source = path;
-    result->features = piece.features;
-    result->figures = piece.figures;
-    *kind = "feature results (JSON)";
-  }
-}
-
 void RegisterReport(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "report",
@@ -72,9 +47,10 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
   cmd->callback([&global, log_path, measurement, out, json_out, options] {
     const Config config = global.LoadConfig();
     const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
-    inspect::InspectionResult measured;
-    std::string kind;
-    ReadMeasurement(config, *measurement, &measured, &kind);
+    const inspect::Measurement m =
+        inspect::LoadMeasurement(config, *measurement);
+    const inspect::InspectionResult& measured = m.result;
+    const std::string kind = inspect::MeasurementKindName(m.kind);
     report::ReportOptions o = *options;
     o.run_info.emplace("measurement kind", kind);
     const nlohmann::json data =

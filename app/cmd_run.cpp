@@ -280,8 +280,8 @@ void ReportStage(RunContext& ctx) {
 
 void DiagnoseStage(RunContext& ctx) {
   const diagnosis::MeasuredPiece measured =
-      diagnosis::MeasuredPieceFromFeatures(ctx.config.part,
-                                           ctx.measurement.result.features);
+      diagnosis::MeasuredPieceFromInspection(ctx.config.part,
+                                             ctx.measurement.result);
   ctx.diagnosis = diagnosis::DiagnoseRun(ctx.log, ctx.config, measured);
   ctx.WriteJsonFile("diagnosis.json", diagnosis::DiagnosisToJson(ctx.diagnosis),
                     "diagnosis of the twin run");

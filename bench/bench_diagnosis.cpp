@@ -53,7 +53,8 @@ int main() {
     for (int k = 0; k < repeats; ++k) {
       const thermal::TalcLog log =
           thermal::ReadTalcLog((run_a / "talc.csv").string());
-      report = DiagnoseRun(log, config, ReadMeasuredPiece(json_path.string()));
+      report = DiagnoseRun(log, config,
+                           LoadMeasuredPiece(config, json_path.string()));
     }
     const double one = Since(t0) / repeats;
     t0 = std::chrono::steady_clock::now();
@@ -62,10 +63,8 @@ int main() {
           thermal::ReadTalcLog((run_a / "talc.csv").string());
       const inspect::PointCloud c =
           inspect::ReadPointCloud(run_a / "piece.ply");
-      const MeasuredPiece m = MeasuredPieceFromJson(
-          inspect::InspectionToJson(config.part,
-                                    inspect::InspectCloud(config.part, c)),
-          "piece.ply");
+      const MeasuredPiece m = MeasuredPieceFromInspection(
+          config.part, inspect::InspectCloud(config.part, c));
       report = DiagnoseRun(log, config, m);
     }
     const double from_cloud = Since(t0) / repeats;

@@ -63,8 +63,7 @@ BatteryRun RunBatteryCase(const Config& config, const TwinOptions& options,
     const inspect::PointCloud cloud = TwinCloud(config, twin, options);
     const inspect::InspectionResult inspection =
         inspect::InspectCloud(config.part, cloud);
-    measured = MeasuredPieceFromJson(
-        inspect::InspectionToJson(config.part, inspection), cloud.source);
+    measured = MeasuredPieceFromInspection(config.part, inspection);
   } else {
     measured = MeasuredPieceFromFeatures(config.part, twin.measured);
   }

@@ -10,7 +10,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
-#include "ttp/geometry/file_io.h"
+#include "ttp/inspect/measurement.h"
 
 namespace ttp::diagnosis {
 namespace {
@@ -41,16 +41,6 @@ double FigureUncertaintyMm(const CycleFigures& f, int group) {
     default:
       return f.u_ttp_mm;
   }
-}
-
-double JsonNumber(const nlohmann::json& j, const std::string& key,
-                  const std::string& source, const std::string& where) {
-  if (!j.contains(key) || !j.at(key).is_number())
-    throw InputError(source, 0, where + "." + key, "missing or not a number");
-  const double v = j.at(key).get<double>();
-  if (!std::isfinite(v))
-    throw InputError(source, 0, where + "." + key, "not finite");
-  return v;
 }
 
 struct FitResult {
@@ -444,180 +434,45 @@ void UseFitScatter(const PartSpec& part, FeatureKind kind, FeatureResult* r) {
 MeasuredPiece MeasuredPieceFromFeatures(const PartSpec& part,
                                         const FeatureResults& features) {
   MeasuredPiece m;
-  m.features = features;
-  for (auto& [id, r] : m.features) {
-    FeatureKind kind;
-    Segment s;
-    int j;
-    if (ParseFeatureId(id, &kind, &s, &j)) UseFitScatter(part, kind, &r);
-  }
-  m.figures = ComputeFigures(part, m.features);
-  for (const auto& [id, r] : features) {
-    FeatureKind kind;
-    Segment s;
-    int j;
-    if (r.present && ParseFeatureId(id, &kind, &s, &j) &&
-        kind == FeatureKind::kFacet)
-      m.facet_angle_rad[id] = r.angle_rad;
-  }
-  return m;
-}
-
-nlohmann::json FeatureResultsToJson(const FeatureResults& features) {
-  nlohmann::json j = nlohmann::json::object();
   for (const auto& [id, r] : features) {
     if (!r.present) continue;
-    j[id] = {{"d_mm", r.d_mm},
-             {"var_d_mm2", r.var_d_mm2},
-             {"angle_rad", r.angle_rad},
-             {"var_angle_rad2", r.var_angle_rad2},
-             {"points", r.points}};
+    FeatureResult& f = m.features[id] = r;
+    FeatureKind kind;
+    Segment s;
+    int j;
+    if (!ParseFeatureId(id, &kind, &s, &j)) continue;
+    UseFitScatter(part, kind, &f);
+    if (kind == FeatureKind::kFacet && std::isfinite(r.angle_rad))
+      m.facet_angle_rad[id] = r.angle_rad;
   }
-  return j;
-}
-
-MeasuredPiece MeasuredPieceFromJson(const nlohmann::json& doc,
-                                    const std::string& source) {
-  if (!doc.is_object())
-    throw InputError(source, 0, "", "measurement must be a JSON object");
-  const PartSpec part;
-  if (doc.contains("features")) {
-    FeatureResults features;
-    for (const auto& [id, j] : doc.at("features").items()) {
-      FeatureKind kind;
-      Segment s;
-      int k;
-      if (!ParseFeatureId(id, &kind, &s, &k))
-        throw InputError(source, 0, "features." + id, "not a test feature");
-      FeatureResult r;
-      r.present = true;
-      r.d_mm = JsonNumber(j, "d_mm", source, "features." + id);
-      r.angle_rad = j.contains("angle_rad")
-                        ? JsonNumber(j, "angle_rad", source, "features." + id)
-                        : 0.0;
-      r.var_d_mm2 = j.value("var_d_mm2", 0.0);
-      r.var_angle_rad2 = j.value("var_angle_rad2", 0.0);
-      r.points = j.value("points", 0);
-      features[id] = r;
-    }
-    MeasuredPiece m = MeasuredPieceFromFeatures(part, features);
-    m.source = source;
-    return m;
-  }
-  if ((doc.contains("facets") && doc.at("facets").is_object()) ||
-      (doc.contains("strips") && doc.at("strips").is_object())) {
-    // The inspection JSON of `ttp inspect --json` (issue 3): per-feature
-    // results in W, um / urad, U expanded (k = 2). Null marks a feature the
-    // inspection could not fit.
-    FeatureResults features;
-    auto read = [&](const char* group, const char* d_key, const char* a_key,
-                    const char* ud_key, const char* ua_key) {
-      if (!doc.contains(group)) return;
-      if (!doc.at(group).is_object())
-        throw InputError(source, 0, group, "not an object");
-      for (const auto& [id, j] : doc.at(group).items()) {
-        const std::string where = std::string(group) + "." + id;
-        FeatureKind kind;
-        Segment s;
-        int k;
-        if (!ParseFeatureId(id, &kind, &s, &k) ||
-            (kind == FeatureKind::kFacet) != (group[0] == 'f'))
-          throw InputError(source, 0, where, "not a test feature of this kind");
-        if (!j.is_object()) throw InputError(source, 0, where, "not an object");
-        if (!j.contains(d_key) || j.at(d_key).is_null()) continue;  // missing
-        FeatureResult r;
-        r.present = true;
-        r.d_mm = JsonNumber(j, d_key, source, where);
-        r.angle_rad = j.contains(a_key) && !j.at(a_key).is_null()
-                          ? JsonNumber(j, a_key, source, where) * 1e-6
-                          : 0.0;
-        r.points = j.value("points", 0);
-        const bool scatter = j.contains("rms_um") &&
-                             j.at("rms_um").is_number() &&
-                             j.at("rms_um").get<double>() > 0 && r.points >= 3;
-        if (scatter) {
-          // MeasuredPieceFromFeatures turns the scatter into variances.
-          r.rms_mm = JsonNumber(j, "rms_um", source, where) * 1e-3;
-        } else {
-          if (j.contains(ud_key) && !j.at(ud_key).is_null()) {
-            const double u = JsonNumber(j, ud_key, source, where) * 0.5e-3;
-            r.var_d_mm2 = u * u;
-          }
-          if (j.contains(ua_key) && !j.at(ua_key).is_null()) {
-            const double u = JsonNumber(j, ua_key, source, where) * 0.5e-6;
-            r.var_angle_rad2 = u * u;
-          }
-        }
-        features[id] = r;
-      }
-    };
-    read("facets", "distance_mm", "angle_error_urad", "U_distance_um",
-         "U_angle_urad");
-    read("strips", "depth_mm", "beta_urad", "U_depth_um", "U_beta_urad");
-    if (features.empty())
-      throw InputError(source, 0, "facets",
-                       "no facet or strip has a measured value");
-    MeasuredPiece m = MeasuredPieceFromFeatures(part, features);
-    m.source = source;
-    return m;
-  }
-  if (!doc.contains("figures") || !doc.at("figures").is_array())
-    throw InputError(source, 0, "figures",
-                     "neither \"features\", \"facets\" nor a \"figures\" "
-                     "array");
-  MeasuredPiece m;
-  m.source = source;
-  int index = 0;
-  for (const auto& f : doc.at("figures")) {
-    const std::string where = fmt::format("figures[{}]", index++);
-    CycleFigures c;
-    if (!f.contains("cycle") || !f.at("cycle").is_number_integer())
-      throw InputError(source, 0, where + ".cycle",
-                       "missing or not an integer");
-    c.cycle = f.at("cycle").get<int>();
-    if (c.cycle < 1 || c.cycle > part.cycles())
-      throw InputError(source, 0, where + ".cycle", "outside 1..8");
-    auto um = [&](const char* key) {
-      return f.contains(key) && f.at(key).is_null()
-                 ? std::numeric_limits<double>::quiet_NaN()
-                 : JsonNumber(f, key, source, where) * 1e-3;
-    };
-    c.e_x_mm = um("E_X");
-    c.e_y_mm = um("E_Y");
-    c.e_z_mm = um("E_Z");
-    c.e_ttp_mm = um("E_TTP");
-    c.e_b_rad = f.contains("E_B") && f.at("E_B").is_number()
-                    ? f.at("E_B").get<double>() * 1e-6
-                    : std::numeric_limits<double>::quiet_NaN();
-    if (f.contains("U") && f.at("U").is_object()) {
-      const auto& u = f.at("U");  // expanded, k = 2
-      c.u_x_mm = u.value("E_X", 0.0) * 0.5e-3;
-      c.u_y_mm = u.value("E_Y", 0.0) * 0.5e-3;
-      c.u_z_mm = u.value("E_Z", 0.0) * 0.5e-3;
-      c.u_ttp_mm = u.value("E_TTP", 0.0) * 0.5e-3;
-    }
-    m.figures.push_back(c);
-  }
-  if (doc.contains("facet_angle_err_urad")) {
-    for (const auto& [id, v] : doc.at("facet_angle_err_urad").items()) {
-      if (!v.is_number() || !std::isfinite(v.get<double>()))
-        throw InputError(source, 0, "facet_angle_err_urad." + id,
-                         "not a finite number");
-      m.facet_angle_rad[id] = v.get<double>() * 1e-6;
-    }
-  }
+  m.figures = ComputeFigures(part, m.features);
   return m;
 }
 
-MeasuredPiece ReadMeasuredPiece(const std::string& path) {
-  const std::string text = ReadTextFile(path);
-  nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path, 0, "", std::string("not JSON: ") + e.what());
+MeasuredPiece MeasuredPieceFromInspection(
+    const PartSpec& part, const inspect::InspectionResult& result) {
+  MeasuredPiece m;
+  const bool any_feature =
+      std::any_of(result.features.begin(), result.features.end(),
+                  [](const auto& f) { return f.second.present; });
+  if (any_feature) {
+    m = MeasuredPieceFromFeatures(part, result.features);
+  } else {
+    m.figures = result.figures;
+    m.facet_angle_rad = result.facet_angle_rad;
   }
-  return MeasuredPieceFromJson(doc, path);
+  m.source = result.source;
+  if (m.figures.empty() && m.facet_angle_rad.empty())
+    throw InputError(result.source.empty() ? "measurement" : result.source, 0,
+                     "figures",
+                     "the measurement has neither feature results nor "
+                     "figures");
+  return m;
+}
+
+MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path) {
+  return MeasuredPieceFromInspection(
+      config.part, inspect::LoadMeasurement(config, path).result);
 }
 
 PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,

@@ -833,8 +833,17 @@ nlohmann::json InspectionToJson(const PartSpec& part,
           {"rms_um", fr.rms_mm * 1e3}};
     }
   }
-  doc["facets"] = facets;
-  doc["strips"] = strips;
+  // A result of figures only (read from such a JSON) stays one when read
+  // back: no empty feature blocks, and its facet angles as given.
+  if (!r.features.empty() || r.facet_angle_rad.empty()) {
+    doc["facets"] = facets;
+    doc["strips"] = strips;
+  }
+  if (!r.facet_angle_rad.empty()) {
+    nlohmann::json angles = nlohmann::json::object();
+    for (const auto& [id, a] : r.facet_angle_rad) angles[id] = a * 1e6;
+    doc["facet_angle_err_urad"] = angles;
+  }
   const Alignment& a = r.alignment;
   nlohmann::json rot = nlohmann::json::array();
   for (int i = 0; i < 3; ++i)

@@ -171,7 +171,8 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
 
 // A JSON with only "figures" (e.g. hand-written or simulated): taken as is.
 std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
-                                          const std::string& source) {
+                                          const std::string& source,
+                                          int cycles) {
   const nlohmann::json& arr = doc.at("figures");
   if (!arr.is_array())
     throw InputError(source, 0, "figures", "must be an array of cycles");
@@ -179,10 +180,15 @@ std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
   for (size_t i = 0; i < arr.size(); ++i) {
     const nlohmann::json& f = arr[i];
     const std::string where = "figures[" + std::to_string(i) + "]";
-    if (!f.is_object() || !f.contains("cycle") || !f["cycle"].is_number())
-      throw InputError(source, 0, where, "needs a numeric \"cycle\"");
+    if (!f.is_object() || !f.contains("cycle") ||
+        !f["cycle"].is_number_integer())
+      throw InputError(source, 0, where + ".cycle",
+                       "missing or not an integer");
     CycleFigures cf;
     cf.cycle = f["cycle"].get<int>();
+    if (cf.cycle < 1 || cf.cycle > cycles)
+      throw InputError(source, 0, where + ".cycle",
+                       "outside 1.." + std::to_string(cycles));
     const nlohmann::json u = f.contains("U") && f["U"].is_object()
                                  ? f["U"]
                                  : nlohmann::json::object();
@@ -197,6 +203,30 @@ std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
     get("E_B", 1e-6, &cf.e_b_rad, &cf.u_b_rad);
     get("E_TTP", 1e-3, &cf.e_ttp_mm, &cf.u_ttp_mm);
     out.push_back(cf);
+  }
+  return out;
+}
+
+// "facet_angle_err_urad": {facet id: urad} beside the figures (truth.json).
+std::map<std::string, double> FacetAnglesFromJson(const nlohmann::json& doc,
+                                                  const std::string& source,
+                                                  const PartSpec& part) {
+  std::map<std::string, double> out;
+  if (!doc.contains("facet_angle_err_urad")) return out;
+  const nlohmann::json& obj = doc.at("facet_angle_err_urad");
+  if (!obj.is_object())
+    throw InputError(source, 0, "facet_angle_err_urad",
+                     "must be an object keyed by facet id");
+  std::map<std::string, bool> facet;
+  for (const NominalFeature& f : TestFeatures(part))
+    facet[f.id] = f.kind == FeatureKind::kFacet;
+  for (const auto& [id, v] : obj.items()) {
+    const std::string where = "facet_angle_err_urad." + id;
+    if (!facet.count(id) || !facet[id])
+      throw InputError(source, 0, where, "is not a facet of the piece");
+    if (!v.is_number() || !std::isfinite(v.get<double>()))
+      throw InputError(source, 0, where, "is not a finite number");
+    out[id] = v.get<double>() * 1e-6;
   }
   return out;
 }
@@ -222,7 +252,8 @@ InspectionResult FromInspectionJson(const PartSpec& part,
     CompleteFeatures(part, &r);
     ComputeResultFigures(part, &r);
   } else if (doc.contains("figures")) {
-    r.figures = FiguresFromJson(doc, source);
+    r.figures = FiguresFromJson(doc, source, part.cycles());
+    r.facet_angle_rad = FacetAnglesFromJson(doc, source, part);
     for (const CycleFigures& cf : r.figures) {
       CycleExtras ex;
       ex.cycle = cf.cycle;

@@ -194,18 +194,9 @@ json AssembleReportData(const thermal::TalcLog& log, const Config& config,
   data["limits"] = {{"linear_um", options.limits.linear_um},
                     {"angular_um_per_m", options.limits.angular_um_per_m}};
 
-  // The measured piece as the diagnosis reads it.
-  diagnosis::MeasuredPiece piece;
-  if (!measured.features.empty()) {
-    piece = diagnosis::MeasuredPieceFromFeatures(part, measured.features);
-  }
-  if (!measured.figures.empty()) piece.figures = measured.figures;
-  piece.source = measured.source;
-  if (piece.figures.empty()) {
-    throw InputError(measured.source.empty() ? "measurement" : measured.source,
-                     0, "figures",
-                     "the measurement has neither feature results nor figures");
-  }
+  // The measured piece as the diagnosis reads it (as `ttp diagnose` does).
+  const diagnosis::MeasuredPiece piece =
+      diagnosis::MeasuredPieceFromInspection(part, measured);
   const diagnosis::PreparedRun prepared =
       diagnosis::PrepareRun(log, config, piece, options.diagnosis);
   diagnosis::DiagnosisReport computed;
@@ -216,7 +207,10 @@ json AssembleReportData(const thermal::TalcLog& log, const Config& config,
   }
   const diagnosis::DiagnosisReport& d = given ? *given : computed;
 
-  const json measured_figures = FiguresToJson(piece.figures)["figures"];
+  // Graded and drawn with the measurement's own U; the diagnosis judges
+  // the same values against the fits' scatter (piece.figures).
+  const json measured_figures = FiguresToJson(
+      measured.figures.empty() ? piece.figures : measured.figures)["figures"];
   data["figures"] = {
       {"measured", measured_figures},
       {"simulated", SimulatedFigures(prepared.simulation.figures)},

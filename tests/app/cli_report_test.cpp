@@ -2,6 +2,7 @@
 // outside the project (../shared/samples).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -138,6 +139,37 @@ TEST(CliReportFormats, AnyMeasurementFileGivesTheSameReport) {
   }
   EXPECT_EQ(insp["diagnosis"]["cause"], cloud["diagnosis"]["cause"]);
   EXPECT_EQ(insp["run"]["measurement kind"], "inspection-json");
+
+  // The report's diagnosis is the one `ttp diagnose` gives for the same
+  // file: one reading of a measurement for both.
+  r = RunTtp("diagnose --log " + log + " " + Q(Sample("run-a", "piece.ply")) +
+             " --json " + Q(dir / "diagnose.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const json diagnose = json::parse(ReadTextFile(dir / "diagnose.json"));
+  for (const json* report : {&cloud, &insp}) {
+    const json& d = (*report)["diagnosis"];
+    EXPECT_EQ(d["cause"], diagnose["cause"]);
+    EXPECT_NEAR(d["gain_pct"].get<double>(), diagnose["gain_pct"].get<double>(),
+                1e-6);
+    for (const auto& [name, value] : diagnose["extended"]["params"].items()) {
+      EXPECT_NEAR(d["extended"]["params"][name].get<double>(),
+                  value.get<double>(), 1e-9 * std::abs(value.get<double>()))
+          << name;
+      EXPECT_NEAR(d["extended"]["uncertainty"][name].get<double>(),
+                  diagnose["extended"]["uncertainty"][name].get<double>(),
+                  1e-6 * std::abs(value.get<double>()))
+          << name;
+    }
+  }
+
+  // Figures with the facet angle errors beside them, as the sample's
+  // truth.json: the angles reach the diagnosis.
+  r = RunTtp("report --log " + log + " " + Q(Sample("run-a", "truth.json")) +
+             " -o " + Q(dir / "truth.html") + " --json " +
+             Q(dir / "truth.report.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const json from_truth = json::parse(ReadTextFile(dir / "truth.report.json"));
+  EXPECT_GT(from_truth["diagnosis"]["baseline"]["rms_urad"].get<double>(), 0);
 
   // The per-feature results `ttp twin` writes (and `ttp diagnose` reads).
   r = RunTtp(

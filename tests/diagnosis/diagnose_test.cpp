@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cctype>
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 
 #include "test_dir.h"
@@ -36,7 +38,7 @@ TEST(Diagnose, InspectionJsonCarriesFacetAnglesToTheModel) {
   const fs::path path =
       TempFile("c_axis.json",
                MeasuredInspectionJson(config.part, twin.measured).dump(1));
-  const MeasuredPiece measured = ReadMeasuredPiece(path.string());
+  const MeasuredPiece measured = LoadMeasuredPiece(config, path.string());
   EXPECT_EQ(measured.facet_angle_rad.size(), 36u);
   ASSERT_EQ(measured.features.size(), twin.measured.size());
   for (const auto& [id, r] : twin.measured) {
@@ -64,7 +66,8 @@ TEST(Diagnose, InspectionJsonMissingFeatureIsLeftOut) {
   nlohmann::json doc = MeasuredInspectionJson(config.part, twin.measured);
   doc["facets"]["X1-3"]["distance_mm"] = nullptr;
   doc["facets"]["X1-3"]["angle_error_urad"] = nullptr;
-  const MeasuredPiece m = MeasuredPieceFromJson(doc, "piece.json");
+  const MeasuredPiece m =
+      LoadMeasuredPiece(config, TempFile("piece.json", doc.dump()).string());
   EXPECT_EQ(m.features.count("X1-3"), 0u);
   EXPECT_EQ(m.facet_angle_rad.size(), 35u);
 }
@@ -75,7 +78,7 @@ TEST(Diagnose, BadMeasurementJsonNamesFileAndField) {
   nlohmann::json doc = MeasuredInspectionJson(config.part, twin.measured);
   doc["facets"]["X1-2"]["angle_error_urad"] = "abc";
   try {
-    MeasuredPieceFromJson(doc, "piece.json");
+    LoadMeasuredPiece(config, TempFile("piece.json", doc.dump()).string());
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("piece.json"), std::string::npos);
@@ -84,11 +87,49 @@ TEST(Diagnose, BadMeasurementJsonNamesFileAndField) {
         << e.what();
   }
   nlohmann::json other = {{"facets", {{"Q7", {{"distance_mm", 1.0}}}}}};
-  EXPECT_THROW(MeasuredPieceFromJson(other, "x.json"), InputError);
-  EXPECT_THROW(MeasuredPieceFromJson(nlohmann::json::array(), "x.json"),
+  EXPECT_THROW(LoadMeasuredPiece(config, TempFile("x.json", other.dump())),
                InputError);
-  EXPECT_THROW(ReadMeasuredPiece(TempFile("bad.json", "{not json").string()),
+  EXPECT_THROW(LoadMeasuredPiece(config, TempFile("array.json", "[]")),
                InputError);
+  EXPECT_THROW(LoadMeasuredPiece(config, TempFile("bad.json", "{not json")),
+               InputError);
+}
+
+// A dial gauge measures no angle, and a feature may be missing: neither
+// becomes an observation (nor a NaN in one).
+TEST(Diagnose, UnmeasuredAnglesAndMissingFeaturesAreLeftOut) {
+  const Config config;
+  const TwinRun twin = RunTwin(config, TwinOptions{});
+  FeatureResults features = twin.measured;
+  features.at("X1-2").angle_rad = std::numeric_limits<double>::quiet_NaN();
+  features.at("X1-3").present = false;
+  const MeasuredPiece m = MeasuredPieceFromFeatures(config.part, features);
+  EXPECT_EQ(m.features.count("X1-3"), 0u);
+  EXPECT_EQ(m.facet_angle_rad.count("X1-2"), 0u);
+  EXPECT_EQ(m.facet_angle_rad.size(), 34u);
+  const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin");
+  const PreparedRun run = PrepareRun(log, config, m, DiagnosisOptions{});
+  int angles = 0;
+  for (size_t i = 0; i < run.observations.size(); ++i) {
+    EXPECT_TRUE(std::isfinite(run.observations.value[i]))
+        << run.observations.labels[i];
+    angles += run.observations.group[i] == 4;
+  }
+  EXPECT_EQ(angles, 34);
+}
+
+// The samples' truth.json: figures and facet angles, no features.
+TEST(Diagnose, FiguresAndFacetAnglesAreReadAsGiven) {
+  const Config config;
+  const std::string path =
+      std::string(TTP_SHARED_DIR) + "/samples/run-a/truth.json";
+  const nlohmann::json truth = nlohmann::json::parse(ReadTextFile(path));
+  const MeasuredPiece m = LoadMeasuredPiece(config, path);
+  EXPECT_TRUE(m.features.empty());
+  EXPECT_EQ(m.figures.size(), truth["figures"].size());
+  ASSERT_EQ(m.facet_angle_rad.size(), truth["facet_angle_err_urad"].size());
+  for (const auto& [id, urad] : truth["facet_angle_err_urad"].items())
+    EXPECT_NEAR(m.facet_angle_rad.at(id), urad.get<double>() * 1e-6, 1e-15);
 }
 
 // A piece measured after another run's log: refused, not diagnosed.

@@ -126,6 +126,28 @@ TEST_F(MeasurementTest, FiguresOnlyJsonIsTakenAsIs) {
   EXPECT_DOUBLE_EQ(m.result.figures[0].u_x_mm, 0.2e-3);
   EXPECT_DOUBLE_EQ(m.result.figures[0].e_b_rad, 4e-6);
   EXPECT_TRUE(std::isnan(m.result.figures[0].e_ttp_mm));
+  EXPECT_TRUE(m.result.facet_angle_rad.empty());
+}
+
+// Figures with facet angle errors beside them (the samples' truth.json):
+// the angles are kept, and written back the same way.
+TEST_F(MeasurementTest, FiguresWithFacetAnglesKeepTheAngles) {
+  const fs::path p = Write("t.json",
+                           R"({"figures": [{"cycle": 2, "E_X": 1.0}],
+           "facet_angle_err_urad": {"X1-1": 12.5, "Y2-3": -4}})");
+  const Measurement m = LoadMeasurement(config_, p);
+  ASSERT_EQ(m.result.facet_angle_rad.size(), 2u);
+  EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at("X1-1"), 12.5e-6);
+  EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at("Y2-3"), -4e-6);
+  const nlohmann::json back = MeasurementToJson(config_.part, m);
+  EXPECT_FALSE(back.contains("facets"));
+  const Measurement again =
+      LoadMeasurement(config_, Write("again.json", back.dump()));
+  ASSERT_EQ(again.result.facet_angle_rad.size(), 2u);
+  for (const auto& [id, angle] : m.result.facet_angle_rad)
+    EXPECT_NEAR(again.result.facet_angle_rad.at(id), angle, 1e-18) << id;
+  ASSERT_EQ(again.result.figures.size(), 1u);
+  EXPECT_DOUBLE_EQ(again.result.figures[0].e_x_mm, 1.0e-3);
 }
 
 // Gauge readings: g on X1 and X2 of one index; E_X = (gX1 - gX2) / 2 and
@@ -196,6 +218,13 @@ TEST_F(MeasurementTest, BadFilesNameTheProblem) {
   EXPECT_NE(ErrorOf(Write("str.json",
                           R"({"facets": {"X1-1": {"distance_mm": "a"}}})"))
                 .find("distance_mm: is not a number"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("cycle.json", R"({"figures": [{"cycle": 9}]})"))
+                .find("figures[0].cycle: outside 1..8"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("angle.json", R"({"figures": [{"cycle": 1}],
+                          "facet_angle_err_urad": {"Z3": 1}})"))
+                .find("facet_angle_err_urad.Z3: is not a facet"),
             std::string::npos);
   EXPECT_NE(ErrorOf(Write("dial.csv", "feature,reading_um\nX9-1,2\n"))
                 .find("dial.csv:2: feature"),

@@ -19,7 +19,7 @@ namespace ttp::diagnosis {
 struct BatteryRun {
   TwinOptions options;
   // Measured as a user would: the twin's CMM cloud -> inspect::InspectCloud
-  // -> inspection JSON -> ReadMeasuredPiece's reader. Otherwise the twin's
+  // -> MeasuredPieceFromInspection (as `ttp diagnose`). Otherwise the twin's
   // per-feature results with cloud-fit noise.
   bool via_cloud = false;
   Cause diagnosed = Cause::kNone;

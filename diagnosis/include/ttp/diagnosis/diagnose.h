@@ -14,37 +14,37 @@
 #include "ttp/diagnosis/effects.h"
 #include "ttp/geometry/config.h"
 #include "ttp/geometry/figures.h"
+#include "ttp/inspect/inspect.h"
 #include "ttp/thermal/simulate.h"
 #include "ttp/thermal/talc_log.h"
 
 namespace ttp::diagnosis {
 
-// A measured piece: per-feature results, or figures and facet angles (as
-// in the samples' truth.json).
+// A measured piece as the diagnosis reads it: the measured features, or
+// figures and facet angles (as in the samples' truth.json).
 struct MeasuredPiece {
   std::string source;
-  FeatureResults features;            // empty if only figures are given
+  FeatureResults features;            // the measured ones; empty if only
+                                      // figures are given
   std::vector<CycleFigures> figures;  // measured figures per cycle
   std::map<std::string, double> facet_angle_rad;  // absolute angle errors
 };
-// JSON, one of:
-// - the inspection JSON of `ttp inspect --json` (issue 3): "facets": {id:
-//   {distance_mm, angle_error_urad, U_distance_um, U_angle_urad}},
-//   "strips": {id: {depth_mm, beta_urad, U_depth_um, U_beta_urad}} (U at
-//   k = 2; null = missing feature); its "figures" are recomputed from these;
-// - {"features": {id: {d_mm, angle_rad, var_d_mm2, var_angle_rad2}}};
-// - {"figures": [...um...], "facet_angle_err_urad": {id: urad}} (as the
-//   samples' truth.json).
-// Throws InputError naming the file and field.
-MeasuredPiece ReadMeasuredPiece(const std::string& path);
-MeasuredPiece MeasuredPieceFromJson(const nlohmann::json& doc,
-                                    const std::string& source);
 // Per-feature results (from any measurement). Where a feature carries its
 // fit's scatter (rms_mm, points >= 3), that scatter, not the instrument's
-// error limit, gives the variances the causes are judged against.
+// error limit, gives the variances the causes are judged against; the
+// figures are computed from them. Features not present and angles not
+// measured (a dial gauge's) are left out.
 MeasuredPiece MeasuredPieceFromFeatures(const PartSpec& part,
                                         const FeatureResults& features);
-nlohmann::json FeatureResultsToJson(const FeatureResults& features);
+// Any measurement as inspect::LoadMeasurement reads it: its features when
+// it has any (MeasuredPieceFromFeatures), else its figures and facet angles
+// as given. Throws InputError when it has neither.
+MeasuredPiece MeasuredPieceFromInspection(
+    const PartSpec& part, const inspect::InspectionResult& result);
+// inspect::LoadMeasurement, then MeasuredPieceFromInspection: every
+// measurement file `ttp inspect` reads. Throws InputError naming the file
+// and field.
+MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path);
 
 // Residual observations: measured - simulated.
 struct Observations {

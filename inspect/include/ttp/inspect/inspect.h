@@ -26,6 +26,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -89,6 +90,10 @@ struct InspectionResult {
   std::vector<FeatureDiagnostic> diagnostics;
   std::vector<CycleFigures> figures;
   std::vector<CycleExtras> extras;
+  // Facet angle errors (rad) given without per-feature results: a JSON of
+  // figures with "facet_angle_err_urad", as the samples' truth.json. Where
+  // features are known, their angles are in `features`.
+  std::map<std::string, double> facet_angle_rad;
   int points_total = 0, points_assigned = 0, points_rejected = 0;
   std::vector<std::string> warnings;
 };

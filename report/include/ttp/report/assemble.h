@@ -26,10 +26,9 @@ struct ReportOptions {
   std::map<std::string, std::string> run_info;
 };
 
-// The report data of a run. `measured` needs per-feature results
-// (`features`, as InspectCloud / LoadMeasurement fill them) or, failing
-// that, the figures with their uncertainty (`figures`); when both are
-// given the figures are taken as they are. `diagnosis` is the caller's
+// The report data of a run. `measured` is any measurement as
+// LoadMeasurement reads it; the diagnosis reads it the way `ttp diagnose`
+// does (diagnosis::MeasuredPieceFromInspection). `diagnosis` is the caller's
 // (e.g. `ttp run` already has it) or, when null, DiagnoseRun is done here
 // with options.diagnosis. Throws InputError for a log that does not cover
 // the cuts or a measurement with nothing to compare.
