@@ -96,7 +96,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                 << inspect::InspectionTable(m.result);
     }
     if (!args->json.empty())
-      WriteJson(args->json, inspect::MeasurementToJson(config.part, m));
+      WriteJson(args->json, inspect::MeasurementToJson(m));
   });
 
   auto limits = std::make_shared<inspect::GradeLimits>();
@@ -120,7 +120,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     const Config config = global.LoadConfig();
     const inspect::Measurement m =
         inspect::LoadMeasurement(config, gargs->measurement, ToOptions(*gargs));
-    const nlohmann::json doc = inspect::MeasurementToJson(config.part, m);
+    const nlohmann::json doc = inspect::MeasurementToJson(m);
     const inspect::GradeResult r =
         inspect::GradeFigures(doc, *limits, gargs->measurement);
     if (!global.quiet) std::cout << inspect::GradeTable(r, *limits);

@@ -233,8 +233,7 @@ void InspectStage(RunContext& ctx) {
   ctx.measurement =
       inspect::LoadMeasurement(ctx.config, ctx.out_dir / "twin/piece.ply");
   ctx.WriteJsonFile(
-      "inspection.json",
-      inspect::MeasurementToJson(ctx.config.part, ctx.measurement),
+      "inspection.json", inspect::MeasurementToJson(ctx.measurement),
       "inspection of the twin's cloud: E_X..E_TTP with U (k = 2)");
   const auto& r = ctx.measurement.result;
   ctx.summary.push_back(

@@ -42,8 +42,8 @@ int main() {
     // The inspection JSON a user has after `ttp inspect --json`.
     const inspect::PointCloud cloud =
         inspect::ReadPointCloud(run_a / "piece.ply");
-    const nlohmann::json inspection = inspect::InspectionToJson(
-        config.part, inspect::InspectCloud(config.part, cloud));
+    const nlohmann::json inspection =
+        inspect::InspectionToJson(inspect::InspectCloud(config.part, cloud));
     const auto json_path =
         std::filesystem::temp_directory_path() / "ttp_bench_diagnosis_a.json";
     WriteFileAtomic(json_path, inspection.dump());

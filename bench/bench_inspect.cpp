@@ -63,7 +63,7 @@ nlohmann::json FiguresJson(const PartSpec& part, const FeatureResults& f) {
   InspectionResult r;
   r.features = f;
   ComputeResultFigures(part, &r);
-  return InspectionToJson(part, r)["figures"];
+  return InspectionToJson(r)["figures"];
 }
 
 // Child: our pipeline.
@@ -80,7 +80,7 @@ int RunOurs(const std::string& ply, const std::string& out) {
   doc["read_s"] = Seconds(t0, t1);
   doc["inspect_s"] = Seconds(t1, t2);
   doc["cpu_s"] = CpuSeconds() - c0;
-  doc["figures"] = InspectionToJson(part, r)["figures"];
+  doc["figures"] = InspectionToJson(r)["figures"];
   doc["used"] = r.points_assigned;
   WriteJson(out, doc);
   return 0;
@@ -272,7 +272,7 @@ int main(int argc, char** argv) {
       SynthesizePiece(part, mesh, RandomDeviations(part, so), so);
   const std::string ply = (dir / "piece.ply").string();
   WritePointCloud(ply, s.cloud, CloudFormat::kPlyBinary);
-  const nlohmann::json truth = InspectionToJson(part, s.truth)["figures"];
+  const nlohmann::json truth = InspectionToJson(s.truth)["figures"];
   fmt::print(
       "cloud: {} points ({} on the piece, 0.5 um noise, 0.2 % strays, "
       "scanner sampling, random pose), binary PLY of doubles, {:.1f} "

@@ -122,13 +122,6 @@ double Sample(const std::vector<double>& v, double t0, double step, double t) {
 }
 }  // namespace
 
-double LaggedMachineTemperatureK(const EffectContext& context, double tau_s,
-                                 double t_s) {
-  const auto lagged =
-      LagFilter(context.machine_dT_K, context.grid_step_s, tau_s);
-  return Sample(lagged, context.grid_t0_s, context.grid_step_s, t_s);
-}
-
 EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
                            const EffectContext& context) {
   EffectDeltas out;

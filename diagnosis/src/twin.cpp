@@ -395,7 +395,7 @@ nlohmann::json MeasuredInspectionJson(const PartSpec& part,
     result.points_total += r.points;
   }
   result.points_assigned = result.points_total;
-  return inspect::InspectionToJson(part, result);
+  return inspect::InspectionToJson(result);
 }
 
 namespace {

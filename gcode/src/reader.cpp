@@ -416,7 +416,6 @@ class Interpreter {
 
   bool Convert(const Block& block) {
     Comments(block);
-    if (const Word* o = Find(block, 'O')) (void)o;  // FANUC program number
     if (HasG(block, 200)) units_mm_ = 25.4;
     if (HasG(block, 210)) units_mm_ = 1.0;
     if (const Word* f = Find(block, 'F')) feed_ = f->value;

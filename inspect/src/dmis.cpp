@@ -86,8 +86,6 @@ DmisResults ParseDmisOutput(const std::string& text,
   DmisResults out;
   out.source = source;
   double scale = 1.0;  // to mm
-  bool angles_in_rad = false;
-  (void)angles_in_rad;  // feature results carry no angles in CART form
   bool any_statement = false;
   for (const Statement& st : Statements(text)) {
     any_statement = true;
@@ -106,15 +104,12 @@ DmisResults ParseDmisOutput(const std::string& text,
         throw InputError(source, st.line, "UNITS",
                          "unknown length unit '" + words[0] + "'");
       scale = it->second;
-      if (words.size() > 1) {
-        if (words[1] == "ANGRAD")
-          angles_in_rad = true;
-        else if (words[1] == "ANGDEC" || words[1] == "ANGDMS")
-          angles_in_rad = false;
-        else
-          throw InputError(source, st.line, "UNITS",
-                           "unknown angle unit '" + words[1] + "'");
-      }
+      // The angle unit is only checked: the CART feature results read here
+      // carry no angles.
+      if (words.size() > 1 && words[1] != "ANGRAD" && words[1] != "ANGDEC" &&
+          words[1] != "ANGDMS")
+        throw InputError(source, st.line, "UNITS",
+                         "unknown angle unit '" + words[1] + "'");
       continue;
     }
     // FA(label) = FEAT/TYPE, ...

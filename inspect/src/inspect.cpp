@@ -277,7 +277,6 @@ Plane FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
   // band; the top face is the end with a plane of many points.
   Plane best;
   Indices best_idx;
-  double best_sign = 1;
   for (double sign : {+1.0, -1.0}) {
     std::vector<double> hs(n);
     for (Index k = 0; k < n; ++k) hs[k] = sign * h[k];
@@ -300,7 +299,6 @@ Plane FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
     if (pl.ok && pl.points > best.points) {
       best = pl;
       best_idx = idx;
-      best_sign = sign;
     }
   }
   if (!best.ok || best.points < 20)
@@ -312,7 +310,6 @@ Plane FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
     warnings->push_back(
         "most points lie above the plane taken as the top face");
   }
-  (void)best_sign;
   int rejected = 0;
   best = FitPlaneRobust(p, &best_idx, best.normal, best.u, o.stray_sigma,
                         o.stray_floor_mm, &rejected);
@@ -790,8 +787,7 @@ nlohmann::json Num(double v) {
 }
 }  // namespace
 
-nlohmann::json InspectionToJson(const PartSpec& part,
-                                const InspectionResult& r) {
+nlohmann::json InspectionToJson(const InspectionResult& r) {
   nlohmann::json doc = FiguresToJson(r.figures);
   for (size_t i = 0; i < r.extras.size() && i < doc["figures"].size(); ++i) {
     auto& f = doc["figures"][i];
@@ -877,7 +873,6 @@ nlohmann::json InspectionToJson(const PartSpec& part,
   doc["source"] = r.source;
   doc["units"] = {{"figures", "um, E_B and E_C in um/m, delta_T_K in K"},
                   {"U", "expanded uncertainty, k = 2"}};
-  (void)part;
   return doc;
 }
 

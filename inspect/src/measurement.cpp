@@ -355,8 +355,8 @@ Measurement LoadMeasurement(const Config& config,
   return m;
 }
 
-nlohmann::json MeasurementToJson(const PartSpec& part, const Measurement& m) {
-  nlohmann::json doc = InspectionToJson(part, m.result);
+nlohmann::json MeasurementToJson(const Measurement& m) {
+  nlohmann::json doc = InspectionToJson(m.result);
   doc["kind"] = MeasurementKindName(m.kind);
   if (m.kind != MeasurementKind::kCloud) doc.erase("alignment");
   return doc;

@@ -11,8 +11,6 @@
 namespace ttp::inspect {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 // Deterministic across standard libraries: mt19937 with hand-made
 // uniform / normal draws.
 struct Rng {
@@ -255,7 +253,6 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
     truth.features[f.id] = r;
   }
   ComputeResultFigures(part, &truth);
-  (void)kDeg;
   return out;
 }
 

@@ -135,7 +135,7 @@ TEST(InspectCloudTest, MissingFeaturesLeaveTheRestComputed) {
   }
   EXPECT_EQ(missing, 2);
   EXPECT_FALSE(r.features.at(facet).present);
-  const nlohmann::json doc = InspectionToJson(part, r);
+  const nlohmann::json doc = InspectionToJson(r);
   for (size_t c = 0; c < r.figures.size(); ++c) {
     const bool hit = r.figures[c].cycle == 3;
     EXPECT_EQ(std::isnan(r.figures[c].e_y_mm), hit);

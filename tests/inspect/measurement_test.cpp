@@ -84,7 +84,7 @@ TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
   }
   r.features["Y2-3"].present = false;  // cycle of index 3 loses E_Y, E_TTP
   ComputeResultFigures(part, &r);
-  const nlohmann::json doc = InspectionToJson(part, r);
+  const nlohmann::json doc = InspectionToJson(r);
   const fs::path p = Write("inspection.json", doc.dump(1));
   const Measurement m = LoadMeasurement(config_, p);
   EXPECT_EQ(m.kind, MeasurementKind::kInspectionJson);
@@ -109,7 +109,7 @@ TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
     EXPECT_NEAR(r.extras[i].e_c_rad, m.result.extras[i].e_c_rad, 1e-12);
   }
   EXPECT_EQ(missing, 1);
-  const nlohmann::json out = MeasurementToJson(part, m);
+  const nlohmann::json out = MeasurementToJson(m);
   EXPECT_EQ(out["kind"], "inspection-json");
   EXPECT_FALSE(out.contains("alignment"));
   EXPECT_EQ(out["segmentation"]["missing"], nlohmann::json({"Y2-3"}));
@@ -139,7 +139,7 @@ TEST_F(MeasurementTest, FiguresWithFacetAnglesKeepTheAngles) {
   ASSERT_EQ(m.result.facet_angle_rad.size(), 2u);
   EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at("X1-1"), 12.5e-6);
   EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at("Y2-3"), -4e-6);
-  const nlohmann::json back = MeasurementToJson(config_.part, m);
+  const nlohmann::json back = MeasurementToJson(m);
   EXPECT_FALSE(back.contains("facets"));
   const Measurement again =
       LoadMeasurement(config_, Write("again.json", back.dump()));
@@ -248,7 +248,7 @@ TEST_F(MeasurementTest, SampleCloudAgreesWithItsTruth) {
   EXPECT_EQ(m.kind, MeasurementKind::kCloud);
   const nlohmann::json truth =
       nlohmann::json::parse(ReadTextFile(dir + "truth.json"));
-  const nlohmann::json got = MeasurementToJson(config_.part, m);
+  const nlohmann::json got = MeasurementToJson(m);
   EXPECT_TRUE(got.contains("alignment"));
   for (size_t i = 0; i < 8; ++i) {
     for (const char* k : {"E_X", "E_Y", "E_Z", "E_TTP"}) {

@@ -31,7 +31,6 @@ TEST(SynthTest, PointsLieOnTheDeviatedPlanes) {
   const SynthPiece s = SynthesizePiece(part, Finished(), dev, o);
   ASSERT_EQ(s.cloud.size(), o.points);
   EXPECT_TRUE(s.rotation.isIdentity());
-  const double kDeg = M_PI / 180;
   int on_facet = 0, on_strip = 0;
   for (Eigen::Index i = 0; i < s.cloud.size(); ++i) {
     const Eigen::Vector3d p = s.cloud.xyz_mm.col(i);
@@ -61,7 +60,6 @@ TEST(SynthTest, PointsLieOnTheDeviatedPlanes) {
   }
   EXPECT_GT(on_facet, 50);
   EXPECT_GT(on_strip, 200);
-  (void)kDeg;
 }
 
 TEST(SynthTest, PoseStraysAndMissingFeatures) {

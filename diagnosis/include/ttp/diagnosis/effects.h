@@ -80,9 +80,7 @@ std::vector<std::string> CauseParameterNames(Cause cause);
 EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
                            const EffectContext& context);
 
-// First-order lag of the machine temperature, sampled at t (K).
-double LaggedMachineTemperatureK(const EffectContext& context, double tau_s,
-                                 double t_s);
+// First-order lag (time constant tau_s) of a series sampled every step_s.
 std::vector<double> LagFilter(const std::vector<double>& input, double step_s,
                               double tau_s);
 

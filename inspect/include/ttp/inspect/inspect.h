@@ -111,8 +111,7 @@ void ComputeResultFigures(const PartSpec& part, InspectionResult* result);
 
 // The issue 3 interface: {"figures": [...], "facets": {...}, "strips": {...},
 // "alignment": {...}, "segmentation": {...}, "warnings": [...]}, um, um/m.
-nlohmann::json InspectionToJson(const PartSpec& part,
-                                const InspectionResult& result);
+nlohmann::json InspectionToJson(const InspectionResult& result);
 
 // A table a person can read.
 std::string InspectionTable(const InspectionResult& result);

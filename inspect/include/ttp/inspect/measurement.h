@@ -55,6 +55,6 @@ MeasurementKind SniffMeasurement(const std::string& head,
                                  const std::filesystem::path& path);
 
 // InspectionToJson plus "kind" (no "alignment" unless a cloud).
-nlohmann::json MeasurementToJson(const PartSpec& part, const Measurement& m);
+nlohmann::json MeasurementToJson(const Measurement& m);
 
 }  // namespace ttp::inspect
