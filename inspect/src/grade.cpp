@@ -153,15 +153,14 @@ std::string GradeTable(const GradeResult& r, const GradeLimits& limits) {
     }
     s << buf;
   }
+  std::string verdict = VerdictName(r.overall);
+  for (char& c : verdict)
+    c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   std::snprintf(buf, sizeof buf,
-                "Verdict: %s (%d pass, %d fail, %d undecidable, %d missing)\n",
-                VerdictName(r.overall), r.counts[0], r.counts[1], r.counts[2],
+                "VERDICT: %s (%d pass, %d fail, %d undecidable, %d missing)\n",
+                verdict.c_str(), r.counts[0], r.counts[1], r.counts[2],
                 r.counts[3]);
-  std::string v = buf;
-  for (char& c : v) {
-    if (&c - v.data() < 16) c = static_cast<char>(std::toupper(c));
-  }
-  s << v;
+  s << buf;
   return s.str();
 }
 
