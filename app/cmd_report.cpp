@@ -2,16 +2,16 @@
 // whole story of a run as one self-contained HTML page (docs/REPORT.md).
 // `ttp report-html DATA.json -o report.html`: renders a report data file.
 #include <cstdio>
-#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "command.h"
-#include "ttp/diagnosis/diagnose.h"
+#include "planned_cuts.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
 #include "ttp/report/report.h"
+#include "ttp/thermal/check.h"
 #include "ttp/thermal/talc_log.h"
 
 namespace ttp::app {
@@ -44,9 +44,18 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                   "BIC margin over the nominal model needed to name a cause "
                   "(default 10)");
   cmd->add_option("--title", options->title, "title of the page");
-  cmd->callback([&global, log_path, measurement, out, json_out, options] {
+  auto no_schedule = std::make_shared<bool>(false);
+  cmd->add_flag("--no-schedule-check", *no_schedule,
+                "do not check the log's cuts against the program's schedule "
+                "(for a log of another program)");
+  cmd->callback([&global, log_path, measurement, out, json_out, options,
+                 no_schedule] {
     const Config config = global.LoadConfig();
     const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
+    // As `ttp diagnose`: a log that did not come from this program is an
+    // input error.
+    if (!*no_schedule)
+      thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
     const inspect::Measurement m =
         inspect::LoadMeasurement(config, *measurement);
     const inspect::InspectionResult& measured = m.result;

@@ -339,10 +339,9 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.raw_rms_urad = Rms(raw_urad);
 
   const Fitter fitter(obs, context, part, options, std::vector<bool>(n, true));
-  std::vector<FitResult> fits;
   double none_bic = 0;
   for (Cause cause : kAllCauses) {
-    FitResult fit = fitter.Fit(cause);
+    const FitResult fit = fitter.Fit(cause);
     CandidateResult c;
     c.cause = cause;
     c.params = fit.params;
@@ -360,7 +359,6 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     c.rms_um = Rms(um);
     c.rms_urad = Rms(urad);
     report.candidates.push_back(c);
-    fits.push_back(fit);
   }
   int best = 0;
   for (int k = 1; k < static_cast<int>(report.candidates.size()); ++k)
@@ -514,7 +512,6 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                             loo("ER0T") * part.facet_final_distance_mm /
                                 config.machine.sphere_distance_mm};
   const double est_urad = loo("EC0C");
-  const DiagnosisOptions& defaults = options;
 
   // Every measured feature must have been cut in the log: otherwise the
   // log does not cover the measured piece (or belongs to another piece).
@@ -561,7 +558,7 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
       obs.value.push_back((mv - sv) * 1e3);
       const double u_meas = FigureUncertaintyMm(m, g) * 1e3;
       obs.sigma.push_back(
-          std::max(defaults.min_sigma_um, std::hypot(u_meas, est_um[g])));
+          std::max(options.min_sigma_um, std::hypot(u_meas, est_um[g])));
       obs.cycle.push_back(m.cycle);
       obs.group.push_back(g);
     }
@@ -580,7 +577,7 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
     if (mf != measured.features.end())
       u_meas = std::sqrt(mf->second.var_angle_rad2) * 1e6;
     obs.sigma.push_back(
-        std::max(defaults.min_sigma_urad, std::hypot(u_meas, est_urad)));
+        std::max(options.min_sigma_urad, std::hypot(u_meas, est_urad)));
     obs.cycle.push_back(CycleForIndex(part, j));
     obs.group.push_back(4);
   }
@@ -590,9 +587,17 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
 DiagnosisReport DiagnoseRun(const thermal::TalcLog& log, const Config& config,
                             const MeasuredPiece& measured,
                             const DiagnosisOptions& options) {
-  const PreparedRun run = PrepareRun(log, config, measured, options);
+  return DiagnosePrepared(PrepareRun(log, config, measured, options), log,
+                          config.part, measured, options);
+}
+
+DiagnosisReport DiagnosePrepared(const PreparedRun& run,
+                                 const thermal::TalcLog& log,
+                                 const PartSpec& part,
+                                 const MeasuredPiece& measured,
+                                 const DiagnosisOptions& options) {
   DiagnosisReport report =
-      Diagnose(run.observations, run.context, config.part, options);
+      Diagnose(run.observations, run.context, part, options);
   report.estimator = run.simulation.estimator_description;
   // Even the best model must leave residuals of the size of their
   // uncertainties; far beyond, the measured piece is not the one this log

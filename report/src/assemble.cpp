@@ -201,9 +201,8 @@ json AssembleReportData(const thermal::TalcLog& log, const Config& config,
       diagnosis::PrepareRun(log, config, piece, options.diagnosis);
   diagnosis::DiagnosisReport computed;
   if (given == nullptr) {
-    computed = diagnosis::Diagnose(prepared.observations, prepared.context,
-                                   part, options.diagnosis);
-    computed.estimator = prepared.simulation.estimator_description;
+    computed = diagnosis::DiagnosePrepared(prepared, log, part, piece,
+                                           options.diagnosis);
   }
   const diagnosis::DiagnosisReport& d = given ? *given : computed;
 

@@ -21,11 +21,7 @@ fs::path Sample(const std::string& run, const std::string& file) {
   return fs::path(TTP_SHARED_DIR) / "samples" / run / file;
 }
 
-fs::path OutDir() {
-  const fs::path dir = fs::path(TTP_BINARY_DIR) / "cli_report_test";
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path OutDir() { return test::TestDir("report"); }
 
 std::string Q(const fs::path& p) { return "'" + p.string() + "'"; }
 
@@ -40,8 +36,6 @@ TEST_P(CliReport, WritesThePageAndItsDataForTheSampleRun) {
   const SampleCase c = GetParam();
   const fs::path html = OutDir() / (std::string(c.run) + ".html");
   const fs::path data_path = OutDir() / (std::string(c.run) + ".json");
-  fs::remove(html);
-  fs::remove(data_path);
   const auto r = RunTtp("report --log " + Q(Sample(c.run, "talc.csv")) + " " +
                         Q(Sample(c.run, c.measurement)) + " -o " + Q(html) +
                         " --json " + Q(data_path));
@@ -88,7 +82,6 @@ INSTANTIATE_TEST_SUITE_P(Samples, CliReport,
 
 TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
   const fs::path html = OutDir() / "bad.html";
-  fs::remove(html);
   auto r = RunTtp("report --log " + Q(Sample("run-a", "talc.csv")) +
                   " /no/such/piece.ply -o " + Q(html));
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -102,6 +95,13 @@ TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
   // The log is required.
   r = RunTtp("report " + Q(Sample("run-a", "piece.ply")) + " -o " + Q(html));
   EXPECT_EQ(r.exit_code, 2) << r.output;
+  // A measurement that the log did not cut: refused as by `ttp diagnose`.
+  r = RunTtp("report --log " + Q(Sample("run-b", "talc.csv")) + " " +
+             Q(Sample("run-a", "piece.ply")) + " -o " + Q(html));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("do not belong together"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(html));
   // A report data file that breaks the schema names the field.
   const fs::path bad = OutDir() / "bad.json";
   WriteFileAtomic(bad,

@@ -120,6 +120,15 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                        const MeasuredPiece& measured,
                        const DiagnosisOptions& options = {});
 
+// Diagnose on a prepared run, with the estimator's description, refusing a
+// measurement the best model cannot explain (options.max_chi2_per_dof):
+// InputError naming the measurement.
+DiagnosisReport DiagnosePrepared(const PreparedRun& run,
+                                 const thermal::TalcLog& log,
+                                 const PartSpec& part,
+                                 const MeasuredPiece& measured,
+                                 const DiagnosisOptions& options = {});
+// PrepareRun, then DiagnosePrepared.
 DiagnosisReport DiagnoseRun(const thermal::TalcLog& log, const Config& config,
                             const MeasuredPiece& measured,
                             const DiagnosisOptions& options = {});
