@@ -214,19 +214,21 @@ void TwinStage(RunContext& ctx) {
   options.size = ctx.args.size > 0 ? ctx.args.size : ClearSize(options.effect);
   ctx.hidden = options.effect;
   ctx.twin = diagnosis::RunTwin(ctx.config, options);
-  ctx.Write("twin/talc.csv", ctx.twin.log_text,
-            "TALC log of the twin run (8-hour cycle)");
-  ctx.WriteJsonFile("twin/truth.json", ctx.twin.truth,
-                    "truth of the twin run (the hidden effect)");
-  // The finished piece as the twin cut it, measured on a CMM: the twin's
-  // point count and probing noise, 0.2 % strays, any pose.
-  const inspect::PointCloud cloud =
-      diagnosis::TwinCloud(ctx.config, ctx.twin, options);
-  const fs::path cloud_path = ctx.out_dir / "twin/piece.ply";
-  inspect::WritePointCloud(cloud_path, cloud, inspect::CloudFormat::kPlyBinary);
+  // As `ttp twin` writes it: the log, the truth (without the pose, which the
+  // cloud's random pose replaces) and the finished piece measured on a CMM
+  // (the twin's point count and probing noise, 0.2 % strays, any pose).
+  const fs::path dir = ctx.out_dir / "twin";
+  const fs::path cloud_path =
+      diagnosis::WriteTwin(ctx.config, ctx.twin, options, dir.string(),
+                           diagnosis::TwinMeasurement::kPly);
+  ctx.written.emplace_back(dir / "talc.csv",
+                           "TALC log of the twin run (8-hour cycle)");
+  ctx.written.emplace_back(dir / "truth.json",
+                           "truth of the twin run (the hidden effect)");
   ctx.written.emplace_back(
       cloud_path,
-      fmt::format("CMM cloud of the twin's piece ({} points)", cloud.size()));
+      fmt::format("CMM cloud of the twin's piece ({} points plus strays)",
+                  options.cloud_points));
 }
 
 void InspectStage(RunContext& ctx) {
