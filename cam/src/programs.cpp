@@ -156,13 +156,14 @@ void EngraveMark(PathWriter& path, const Config& c) {
   path.RapidZ(c.process.safe_z_w_mm);
 }
 
-void SmallNotch(PathWriter& path, const Config& c) {
-  const ToolSpec& tool = c.process.notch;
-  path.Add(gcode::Comment{"step 3: small notch"});
+// A slot across the blank with `tool` along X (along = 0) or Y (1), roughed
+// in steps of the roughing step-down.
+SlotPass NotchSlot(const Config& c, const ToolSpec& tool, int along,
+                   double half_width_mm, double floor_z_mm) {
   SlotPass slot;
-  slot.along = 1;
-  slot.half_width_mm = c.part.small_notch_half_width_mm;
-  slot.floor_z_mm = c.part.small_notch_floor_z_mm;
+  slot.along = along;
+  slot.half_width_mm = half_width_mm;
+  slot.floor_z_mm = floor_z_mm;
   slot.tool_radius_mm = tool.diameter_mm / 2;
   slot.length_mm =
       BlankRadius(c) + slot.tool_radius_mm + c.process.clearance_mm;
@@ -170,24 +171,22 @@ void SmallNotch(PathWriter& path, const Config& c) {
   slot.stepover_mm = kStepoverFraction * tool.diameter_mm;
   slot.feed_mm_min = tool.feed_mm_min;
   slot.safe_z_mm = c.process.safe_z_w_mm;
-  MillSlot(path, slot);
+  return slot;
+}
+
+void SmallNotch(PathWriter& path, const Config& c) {
+  path.Add(gcode::Comment{"step 3: small notch"});
+  MillSlot(path,
+           NotchSlot(c, c.process.notch, 1, c.part.small_notch_half_width_mm,
+                     c.part.small_notch_floor_z_mm));
 }
 
 void BigNotch(PathWriter& path, const Config& c) {
-  const ToolSpec& tool = c.process.roughing;
   path.Add(gcode::Comment{"step 4: big notch, rough"});
-  SlotPass slot;
-  slot.along = 0;
-  slot.half_width_mm = c.part.big_notch_half_width_mm;
-  slot.floor_z_mm = c.part.big_notch_floor_z_mm;
-  slot.tool_radius_mm = tool.diameter_mm / 2;
-  slot.length_mm =
-      BlankRadius(c) + slot.tool_radius_mm + c.process.clearance_mm;
-  slot.step_down_mm = c.process.roughing_step_down_mm;
+  SlotPass slot =
+      NotchSlot(c, c.process.roughing, 0, c.part.big_notch_half_width_mm,
+                c.part.big_notch_floor_z_mm);
   slot.allowance_mm = c.process.finish_allowance_mm;
-  slot.stepover_mm = kStepoverFraction * tool.diameter_mm;
-  slot.feed_mm_min = tool.feed_mm_min;
-  slot.safe_z_mm = c.process.safe_z_w_mm;
   MillSlot(path, slot);
   path.Add(gcode::Comment{"step 4: big notch, finish"});
   slot.step_down_mm = 0;

@@ -28,10 +28,6 @@ class Writer {
 
   std::string Write() {
     const bool fanuc = dialect_ == Dialect::kFanuc;
-    bool has_report = false;
-    for (const auto& s : program_.statements)
-      if (std::holds_alternative<Report>(s) || std::holds_alternative<Probe>(s))
-        has_report = true;
     Line("%");
     if (fanuc) {
       Line(fmt::format("O{} ({})", program_.number,
@@ -45,7 +41,7 @@ class Writer {
     for (size_t i = 0; i < program_.statements.size(); ++i) {
       index_ = i;
       const Statement& s = program_.statements[i];
-      if (fanuc && has_report && !report_open &&
+      if (fanuc && !report_open &&
           (std::holds_alternative<Report>(s) ||
            std::holds_alternative<Probe>(s))) {
         Line("POPEN");

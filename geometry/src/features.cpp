@@ -47,6 +47,16 @@ std::string FacetId(Segment s, int j) {
 }
 std::string StripId(int k) { return "Z" + std::to_string(k); }
 
+std::string CylinderId(double diameter_mm) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "CYL%g", diameter_mm);
+  return buf;
+}
+
+std::string DatumCylinderId(const PartSpec& part) {
+  return CylinderId(part.ref_cylinders.front().diameter_mm);
+}
+
 bool ParseFeatureId(const std::string& id, FeatureKind* kind, Segment* segment,
                     int* index) {
   static const std::regex facet(R"(^(X1|Y1|X2|Y2)-([1-9])$)");
@@ -161,9 +171,7 @@ std::vector<NominalFeature> BuildNominalFeatures(const PartSpec& p,
   }
   for (const RefCylinder& rc : p.ref_cylinders) {
     NominalFeature cyl;
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "CYL%g", rc.diameter_mm);
-    cyl.id = buf;
+    cyl.id = CylinderId(rc.diameter_mm);
     cyl.kind = FeatureKind::kCylinder;
     cyl.point = Eigen::Vector3d(0, 0, (rc.z_bottom_mm + rc.z_top_mm) / 2);
     cyl.normal = Eigen::Vector3d::UnitZ();

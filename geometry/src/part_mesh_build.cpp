@@ -207,12 +207,6 @@ void ValidatePart(const PartSpec& p, const PartMeshOptions& o) {
   }
 }
 
-std::string CylinderId(double diameter_mm) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "CYL%g", diameter_mm);
-  return buf;
-}
-
 }  // namespace
 
 PartMesh BuildPartMesh(const PartSpec& p, Stage stage,
@@ -248,7 +242,6 @@ PartMesh BuildPartMesh(const PartSpec& p, Stage stage,
                               p.blank_diameter_mm / 2, e);
     blank.wall_tag = "CYL_BLANK";
     const int base = add(std::move(blank));
-    z_levels.back() = bolt_top_z;
     z_levels[1] = p.face_depth_mm;
     std::sort(z_levels.begin(), z_levels.end());
     for (size_t i = 0; i + 1 < z_levels.size(); ++i) {

@@ -175,7 +175,7 @@ std::string TestFeatureIdForDmisLabel(const std::string& label) {
   if (s == "TOP") return "TOP";
   if (s == "FLANK_PY" || s == "FLANK+Y" || s == "FLANKPY") return "FLANK+Y";
   if (s == "FLANK_NY" || s == "FLANK-Y" || s == "FLANKNY") return "FLANK-Y";
-  if (s == "CYL199") return "CYL199";
+  if (s.rfind("CYL", 0) == 0) return s;  // a reference cylinder, "CYL199"
   if (s.rfind("STRIP_", 0) == 0) s = "Z" + s.substr(6);
   std::replace(s.begin(), s.end(), '_', '-');
   FeatureKind kind;
@@ -190,10 +190,7 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
   std::map<std::string, const DmisFeature*> by_id;
   for (const DmisFeature& f : dmis.features) {
     const std::string id = TestFeatureIdForDmisLabel(f.label);
-    if (id.empty()) {
-      out.ignored_labels.push_back(f.label);
-      continue;
-    }
+    if (id.empty()) continue;  // a datum or another feature: not a result
     if (by_id.count(id))
       throw InputError(dmis.source, f.line, "FA(" + f.label + ")",
                        id + " is reported twice (first on line " +
@@ -204,7 +201,9 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
   // W from the datums (test-piece.md section 5), if all are there.
   Eigen::Isometry3d to_w = Eigen::Isometry3d::Identity();
   double top_z_mm = 0.0;
-  const auto has = [&](const char* id, std::initializer_list<const char*> t) {
+  const std::string datum = DatumCylinderId(part);
+  const auto has = [&](const std::string& id,
+                       std::initializer_list<const char*> t) {
     auto it = by_id.find(id);
     if (it == by_id.end()) return false;
     for (const char* type : t)
@@ -212,7 +211,7 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     return false;
   };
   if (has("TOP", {"PLANE"}) && has("FLANK+Y", {"PLANE"}) &&
-      has("FLANK-Y", {"PLANE"}) && has("CYL199", {"CIRCLE", "CYLNDR"})) {
+      has("FLANK-Y", {"PLANE"}) && has(datum, {"CIRCLE", "CYLNDR"})) {
     const DmisFeature& top = *by_id["TOP"];
     const Eigen::Vector3d z = top.direction.z() >= 0
                                   ? top.direction
@@ -233,7 +232,7 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     r.row(1) = y.transpose();
     r.row(2) = z.transpose();
     // Origin: circle centre in XY, top face at z = 0.
-    const Eigen::Vector3d c = by_id["CYL199"]->point_mm;
+    const Eigen::Vector3d c = by_id[datum]->point_mm;
     const double top_height = z.dot(top.point_mm);
     Eigen::Vector3d origin = c - (z.dot(c) - top_height) * z;
     to_w.linear() = r;
@@ -241,8 +240,9 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     out.aligned_from_datums = true;
   } else {
     out.warnings.push_back(
-        "datums TOP, FLANK+Y, FLANK-Y and CYL199 not all reported: the "
-        "reported coordinates are taken as the workpiece frame W");
+        "datums TOP, FLANK+Y, FLANK-Y and " + datum +
+        " not all reported: the reported coordinates are taken as the "
+        "workpiece frame W");
     if (has("TOP", {"PLANE"})) {
       const DmisFeature& top = *by_id["TOP"];
       top_z_mm = top.point_mm.z();

@@ -753,7 +753,7 @@ void WritePointCloud(const std::filesystem::path& path, const PointCloud& cloud,
     case CloudFormat::kPlyAscii:
     case CloudFormat::kPlyBinary: {
       const bool bin = format == CloudFormat::kPlyBinary;
-      const char* t = bin ? "double" : "double";
+      const char* t = "double";  // coordinates are kept in double
       out = "ply\nformat " +
             std::string(bin ? "binary_little_endian" : "ascii") +
             " 1.0\ncomment ttp point cloud, mm\nelement vertex " +

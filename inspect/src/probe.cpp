@@ -165,7 +165,6 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   if (table.rows.empty())
     throw InputError(source, table.header_line, "", "no probe results");
 
-  out.points = static_cast<int>(table.rows.size());
   const double sigma = options.repeatability_um * 1e-3;
   auto points_of = [&](const std::string& id) {
     std::vector<Eigen::Vector3d> v;
@@ -185,7 +184,7 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
     const auto top = points_of("TOP");
     const auto fp = points_of("FLANK+Y");
     const auto fm = points_of("FLANK-Y");
-    const auto cyl = points_of("CYL199");
+    const auto cyl = points_of(DatumCylinderId(config.part));
     const Plane pt = FitPlaneKnownSigma(top, Eigen::Vector3d::UnitZ(),
                                         Eigen::Vector3d::UnitX(), sigma);
     // The flanks are probed at one height: lines in the top face's plane.
@@ -232,8 +231,9 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
                                " mm");
     } else {
       out.warnings.push_back(
-          "datums TOP, FLANK+Y, FLANK-Y and CYL199 not all probed: W is taken "
-          "from the machine frame and the piece's nominal placement");
+          "datums TOP, FLANK+Y, FLANK-Y and " + DatumCylinderId(part) +
+          " not all probed: W is taken from the machine frame and the "
+          "piece's nominal placement");
     }
   }
 

@@ -101,9 +101,10 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
     }
     // Datums: top face 12 %, each flank 4 %, the 199 circle 4 %, the other
     // reference cylinders 2 % each, the mark 2 %.
-    const auto datum_share = [](const std::string& id) {
+    const std::string datum = DatumCylinderId(part);
+    const auto datum_share = [&datum](const std::string& id) {
       if (id == "TOP") return 0.12;
-      if (id == "FLANK+Y" || id == "FLANK-Y" || id == "CYL199") return 0.04;
+      if (id == "FLANK+Y" || id == "FLANK-Y" || id == datum) return 0.04;
       if (id == "MARK" || id.rfind("CYL", 0) == 0) return 0.02;
       return 0.0;
     };

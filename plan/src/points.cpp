@@ -102,8 +102,7 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
     const double r = c.diameter_mm / 2;
     const double zc =
         (part.datum_circle_z_min_mm + part.datum_circle_z_max_mm) / 2;
-    char id[32];
-    std::snprintf(id, sizeof id, "CYL%g", c.diameter_mm);
+    const std::string id = CylinderId(c.diameter_mm);
     for (int i = 0; i < options.cylinder_points; ++i) {
       const double phi = (2 * kPi * (i + 0.5)) / options.cylinder_points;
       const Eigen::Vector3d n(std::cos(phi), std::sin(phi), 0);

@@ -268,12 +268,6 @@ double MachineErrorEstimator::ResidualAt(int e, double t_s, int skip) const {
   return sw > 1e-300 ? swr / sw : 0.0;
 }
 
-CAxisErrors MachineErrorEstimator::ModelErrorsAt(double t_s) const {
-  std::array<double, 7> micro;
-  for (int e = 0; e < 7; ++e) micro[e] = ModelAt(e, t_s);
-  return PredictedAt(t_s) + CAxisErrors::FromMicro(micro);
-}
-
 CAxisErrors MachineErrorEstimator::MachineErrorsAt(double t_s) const {
   std::array<double, 7> micro;
   for (int e = 0; e < 7; ++e) {

@@ -100,13 +100,6 @@ bool HasAll(const LogRow& row, int first_column) {
 
 }  // namespace
 
-const char* LogEventName(LogEvent e) {
-  for (const auto& [name, ev] : kEvents) {
-    if (ev == e) return name;
-  }
-  return "note";
-}
-
 int TalcLog::CountEvent(LogEvent e) const {
   int n = 0;
   for (const auto& r : rows) n += r.event == e;
@@ -384,13 +377,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
 }
 
 TalcLog ReadTalcLog(const std::string& path) {
-  std::string text;
-  try {
-    text = ReadTextFile(path);
-  } catch (const std::exception& e) {
-    throw InputError(path, 0, "file", e.what());
-  }
-  return ParseTalcLog(text, path);
+  return ParseTalcLog(ReadTextFile(path), path);  // InputError names the path
 }
 
 nlohmann::json LogSummaryJson(const TalcLog& log) {

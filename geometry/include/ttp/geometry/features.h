@@ -57,8 +57,11 @@ int IndexForCycle(const PartSpec& part, int cycle);
 // Inverse: the cycle cutting index j, or -1 (none).
 int CycleForIndex(const PartSpec& part, int index);
 
-std::string FacetId(Segment s, int j);  // "X1-5"
-std::string StripId(int k);             // "Z5"
+std::string FacetId(Segment s, int j);       // "X1-5"
+std::string StripId(int k);                  // "Z5"
+std::string CylinderId(double diameter_mm);  // "CYL199"
+// The datum circle's cylinder: the first reference cylinder ("CYL199").
+std::string DatumCylinderId(const PartSpec& part);
 
 // Parses a feature name of talc-log.md section 5. Returns false if it is
 // not one (the caller reports it).

@@ -40,7 +40,6 @@ struct DmisImport {
   FeatureResults results;
   bool aligned_from_datums = false;  // false: reported frame taken as W
   std::vector<std::string> warnings;
-  std::vector<std::string> ignored_labels;
 };
 
 // Facet and strip planes -> per-feature results. If the datums TOP (plane),

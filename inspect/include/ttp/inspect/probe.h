@@ -34,7 +34,6 @@ struct ProbeReadOptions {
 struct ProbeImport {
   FeatureResults results;
   std::vector<std::string> warnings;
-  int points = 0;
 };
 
 // InputError names file, line and field: unknown point id, a point given

@@ -64,8 +64,6 @@ class MachineErrorEstimator {
   CAxisErrors MachineErrorsAt(double t_s) const;
   // Straight line between the R-tests around t (the naive estimator).
   CAxisErrors LinearErrorsAt(double t_s) const;
-  // The ARX model alone (no residual correction).
-  CAxisErrors ModelErrorsAt(double t_s) const;
   // Prediction in force at t (linear between rows giving pred_); zero when
   // compensation is off.
   CAxisErrors PredictedAt(double t_s) const;

@@ -18,7 +18,6 @@
 namespace ttp::thermal {
 
 enum class LogEvent { kSample, kRTest, kCut, kPhase, kUpdate, kNote };
-const char* LogEventName(LogEvent e);
 
 // Numeric columns the reader knows; a row stores NaN where a cell is empty.
 enum NumericColumn : int {
