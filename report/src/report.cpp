@@ -14,6 +14,7 @@
 #include "piece_drawing.h"
 #include "report_schema.h"
 #include "ttp/geometry/features.h"
+#include "ttp/inspect/grade.h"
 
 namespace ttp::report_assets {
 extern const char* const kUplotJsPieces[];
@@ -219,11 +220,12 @@ std::string VerdictSection(const json& data, const Limits& limits) {
       }
       const double value = (*entry)[key].get<double>();
       const double u = (*entry)["U"][key].get<double>();
-      const Decision d = DecideIso14253(value, u, limit);
-      key_fails += d == Decision::kFail;
-      key_undecidable += d == Decision::kUndecidable;
+      // The rule of `ttp grade` (inspect::Decide).
+      const inspect::Verdict d = inspect::Decide(value, u, limit);
+      key_fails += d == inspect::Verdict::kFail;
+      key_undecidable += d == inspect::Verdict::kUndecidable;
       table += fmt::format("<td class=\"{}\">{} &plusmn; {}</td>",
-                           DecisionName(d), Num(value), Num(u));
+                           inspect::VerdictName(d), Num(value), Num(u));
     }
     const char* key_result = key_fails         ? "fail"
                              : key_undecidable ? "undecidable"
@@ -713,25 +715,6 @@ document.body.setAttribute("data-plots-done", "1");
 )js";
 
 }  // namespace
-
-Decision DecideIso14253(double value, double expanded_u, double limit) {
-  const double magnitude = std::abs(value);
-  if (magnitude <= limit - expanded_u) return Decision::kPass;
-  if (magnitude > limit + expanded_u) return Decision::kFail;
-  return Decision::kUndecidable;
-}
-
-const char* DecisionName(Decision decision) {
-  switch (decision) {
-    case Decision::kPass:
-      return "pass";
-    case Decision::kFail:
-      return "fail";
-    case Decision::kUndecidable:
-      return "undecidable";
-  }
-  return "undecidable";
-}
 
 namespace {
 std::string WarningsBlock(const json& data) {

@@ -27,17 +27,6 @@ json EmbeddedData(const std::string& html) {
       html.substr(start + open.size(), end - start - open.size()));
 }
 
-TEST(DecideIso14253, ReducesTheConformanceZoneByU) {
-  EXPECT_EQ(DecideIso14253(3.9, 1.0, 5.0), Decision::kPass);
-  EXPECT_EQ(DecideIso14253(-4.0, 1.0, 5.0), Decision::kPass);
-  EXPECT_EQ(DecideIso14253(4.1, 1.0, 5.0), Decision::kUndecidable);
-  EXPECT_EQ(DecideIso14253(-5.9, 1.0, 5.0), Decision::kUndecidable);
-  EXPECT_EQ(DecideIso14253(6.1, 1.0, 5.0), Decision::kFail);
-  // U larger than the limit: conformance can never be proven.
-  EXPECT_EQ(DecideIso14253(0.0, 6.0, 5.0), Decision::kUndecidable);
-  EXPECT_STREQ(DecisionName(Decision::kFail), "fail");
-}
-
 TEST(RenderReportHtml, HasEverySectionAndPlot) {
   const std::string html = RenderReportHtml(test::SyntheticReportData());
   for (const char* id : {"piece", "figures", "verdict", "log", "diagnosis"}) {

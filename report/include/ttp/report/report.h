@@ -21,11 +21,4 @@ void ValidateReportData(const nlohmann::json& report_data,
 // Validates, then renders the report. Same input gives the same bytes.
 std::string RenderReportHtml(const nlohmann::json& report_data);
 
-// The ISO 14253-1 decision on one figure: conformance proven when
-// |value| <= limit - U, non-conformance proven when |value| > limit + U,
-// otherwise undecidable (inside the uncertainty range at the limit).
-enum class Decision { kPass, kFail, kUndecidable };
-Decision DecideIso14253(double value, double expanded_u, double limit);
-const char* DecisionName(Decision decision);  // "pass", "fail", "undecidable"
-
 }  // namespace ttp
