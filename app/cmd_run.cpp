@@ -84,7 +84,11 @@ struct RunContext {
   diagnosis::Cause hidden = diagnosis::Cause::kNone;
   inspect::Measurement measurement;
   thermal::TalcLog log;
-  diagnosis::DiagnosisReport diagnosis;
+  // The log's estimator and simulation: fitted once, shared by the check,
+  // the diagnosis and the report.
+  std::optional<thermal::MachineErrorEstimator> estimator;
+  thermal::Simulation simulation;
+  diagnosis::PreparedDiagnosis diagnosis;
 
   void Write(const std::string& name, const std::string& text,
              const std::string& what) {
@@ -248,8 +252,12 @@ void CheckStage(RunContext& ctx) {
                                   (ctx.out_dir / "twin/talc.csv").string());
   const thermal::ScheduleCheck schedule =
       thermal::CheckLogAgainstSchedule(ctx.log, PlannedCuts(ctx.config));
+  ctx.estimator = thermal::MachineErrorEstimator::Fit(ctx.log);
+  ctx.simulation =
+      thermal::SimulatePiece(ctx.log, ctx.config, *ctx.estimator, {});
   const thermal::CheckResult check =
-      thermal::CheckPiece(ctx.log, ctx.config, ctx.measurement.result.figures);
+      thermal::CheckPiece(ctx.log, ctx.config, *ctx.estimator, ctx.simulation,
+                          ctx.measurement.result.figures);
   nlohmann::json doc = thermal::CheckToJson(check);
   doc["schedule"] = {{"offset_s", schedule.offset_s},
                      {"max_deviation_s", schedule.max_deviation_s},
@@ -283,17 +291,21 @@ void DiagnoseStage(RunContext& ctx) {
   const diagnosis::MeasuredPiece measured =
       diagnosis::MeasuredPieceFromInspection(ctx.config.part,
                                              ctx.measurement.result);
-  ctx.diagnosis = diagnosis::DiagnoseRun(ctx.log, ctx.config, measured);
-  ctx.WriteJsonFile("diagnosis.json", diagnosis::DiagnosisToJson(ctx.diagnosis),
+  ctx.diagnosis.run = diagnosis::PrepareRun(ctx.log, ctx.config, *ctx.estimator,
+                                            ctx.simulation, measured);
+  ctx.diagnosis.report = diagnosis::DiagnosePrepared(ctx.diagnosis.run, ctx.log,
+                                                     ctx.config.part, measured);
+  const diagnosis::DiagnosisReport& report = ctx.diagnosis.report;
+  ctx.WriteJsonFile("diagnosis.json", diagnosis::DiagnosisToJson(report),
                     "diagnosis of the twin run");
-  ctx.Write("diagnosis.txt", diagnosis::DiagnosisText(ctx.diagnosis),
+  ctx.Write("diagnosis.txt", diagnosis::DiagnosisText(report),
             "diagnosis (text)");
   const std::string hidden = diagnosis::CauseName(ctx.hidden);
   ctx.summary.push_back(fmt::format(
       "diagnosis: {} (the twin hid {}: {}); residual RMS {:.3f} -> {:.3f} um",
-      ctx.diagnosis.cause, hidden,
-      ctx.diagnosis.cause == hidden ? "named right" : "NOT the hidden cause",
-      ctx.diagnosis.baseline_rms_um, ctx.diagnosis.extended_rms_um));
+      report.cause, hidden,
+      report.cause == hidden ? "named right" : "NOT the hidden cause",
+      report.baseline_rms_um, report.extended_rms_um));
 }
 
 // The main job, in order.

@@ -476,9 +476,19 @@ MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path) {
 PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                        const MeasuredPiece& measured,
                        const DiagnosisOptions& options) {
-  PreparedRun run;
   const auto estimator = thermal::MachineErrorEstimator::Fit(log);
-  run.simulation = thermal::SimulatePiece(log, config, estimator, {});
+  return PrepareRun(log, config, estimator,
+                    thermal::SimulatePiece(log, config, estimator, {}),
+                    measured, options);
+}
+
+PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
+                       const thermal::MachineErrorEstimator& estimator,
+                       thermal::Simulation simulation,
+                       const MeasuredPiece& measured,
+                       const DiagnosisOptions& options) {
+  PreparedRun run;
+  run.simulation = std::move(simulation);
   const PartSpec& part = config.part;
 
   std::vector<CutState> states;

@@ -168,7 +168,7 @@ json Residuals(const diagnosis::PreparedRun& run,
 
 json AssembleReportData(const thermal::TalcLog& log, const Config& config,
                         const inspect::InspectionResult& measured,
-                        const diagnosis::DiagnosisReport* given,
+                        const diagnosis::PreparedDiagnosis* given,
                         const ReportOptions& options) {
   const PartSpec& part = config.part;
   options.limits.Validate();
@@ -197,14 +197,14 @@ json AssembleReportData(const thermal::TalcLog& log, const Config& config,
   // The measured piece as the diagnosis reads it (as `ttp diagnose` does).
   const diagnosis::MeasuredPiece piece =
       diagnosis::MeasuredPieceFromInspection(part, measured);
-  const diagnosis::PreparedRun prepared =
-      diagnosis::PrepareRun(log, config, piece, options.diagnosis);
-  diagnosis::DiagnosisReport computed;
+  diagnosis::PreparedDiagnosis computed;
   if (given == nullptr) {
-    computed = diagnosis::DiagnosePrepared(prepared, log, part, piece,
-                                           options.diagnosis);
+    computed.run = diagnosis::PrepareRun(log, config, piece, options.diagnosis);
+    computed.report = diagnosis::DiagnosePrepared(computed.run, log, part,
+                                                  piece, options.diagnosis);
   }
-  const diagnosis::DiagnosisReport& d = given ? *given : computed;
+  const diagnosis::PreparedRun& prepared = given ? given->run : computed.run;
+  const diagnosis::DiagnosisReport& d = given ? given->report : computed.report;
 
   // Graded and drawn with the measurement's own U; the diagnosis judges
   // the same values against the fits' scatter (piece.figures).
@@ -260,7 +260,7 @@ json AssembleReportData(const thermal::TalcLog& log, const Config& config,
 
 json WriteReport(const thermal::TalcLog& log, const Config& config,
                  const inspect::InspectionResult& measured,
-                 const diagnosis::DiagnosisReport* diagnosis,
+                 const diagnosis::PreparedDiagnosis* diagnosis,
                  const std::filesystem::path& html_path,
                  const std::filesystem::path& json_path,
                  const ReportOptions& options) {

@@ -171,14 +171,16 @@ TEST(AssembleReportData, ResidualsAreMeasuredMinusSimulated) {
 }
 
 TEST(AssembleReportData, TakesTheCallersDiagnosis) {
-  diagnosis::DiagnosisReport given =
-      diagnosis::DiagnoseRun(Twin().log, Twin().config,
-                             diagnosis::MeasuredPieceFromFeatures(
-                                 Twin().config.part, Twin().measured.features));
+  const diagnosis::MeasuredPiece piece = diagnosis::MeasuredPieceFromFeatures(
+      Twin().config.part, Twin().measured.features);
+  diagnosis::PreparedDiagnosis given;
+  given.run = diagnosis::PrepareRun(Twin().log, Twin().config, piece);
+  given.report = diagnosis::DiagnosePrepared(given.run, Twin().log,
+                                             Twin().config.part, piece);
   const json same =
       AssembleReportData(Twin().log, Twin().config, Twin().measured, &given);
   EXPECT_EQ(same, TwinData());
-  given.cause = "none";
+  given.report.cause = "none";
   const json none =
       AssembleReportData(Twin().log, Twin().config, Twin().measured, &given);
   EXPECT_EQ(none["diagnosis"]["cause"], "none");

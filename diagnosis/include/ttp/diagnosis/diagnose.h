@@ -119,6 +119,18 @@ struct PreparedRun {
 PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                        const MeasuredPiece& measured,
                        const DiagnosisOptions& options = {});
+// The same on an estimator and simulation the caller already has (fitted
+// and simulated from `log`), as `ttp run` shares them with its check.
+PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
+                       const thermal::MachineErrorEstimator& estimator,
+                       thermal::Simulation simulation,
+                       const MeasuredPiece& measured,
+                       const DiagnosisOptions& options = {});
+// A diagnosis with the prepared run it was made on (what a report draws).
+struct PreparedDiagnosis {
+  PreparedRun run;
+  DiagnosisReport report;
+};
 
 // Diagnose on a prepared run, with the estimator's description, refusing a
 // measurement the best model cannot explain (options.max_chi2_per_dof):

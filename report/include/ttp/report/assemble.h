@@ -28,14 +28,15 @@ struct ReportOptions {
 
 // The report data of a run. `measured` is any measurement as
 // LoadMeasurement reads it; the diagnosis reads it the way `ttp diagnose`
-// does (diagnosis::MeasuredPieceFromInspection). `diagnosis` is the caller's
-// (e.g. `ttp run` already has it) or, when null, DiagnoseRun is done here
-// with options.diagnosis. Throws InputError for a log that does not cover
-// the cuts or a measurement with nothing to compare.
+// does (diagnosis::MeasuredPieceFromInspection). `diagnosis` is the caller's,
+// with the run it was prepared on (`ttp run` already has both), or, when
+// null, the run is prepared and diagnosed here with options.diagnosis. Throws
+// InputError for a log that does not cover the cuts or a measurement with
+// nothing to compare.
 nlohmann::json AssembleReportData(
     const thermal::TalcLog& log, const Config& config,
     const inspect::InspectionResult& measured,
-    const diagnosis::DiagnosisReport* diagnosis = nullptr,
+    const diagnosis::PreparedDiagnosis* diagnosis = nullptr,
     const ReportOptions& options = {});
 
 // Assembles, renders and writes the report: html_path (the page) and, when
@@ -43,7 +44,7 @@ nlohmann::json AssembleReportData(
 // the data.
 nlohmann::json WriteReport(const thermal::TalcLog& log, const Config& config,
                            const inspect::InspectionResult& measured,
-                           const diagnosis::DiagnosisReport* diagnosis,
+                           const diagnosis::PreparedDiagnosis* diagnosis,
                            const std::filesystem::path& html_path,
                            const std::filesystem::path& json_path,
                            const ReportOptions& options = {});
