@@ -6,10 +6,12 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/inspect/plane_result.h"
 #include "ttp/inspect/point_io.h"
 
 namespace ttp::inspect {
@@ -722,16 +724,24 @@ InspectionResult InspectCloud(const PartSpec& part, const PointCloud& cloud,
     out.features[id] = r;
     out.diagnostics.push_back(diag);
   };
+  std::map<std::string, NominalFeature> nominal;
+  for (const NominalFeature& f : TestFeatures(part)) nominal[f.id] = f;
+  // d, angle and tilt as every measurement path has them; the variances
+  // are this fit's.
+  const auto set_shape = [](const FeatureResult& shape, FeatureResult* r) {
+    r->d_mm = shape.d_mm;
+    r->angle_rad = shape.angle_rad;
+    r->tilt_rad = shape.tilt_rad;
+  };
   for (int s = 0; s < 4; ++s) {
     for (int j = 1; j <= facets; ++j) {
-      const double a = FacetPhiDeg(part, kSegments[s], j) * kDeg;
-      const Eigen::Vector3d n_nom(std::cos(a), std::sin(a), 0);
-      const Eigen::Vector3d u_nom(-std::sin(a), std::cos(a), 0);  // Z x n
+      const NominalFeature& nom = nominal.at(FacetId(kSegments[s], j));
+      const Eigen::Vector3d& n_nom = nom.normal;
+      const Eigen::Vector3d u_nom = Eigen::Vector3d::UnitZ().cross(n_nom);
       fit_feature(
-          FacetId(kSegments[s], j), facet_pts[s * facets + j - 1], n_nom, u_nom,
+          nom.id, facet_pts[s * facets + j - 1], n_nom, u_nom,
           [&](const Plane& pl, FeatureResult* r) {
-            // d: distance of the plane to the origin, n . centroid.
-            r->d_mm = pl.normal.dot(pl.centroid);
+            set_shape(FeatureResultFromPlane(nom, {pl.centroid, pl.normal}), r);
             const Eigen::Vector3d lever = -pl.centroid;  // origin rel. centroid
             const Eigen::Vector3d g(1.0, lever.dot(pl.u), lever.dot(pl.v));
             // w(origin) = a + b u_o + c v_o, d = -w(origin)
@@ -741,30 +751,25 @@ InspectionResult InspectCloud(const PartSpec& part, const PointCloud& cloud,
             r->var_d_mm2 = g.dot(pl.covariance * g) +
                            n2.dot(origin_cov_w * n2) +
                            std::pow(instrument_u(d_facet), 2);
-            const double ang = std::atan2(pl.normal.y(), pl.normal.x());
-            r->angle_rad = std::remainder(ang - a, 2 * M_PI);
             r->var_angle_rad2 =
                 pl.covariance(1, 1) + std::pow(instrument_u_angle, 2);
-            r->tilt_rad = std::asin(std::clamp(pl.normal.z(), -1.0, 1.0));
           });
     }
   }
   for (int k = 1; k <= facets; ++k) {
-    const double yk = StripY(part, k);
+    const NominalFeature& nom = nominal.at(StripId(k));
     fit_feature(
-        StripId(k), strip_pts[k - 1], Eigen::Vector3d::UnitZ(),
+        nom.id, strip_pts[k - 1], Eigen::Vector3d::UnitZ(),
         Eigen::Vector3d::UnitX(), [&](const Plane& pl, FeatureResult* r) {
           const Eigen::Vector3d& nn = pl.normal;
-          // z of the plane at (0, y_k); depth = -z.
-          const double z0 = (nn.dot(pl.centroid) - nn.y() * yk) / nn.z();
-          r->d_mm = -z0;
-          const Eigen::Vector3d at(0, yk, z0);
+          set_shape(FeatureResultFromPlane(nom, {pl.centroid, pl.normal}), r);
+          // The depth is taken at (0, y_k, -d).
+          const Eigen::Vector3d at(0, nom.point.y(), -r->d_mm);
           const Eigen::Vector3d lever = at - pl.centroid;
           const Eigen::Vector3d g(1.0, lever.dot(pl.u), lever.dot(pl.v));
           r->var_d_mm2 =
               g.dot(pl.covariance * g) / (nn.z() * nn.z()) +
               std::pow(instrument_u(std::abs(part.strip_floor_z_mm)), 2);
-          r->angle_rad = std::atan(-nn.x() / nn.z());
           r->var_angle_rad2 =
               pl.covariance(1, 1) + std::pow(instrument_u_angle, 2);
         });
