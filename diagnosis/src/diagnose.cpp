@@ -414,18 +414,9 @@ namespace {
 // (and the per-figure offsets of every model absorb what is left).
 void UseFitScatter(const PartSpec& part, FeatureKind kind, FeatureResult* r) {
   if (!r->present || !(r->rms_mm > 0) || r->points < 3) return;
-  const double sd_mm = r->rms_mm / std::sqrt(r->points);
-  // Facets: across the facet; strips: along x over the piece (~180 mm).
-  const double spread_mm =
-      (kind == FeatureKind::kFacet
-           ? std::max(2.0,
-                      2 * (part.facet_final_distance_mm *
-                               std::tan(part.facet_step_deg / 2 * M_PI / 180) -
-                           1.0))
-           : 180.0) /
-      std::sqrt(12.0);
-  r->var_d_mm2 = sd_mm * sd_mm;
-  r->var_angle_rad2 = std::pow(sd_mm / spread_mm, 2);
+  const FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
+  r->var_d_mm2 = s.d_mm * s.d_mm;
+  r->var_angle_rad2 = s.angle_rad * s.angle_rad;
 }
 }  // namespace
 

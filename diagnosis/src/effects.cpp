@@ -1,5 +1,6 @@
 #include "ttp/diagnosis/effects.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -121,6 +122,23 @@ double Sample(const std::vector<double>& v, double t0, double step, double t) {
   return v[i] * (1 - f) + v[i + 1] * f;
 }
 }  // namespace
+
+FitScatter FeatureFitScatter(const PartSpec& part, FeatureKind kind,
+                             double rms_mm, int points) {
+  FitScatter s;
+  s.d_mm = rms_mm / std::sqrt(points);
+  // Facets: across the facet; strips: along x over the piece (~180 mm).
+  const double spread_mm =
+      (kind == FeatureKind::kFacet
+           ? std::max(2.0,
+                      2 * (part.facet_final_distance_mm *
+                               std::tan(part.facet_step_deg / 2 * M_PI / 180) -
+                           1.0))
+           : 180.0) /
+      std::sqrt(12.0);
+  s.angle_rad = s.d_mm / spread_mm;
+  return s;
+}
 
 EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
                            const EffectContext& context) {

@@ -60,16 +60,8 @@ FitNoise CloudFitNoise(const PartSpec& part, double point_noise_um,
   n.facet_points = std::max(10, cloud_points / 100);
   n.strip_points = std::max(10, cloud_points / 40);
   const double s = point_noise_um * 1e-3;
-  // Points spread across the facet inside the inspection's 1 mm margins.
-  const double width_mm =
-      std::max(2.0, 2 * (part.facet_final_distance_mm *
-                             std::tan(part.facet_step_deg / 2 * M_PI / 180.0) -
-                         1.0));
-  n.facet_d_mm = s / std::sqrt(n.facet_points);
-  // Slope of a plane fitted across the facet width (uniform points).
-  n.facet_angle_rad =
-      s / (std::sqrt(n.facet_points) * width_mm / std::sqrt(12.0));
-  n.strip_d_mm = s / std::sqrt(n.strip_points);
+  n.facet = FeatureFitScatter(part, FeatureKind::kFacet, s, n.facet_points);
+  n.strip = FeatureFitScatter(part, FeatureKind::kStrip, s, n.strip_points);
   return n;
 }
 
@@ -248,9 +240,8 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     run.true_results[c.feature] = r;
     FeatureResult m = r;
     const bool facet = g.feature.kind == FeatureKind::kFacet;
-    const double sd = facet ? noise.facet_d_mm : noise.strip_d_mm;
-    const double sa = facet ? noise.facet_angle_rad
-                            : noise.strip_d_mm / (180 / std::sqrt(12.0));
+    const FitScatter& scatter = facet ? noise.facet : noise.strip;
+    const double sd = scatter.d_mm, sa = scatter.angle_rad;
     m.d_mm += sd * gauss(rng);
     m.angle_rad += sa * gauss(rng);
     m.var_d_mm2 = sd * sd;
@@ -371,9 +362,9 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
                    {"convention", "cloud = W @ R.T + t"}};
   nlohmann::json noise_json = {
       {"point_noise_um", options.point_noise_um},
-      {"facet_d_um", noise.facet_d_mm * 1e3},
-      {"facet_angle_urad", noise.facet_angle_rad * 1e6},
-      {"strip_d_um", noise.strip_d_mm * 1e3},
+      {"facet_d_um", noise.facet.d_mm * 1e3},
+      {"facet_angle_urad", noise.facet.angle_rad * 1e6},
+      {"strip_d_um", noise.strip.d_mm * 1e3},
       {"rtest_u95", kRTestU95}};
   truth["noise"] = noise_json;
   run.truth = truth;

@@ -54,8 +54,8 @@ TEST(Twin, CloudInspectsBackToTheCutGeometry) {
     ++facets;
     // Within 5 sigma of the fit noise the twin assumes for a facet (plus
     // the datum alignment's share).
-    EXPECT_NEAR(m.d_mm, truth.d_mm, 5 * noise.facet_d_mm + 0.3e-3) << id;
-    EXPECT_NEAR(m.angle_rad, truth.angle_rad, 5 * noise.facet_angle_rad + 5e-6)
+    EXPECT_NEAR(m.d_mm, truth.d_mm, 5 * noise.facet.d_mm + 0.3e-3) << id;
+    EXPECT_NEAR(m.angle_rad, truth.angle_rad, 5 * noise.facet.angle_rad + 5e-6)
         << id;
   }
   EXPECT_EQ(facets, 36);

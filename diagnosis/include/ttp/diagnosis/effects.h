@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "ttp/geometry/config.h"
+#include "ttp/geometry/features.h"
 
 namespace ttp::diagnosis {
 
@@ -79,6 +80,17 @@ using EffectDeltas = std::map<std::string, FeatureDelta>;
 std::vector<std::string> CauseParameterNames(Cause cause);
 EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
                            const EffectContext& context);
+
+// Standard uncertainty of a plane fitted to `points` points scattered by
+// rms_mm on a test feature: its distance, and its angle from the points'
+// spread across the facet (inside the inspection's 1 mm margins) or along
+// the strip (~180 mm across the piece). The twin's noise and the
+// diagnosis's judgement both come from here.
+struct FitScatter {
+  double d_mm = 0, angle_rad = 0;
+};
+FitScatter FeatureFitScatter(const PartSpec& part, FeatureKind kind,
+                             double rms_mm, int points);
 
 // First-order lag (time constant tau_s) of a series sampled every step_s.
 std::vector<double> LagFilter(const std::vector<double>& input, double step_s,

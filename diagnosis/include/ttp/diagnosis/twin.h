@@ -73,7 +73,7 @@ nlohmann::json MeasuredInspectionJson(const PartSpec& part,
 // Per-point noise -> standard uncertainty of a fitted facet/strip (the
 // number of points a cloud of `cloud_points` puts on it).
 struct FitNoise {
-  double facet_d_mm, facet_angle_rad, strip_d_mm;
+  FitScatter facet, strip;  // FeatureFitScatter of the point noise
   int facet_points, strip_points;
 };
 FitNoise CloudFitNoise(const PartSpec& part, double point_noise_um,
