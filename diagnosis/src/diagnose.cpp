@@ -490,13 +490,14 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   const double t_end = log.LastTimeS();
   run.context.grid_t0_s = 0;
   run.context.grid_step_s = 10;
-  const double scale = kTableAlphaPerK * config.machine.sphere_distance_mm;
   const double first = estimator.FirstRTestS();
   const double last = estimator.LastRTestS();
   for (double t = 0; t <= t_end + 10; t += 10) {
     const double tc = std::clamp(t, first, last);
-    run.context.machine_dT_K.push_back(estimator.MachineErrorsAt(tc).er0t_mm /
-                                       scale);
+    // The R-test sphere radius of this log, as the check takes it.
+    run.context.machine_dT_K.push_back(
+        TemperatureChangeK(estimator.MachineErrorsAt(tc).er0t_mm,
+                           kTableAlphaPerK, log.sphere_distance_mm));
   }
 
   // Uncertainty of the simulated figures: the estimator's leave-one-out
@@ -509,9 +510,9 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                options.estimator_sigma_scale;  // um or um/m
     return 0.0;
   };
-  const double est_um[4] = {loo("EX0C"), loo("EY0C"), loo("EZ0T"),
-                            loo("ER0T") * part.facet_final_distance_mm /
-                                config.machine.sphere_distance_mm};
+  const double est_um[4] = {
+      loo("EX0C"), loo("EY0C"), loo("EZ0T"),
+      loo("ER0T") * part.facet_final_distance_mm / log.sphere_distance_mm};
   const double est_urad = loo("EC0C");
 
   // Every measured feature must have been cut in the log: otherwise the

@@ -203,8 +203,9 @@ CheckResult CheckPiece(const TalcLog& log, const Config& config,
     double t0 = 0, t1 = 0, mean = kNaN;
     if (span(IndexForCycle(part, s.cycle), &t0, &t1, &mean) && have_ref) {
       cc.t_s = mean;
-      tc.table_rtest_k = (est.MachineErrorsAt(mean).er0t_mm - er_ref) /
-                         (options.table_alpha_per_k * log.sphere_distance_mm);
+      tc.table_rtest_k =
+          TemperatureChangeK(est.MachineErrorsAt(mean).er0t_mm - er_ref,
+                             options.table_alpha_per_k, log.sphere_distance_mm);
       tc.ws_log_k = MeanColumn(log, kTWs, t0 - w, t1 + w) - ws_ref;
       tc.env_log_k = MeanColumn(log, kTEnv, t0 - w, t1 + w) - env_ref;
     } else {

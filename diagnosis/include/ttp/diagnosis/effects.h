@@ -12,6 +12,7 @@
 
 #include "ttp/geometry/config.h"
 #include "ttp/geometry/features.h"
+#include "ttp/thermal/simulate.h"
 
 namespace ttp::diagnosis {
 
@@ -29,8 +30,7 @@ const char* CauseName(Cause cause);
 // Throws std::invalid_argument for an unknown name.
 Cause CauseFromName(const std::string& name);
 
-// Thermal expansion of the cast-iron table (test-piece.md section 4).
-constexpr double kTableAlphaPerK = 11e-6;
+using thermal::kTableAlphaPerK;
 
 // One test feature as cut.
 struct CutState {

@@ -22,9 +22,9 @@ namespace ttp::thermal {
 
 struct CheckOptions {
   SimulationOptions simulation;
-  // Thesis 7.10: cast-iron table, alpha = 11 um/(m K); the piece's alpha and
-  // radius (facet distance) come from the config's part.
-  double table_alpha_per_k = 11e-6;
+  // The table's alpha; the piece's alpha and radius (facet distance) come
+  // from the config's part.
+  double table_alpha_per_k = kTableAlphaPerK;
   // The log's temperatures are averaged over the cuts of a cycle widened by
   // this much on each side.
   double temperature_window_s = 300;

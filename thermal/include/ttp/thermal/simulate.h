@@ -19,6 +19,11 @@
 
 namespace ttp::thermal {
 
+// Thermal expansion of the cast-iron table (test-piece.md section 4,
+// thesis 7.10): E_R0T at the R-test sphere radius over it is the table's
+// temperature change.
+constexpr double kTableAlphaPerK = 11e-6;
+
 // Where a feature is cut: material points on its nominal surface (W and M
 // at table angle c), the tool-axis position q for each (facet: p + r n with
 // r the finishing cutter's radius; strip: the tool tip at p) and the
