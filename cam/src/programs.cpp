@@ -27,8 +27,9 @@ double BlankRadius(const Config& c) { return c.part.blank_diameter_mm / 2; }
 // nor the tool tip after it comes near the piece.
 double ToolChangeZ(const Config& c) {
   const ProcessSpec& p = c.process;
-  const double longest = std::max({p.roughing.length_mm, p.engraver.length_mm,
-                                   p.notch.length_mm, p.finishing.length_mm});
+  double longest = 0;
+  for (const ToolSpec* t : p.CuttingTools())
+    longest = std::max(longest, t->length_mm);
   return p.safe_z_w_mm + longest;
 }
 

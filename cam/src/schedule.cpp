@@ -15,24 +15,16 @@ namespace ttp::cam {
 namespace {
 
 std::string ToolName(const Config& c, int number) {
-  for (const ToolSpec* t : {&c.process.roughing, &c.process.engraver,
-                            &c.process.notch, &c.process.finishing})
-    if (t->number == number) return t->name;
-  return "";
+  const ToolSpec* t = c.process.CuttingToolByNumber(number);
+  return t ? t->name : "";
 }
 
 // "cut,<feature>,<deg>" -> feature and angle.
 bool SplitReport(const std::string& text, std::string* feature, double* c_deg) {
-  const size_t a = text.find(',');
-  if (a == std::string::npos || text.substr(0, a) != "cut") return false;
-  const size_t b = text.find(',', a + 1);
-  if (b == std::string::npos) return false;
-  *feature = text.substr(a + 1, b - a - 1);
-  try {
-    *c_deg = std::stod(text.substr(b + 1));
-  } catch (const std::exception&) {
-    return false;
-  }
+  gcode::ReportText r;
+  if (!gcode::ParseReportText(text, &r) || r.event != "cut") return false;
+  *feature = r.feature;
+  *c_deg = r.c_deg;
   return true;
 }
 

@@ -1,7 +1,6 @@
 #include "ttp/gcode/canon_to_program.h"
 
 #include <cmath>
-#include <sstream>
 
 #include "ttp/geometry/error.h"
 
@@ -56,17 +55,11 @@ Program ProgramFromCanon(const std::vector<CanonStatement>& statements,
         p.statements.push_back(TableClamp{s.value > 0});
         break;
       case CanonKind::kReport: {
-        std::stringstream ss(s.text);
-        std::string event, feature, angle;
-        std::getline(ss, event, ',');
-        std::getline(ss, feature, ',');
-        std::getline(ss, angle);
-        char* end = nullptr;
-        const double c_deg = std::strtod(angle.c_str(), &end);
-        if (event.empty() || feature.empty() || angle.empty() || *end != '\0')
+        ReportText r;
+        if (!ParseReportText(s.text, &r))
           throw InputError(source, s.source_line, "report",
                            "expected <event>,<feature>,<c_deg>: " + s.text);
-        p.statements.push_back(Report{event, feature, c_deg});
+        p.statements.push_back(Report{r.event, r.feature, r.c_deg});
         break;
       }
       case CanonKind::kComment:

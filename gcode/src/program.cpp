@@ -1,5 +1,7 @@
 #include "ttp/gcode/program.h"
 
+#include <cstdlib>
+
 #include "ttp/gcode/canon.h"
 #include "ttp/geometry/error.h"
 
@@ -14,6 +16,20 @@ Dialect ParseDialect(const std::string& name, const std::string& source) {
 
 const char* DialectName(Dialect d) {
   return d == Dialect::kFanuc ? "fanuc" : "linuxcnc";
+}
+
+bool ParseReportText(const std::string& text, ReportText* out) {
+  const size_t a = text.find(',');
+  if (a == std::string::npos) return false;
+  const size_t b = text.find(',', a + 1);
+  if (b == std::string::npos) return false;
+  out->event = text.substr(0, a);
+  out->feature = text.substr(a + 1, b - a - 1);
+  const std::string angle = text.substr(b + 1);
+  char* end = nullptr;
+  out->c_deg = std::strtod(angle.c_str(), &end);
+  return !out->event.empty() && !out->feature.empty() && !angle.empty() &&
+         *end == '\0';
 }
 
 const char* CanonKindName(CanonKind kind) {

@@ -356,13 +356,6 @@ class Interpreter {
       if (w.letter == letter) return &w;
     return nullptr;
   }
-  const ToolSpec* ToolByNumber(int tool) const {
-    const ProcessSpec& p = config_.process;
-    for (const ToolSpec* t :
-         {&p.roughing, &p.engraver, &p.notch, &p.finishing, &p.probe})
-      if (t->number == tool) return t;
-    return nullptr;
-  }
   static bool HasG(const Block& b, int g10) {
     for (const Word& w : b.words)
       if (w.letter == 'G' && GCode(w) == g10) return true;
@@ -463,7 +456,7 @@ class Interpreter {
     if (HasG(block, 430)) {
       const Word* h = Find(block, 'H');
       const int tool = h ? static_cast<int>(h->value) : selected_tool_;
-      const ToolSpec* spec = ToolByNumber(tool);
+      const ToolSpec* spec = config_.process.ToolByNumber(tool);
       if (!spec)
         Fail(h ? h->raw : "G43",
              fmt::format("no tool {} in the process", tool));

@@ -61,9 +61,7 @@ std::string IniText() {
 std::string ToolTableText(const Config& config) {
   std::string out;
   std::set<int> written;
-  for (const ToolSpec* t : {&config.process.roughing, &config.process.engraver,
-                            &config.process.notch, &config.process.finishing,
-                            &config.process.probe}) {
+  for (const ToolSpec* t : config.process.Tools()) {
     if (!written.insert(t->number).second) continue;
     out += fmt::format("T{0} P{0} Z{1:.6f} D{2:.6f} ;{3}\n", t->number,
                        t->length_mm / kMmPerInch, t->diameter_mm / kMmPerInch,

@@ -2,6 +2,8 @@
 // statements, and the cuts they report.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -39,10 +41,10 @@ inline std::vector<ReportedCut> ReportedCuts(
     if (s.kind == gcode::CanonKind::kFeed) last_feed = static_cast<int>(i);
     if (s.kind != gcode::CanonKind::kReport) continue;
     ReportedCut cut;
-    const size_t a = s.text.find(',');
-    const size_t b = s.text.find(',', a + 1);
-    cut.feature = s.text.substr(a + 1, b - a - 1);
-    cut.report_c_deg = std::stod(s.text.substr(b + 1));
+    gcode::ReportText report;
+    EXPECT_TRUE(gcode::ParseReportText(s.text, &report)) << s.text;
+    cut.feature = report.feature;
+    cut.report_c_deg = report.c_deg;
     if (last_feed > 0) {
       const gcode::CanonStatement& f = canon[last_feed];
       cut.from = canon[last_feed - 1].end_mm;

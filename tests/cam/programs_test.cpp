@@ -267,9 +267,7 @@ TEST_F(ProgramsTest, WarmUpSpinsCAndCoolDownHoldsAtZero) {
 // index happens with the tool that far out, in both programs.
 TEST_F(ProgramsTest, RapidsAndTableIndexingStayOutsideTheBlank) {
   std::map<int, double> tool_radius;
-  for (const ToolSpec* t :
-       {&config_->process.roughing, &config_->process.engraver,
-        &config_->process.notch, &config_->process.finishing})
+  for (const ToolSpec* t : config_->process.CuttingTools())
     tool_radius[t->number] = t->diameter_mm / 2;
   const double blank_r = config_->part.blank_diameter_mm / 2;
   const double blank_top = config_->part.face_depth_mm;

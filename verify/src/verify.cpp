@@ -45,13 +45,6 @@ ToolShape ShapeOf(const ToolSpec& tool) {
   return shape;
 }
 
-const ToolSpec* ToolByNumber(const ProcessSpec& process, int number) {
-  for (const ToolSpec* t : {&process.roughing, &process.engraver,
-                            &process.notch, &process.finishing})
-    if (t->number == number) return t;
-  return nullptr;
-}
-
 class ProbeBuilder {
  public:
   ProbeBuilder(DexelModel* model, std::vector<Probe>* probes)
@@ -396,7 +389,7 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
       switch (st.kind) {
         case CanonKind::kToolChange: {
           const ToolSpec* spec =
-              ToolByNumber(config.process, static_cast<int>(st.value));
+              config.process.CuttingToolByNumber(static_cast<int>(st.value));
           if (spec) {
             tool = ShapeOf(*spec);
           } else {

@@ -30,6 +30,14 @@ enum class CanonKind {
 
 const char* CanonKindName(CanonKind kind);
 
+// The text of a kReport statement, "<event>,<feature>,<c_deg>".
+struct ReportText {
+  std::string event, feature;
+  double c_deg = 0;
+};
+// False unless `text` has that form (all three fields, a number at the end).
+bool ParseReportText(const std::string& text, ReportText* out);
+
 struct CanonStatement {
   CanonKind kind;
   // Position after the statement (program coordinates, mm) and table angle

@@ -180,6 +180,25 @@ struct ProcessSpec {
   bool coolant_in_pre = true;
   double safe_z_w_mm = 50.0;  // retract height above the top face
   double clearance_mm = 3.0;  // approach clearance outside material
+
+  // The tools that cut, in program order; with the probe, every tool.
+  std::array<const ToolSpec*, 4> CuttingTools() const {
+    return {&roughing, &engraver, &notch, &finishing};
+  }
+  std::array<const ToolSpec*, 5> Tools() const {
+    return {&roughing, &engraver, &notch, &finishing, &probe};
+  }
+  // By T number; nullptr when none has it.
+  const ToolSpec* CuttingToolByNumber(int number) const {
+    for (const ToolSpec* t : CuttingTools())
+      if (t->number == number) return t;
+    return nullptr;
+  }
+  const ToolSpec* ToolByNumber(int number) const {
+    for (const ToolSpec* t : Tools())
+      if (t->number == number) return t;
+    return nullptr;
+  }
 };
 
 struct Config {
