@@ -13,25 +13,11 @@
 
 #include "canon_builder.h"
 #include "ttp/gcode/writer.h"
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 
 namespace ttp::gcode {
 namespace {
-
-std::string Upper(std::string s) {
-  for (char& ch : s) ch = static_cast<char>(std::toupper(ch));
-  return s;
-}
-std::string Lower(std::string s) {
-  for (char& ch : s) ch = static_cast<char>(std::tolower(ch));
-  return s;
-}
-std::string Trim(const std::string& s) {
-  const size_t b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const size_t e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
 
 // ---- read ------------------------------------------------------------------
 

@@ -15,6 +15,7 @@
 
 #include "canon_builder.h"
 #include "ttp/gcode/reader.h"
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 
@@ -25,13 +26,6 @@ namespace {
 constexpr const char* kRs274Path = "/usr/bin/rs274";
 constexpr const char* kReportPrefix = "ttp-report:";
 constexpr double kMmPerInch = 25.4;
-
-std::string Trim(const std::string& s) {
-  const size_t b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const size_t e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
 
 // Removes the temporary folder whatever happens.
 struct TempDir {

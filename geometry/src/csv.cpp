@@ -1,5 +1,6 @@
 #include "ttp/geometry/csv.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -8,7 +9,6 @@
 #include "ttp/geometry/error.h"
 
 namespace ttp {
-namespace {
 
 std::string Trim(const std::string& s) {
   const size_t b = s.find_first_not_of(" \t\r");
@@ -16,6 +16,20 @@ std::string Trim(const std::string& s) {
   const size_t e = s.find_last_not_of(" \t\r");
   return s.substr(b, e - b + 1);
 }
+
+std::string Upper(std::string s) {
+  for (char& c : s)
+    c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+namespace {
 
 std::vector<std::string> SplitCells(const std::string& line) {
   std::vector<std::string> cells;

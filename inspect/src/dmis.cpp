@@ -7,24 +7,13 @@
 #include <map>
 #include <sstream>
 
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/inspect/plane_result.h"
 
 namespace ttp::inspect {
 namespace {
-
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  return s.substr(b, s.find_last_not_of(" \t\r") - b + 1);
-}
-
-std::string Upper(std::string s) {
-  for (char& c : s)
-    c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return s;
-}
 
 struct Statement {
   int line = 0;

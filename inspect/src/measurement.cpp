@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/inspect/dial.h"
@@ -24,12 +25,6 @@ std::string ReadAll(const std::filesystem::path& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-std::string Lower(std::string s) {
-  for (char& c : s)
-    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
 }
 
 // The first line that is not blank and not a `#` comment, lower case and

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 
@@ -53,11 +54,6 @@ class MappedFile {
   const char* data_ = nullptr;
   size_t size_ = 0;
 };
-
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(c));
-  return s;
-}
 
 // Splits a header line into words.
 std::vector<std::string> Words(const std::string& line) {

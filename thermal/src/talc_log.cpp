@@ -9,6 +9,7 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
@@ -31,13 +32,6 @@ const std::pair<const char*, LogEvent> kEvents[] = {
     {"sample", LogEvent::kSample}, {"rtest", LogEvent::kRTest},
     {"cut", LogEvent::kCut},       {"phase", LogEvent::kPhase},
     {"update", LogEvent::kUpdate}, {"note", LogEvent::kNote}};
-
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const auto e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
 
 // Splits a CSV line; double quotes allow commas inside `text`.
 std::vector<std::string> SplitCsv(const std::string& line) {

@@ -29,6 +29,12 @@ struct CsvTable {
   const std::string& Text(const CsvRow& row, int column) const;
 };
 
+// Without leading and trailing spaces, tabs and carriage returns.
+std::string Trim(const std::string& s);
+// ASCII case conversion of every character.
+std::string Upper(std::string s);
+std::string Lower(std::string s);
+
 // Parses CSV text. Rows with a different cell count than the header are an
 // error naming the line. Leading/trailing spaces of cells are trimmed.
 CsvTable ParseCsv(const std::string& text, const std::string& source);
