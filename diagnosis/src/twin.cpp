@@ -228,12 +228,8 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     const CAxisErrors e_pred = CAxisErrors::FromMicro(at(predicted, c.t_s));
     const thermal::CutGeometry g =
         thermal::ComputeCutGeometry(config, c.feature, c.c_rad);
-    std::vector<double> shifts;
-    for (size_t k = 0; k < g.p_m_mm.size(); ++k)
-      shifts.push_back(SurfaceShiftMm(e_machine, e_pred, g.p_m_mm[k],
-                                      g.q_m_mm[k], g.n_m,
-                                      config.machine.sphere_distance_mm));
-    FeatureResult r = thermal::ShiftsToFeatureResult(part, g, shifts);
+    FeatureResult r = thermal::CutFeatureResult(
+        part, g, e_machine, e_pred, config.machine.sphere_distance_mm);
     const FeatureDelta& d = deltas.at(c.feature);
     r.d_mm += d.d_mm;
     r.angle_rad += d.angle_rad;

@@ -115,6 +115,24 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
       log, config, MachineErrorEstimator::Fit(log, options.estimator), options);
 }
 
+FeatureResult CutFeatureResult(const PartSpec& part,
+                               const CutGeometry& geometry,
+                               const CAxisErrors& machine,
+                               const CAxisErrors& predicted,
+                               double sphere_distance_mm,
+                               const std::vector<double>& extra_mm) {
+  const CutGeometry& g = geometry;
+  std::vector<double> shifts;
+  shifts.reserve(g.p_m_mm.size());
+  for (size_t i = 0; i < g.p_m_mm.size(); ++i) {
+    double s = SurfaceShiftMm(machine, predicted, g.p_m_mm[i], g.q_m_mm[i],
+                              g.n_m, sphere_distance_mm);
+    if (!extra_mm.empty()) s += extra_mm[i];
+    shifts.push_back(s);
+  }
+  return ShiftsToFeatureResult(part, g, shifts);
+}
+
 Simulation SimulatePiece(const TalcLog& log, const Config& config,
                          const MachineErrorEstimator& est,
                          const SimulationOptions& options) {
@@ -150,22 +168,15 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
     sc.machine = est.MachineErrorsAt(cut.t_s);
     sc.machine_linear = est.LinearErrorsAt(cut.t_s);
     sc.predicted = est.PredictedAt(cut.t_s);
-    std::vector<double> shifts, shifts_linear;
-    for (size_t i = 0; i < g.p_m_mm.size(); ++i) {
-      double extra = 0;
-      if (options.extra_shift_mm) {
-        extra = options.extra_shift_mm(sc, g, static_cast<int>(i));
-      }
-      shifts.push_back(SurfaceShiftMm(sc.machine, sc.predicted, g.p_m_mm[i],
-                                      g.q_m_mm[i], g.n_m, d_half) +
-                       extra);
-      shifts_linear.push_back(SurfaceShiftMm(sc.machine_linear, sc.predicted,
-                                             g.p_m_mm[i], g.q_m_mm[i], g.n_m,
-                                             d_half) +
-                              extra);
+    std::vector<double> extra;
+    if (options.extra_shift_mm) {
+      for (size_t i = 0; i < g.p_m_mm.size(); ++i)
+        extra.push_back(options.extra_shift_mm(sc, g, static_cast<int>(i)));
     }
-    sc.result = ShiftsToFeatureResult(config.part, g, shifts);
-    sc.result_linear = ShiftsToFeatureResult(config.part, g, shifts_linear);
+    sc.result = CutFeatureResult(config.part, g, sc.machine, sc.predicted,
+                                 d_half, extra);
+    sc.result_linear = CutFeatureResult(config.part, g, sc.machine_linear,
+                                        sc.predicted, d_half, extra);
     sim.results[sc.feature] = sc.result;
     sim.results_linear[sc.feature] = sc.result_linear;
     sim.cuts.push_back(sc);

@@ -50,6 +50,17 @@ FeatureResult ShiftsToFeatureResult(const PartSpec& part,
                                     const CutGeometry& geometry,
                                     const std::vector<double>& shifts_mm);
 
+// The feature as cut under the machine's errors and the compensation in
+// force: the rigid-table shift of each of the geometry's points (plus
+// extra_mm[i] when given), refitted as a plane. SimulatePiece and the twin
+// both cut this way.
+FeatureResult CutFeatureResult(const PartSpec& part,
+                               const CutGeometry& geometry,
+                               const CAxisErrors& machine,
+                               const CAxisErrors& predicted,
+                               double sphere_distance_mm,
+                               const std::vector<double>& extra_mm = {});
+
 struct SimulatedCut {
   std::string feature;
   int line = 0;
