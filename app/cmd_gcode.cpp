@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "command.h"
+#include "dialect_option.h"
 #include "ttp/cam/programs.h"
 #include "ttp/gcode/canon_to_program.h"
 #include "ttp/gcode/reader.h"
@@ -25,10 +26,6 @@ struct GcodeOptions {
   std::string output = "-";
   std::string to;
 };
-
-Dialect ChooseDialect(const std::string& name, const std::string& text) {
-  return name == "auto" ? DetectDialect(text) : ParseDialect(name, "--dialect");
-}
 
 nlohmann::json CanonToJson(const std::vector<CanonStatement>& statements) {
   nlohmann::json list = nlohmann::json::array();

@@ -93,7 +93,6 @@ struct RunContext {
   void Write(const std::string& name, const std::string& text,
              const std::string& what) {
     const fs::path path = out_dir / name;
-    fs::create_directories(path.parent_path());
     WriteFileAtomic(path, text);
     written.emplace_back(path, what);
   }

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "command.h"
+#include "dialect_option.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -82,10 +83,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
       return;
     }
     const std::string text = ReadTextFile(opts->program_path);
-    const gcode::Dialect dialect =
-        opts->dialect == "auto"
-            ? gcode::DetectDialect(text)
-            : gcode::ParseDialect(opts->dialect, "--dialect");
+    const gcode::Dialect dialect = ChooseDialect(opts->dialect, text);
     const auto statements =
         gcode::ReadProgram(text, dialect, config, opts->program_path);
     verify::VerifyOptions options;
@@ -101,12 +99,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
                          "only a test-cycle program is verified after a "
                          "pre-machining program");
       const std::string pre_text = ReadTextFile(opts->after_path);
-      before = gcode::ReadProgram(
-          pre_text,
-          opts->dialect == "auto"
-              ? gcode::DetectDialect(pre_text)
-              : gcode::ParseDialect(opts->dialect, "--dialect"),
-          config, opts->after_path);
+      before =
+          gcode::ReadProgram(pre_text, ChooseDialect(opts->dialect, pre_text),
+                             config, opts->after_path);
       options.after = &before;
     }
     const verify::VerifyReport report = verify::VerifyStatements(
