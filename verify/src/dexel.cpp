@@ -81,13 +81,6 @@ std::optional<Interval> LineStadium(const Vec2& o, const Vec2& u, const Vec2& a,
   return out;
 }
 
-double SegmentDistance(const Vec2& q, const Vec2& a, const Vec2& b) {
-  const Vec2 w = b - a;
-  const double ww = w.squaredNorm();
-  double t = ww < kTiny ? 0.0 : std::clamp((q - a).dot(w) / ww, 0.0, 1.0);
-  return (q - a - t * w).norm();
-}
-
 bool AngleInArc(double angle, double lo, double span) {
   if (span >= 2 * kPi) return true;
   double d = std::fmod(angle - lo, 2 * kPi);
@@ -239,6 +232,14 @@ void RotationHorizontal(const Sweep& sw, const Ray& ray,
 }
 
 }  // namespace
+
+double SegmentDistance(const Eigen::Vector2d& q, const Eigen::Vector2d& a,
+                       const Eigen::Vector2d& b) {
+  const Vec2 w = b - a;
+  const double ww = w.squaredNorm();
+  double t = ww < kTiny ? 0.0 : std::clamp((q - a).dot(w) / ww, 0.0, 1.0);
+  return (q - a - t * w).norm();
+}
 
 double ToolShape::RadiusAt(double h_mm) const {
   if (h_mm < 0 || h_mm > length_mm) return -1;

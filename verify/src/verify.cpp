@@ -77,13 +77,6 @@ std::vector<double> Steps(double lo, double hi, double pitch) {
   return out;
 }
 
-double DistanceToSegment2(const Eigen::Vector2d& q, const Eigen::Vector2d& a,
-                          const Eigen::Vector2d& b) {
-  const Eigen::Vector2d w = b - a;
-  const double t = std::clamp((q - a).dot(w) / w.squaredNorm(), 0.0, 1.0);
-  return (q - a - t * w).norm();
-}
-
 // Probe rays along the normals of every feature present at the target
 // stage (pre-machined or finished).
 void BuildProbes(const PartSpec& p, Stage stage, double pitch,
@@ -113,7 +106,7 @@ void BuildProbes(const PartSpec& p, Stage stage, double pitch,
       const Eigen::Vector2d q(x, y);
       if (std::abs(x) < xs + m || std::abs(y) < yb + m || q.norm() > r_top)
         continue;
-      if (DistanceToSegment2(q, mark_a, mark_b) < p.mark_width_mm + 2 * m)
+      if (SegmentDistance(q, mark_a, mark_b) < p.mark_width_mm + 2 * m)
         continue;
       b.Add(Eigen::Vector3d(x, y, 0), up);
     }
@@ -490,9 +483,7 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
         } else {
           const Eigen::Vector2d pa = (a + ta * (b - a)).head<2>();
           const Eigen::Vector2d pb = (a + tb * (b - a)).head<2>();
-          closest = (pb - pa).norm() < 1e-12
-                        ? pa.norm()
-                        : DistanceToSegment2(Eigen::Vector2d::Zero(), pa, pb);
+          closest = SegmentDistance(Eigen::Vector2d::Zero(), pa, pb);
         }
         const double z_low = std::min(a.z(), b.z());
         const double reach =

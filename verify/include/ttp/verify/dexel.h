@@ -12,6 +12,10 @@
 
 namespace ttp::verify {
 
+// Distance from q to the segment a-b (to a when the segment has no length).
+double SegmentDistance(const Eigen::Vector2d& q, const Eigen::Vector2d& a,
+                       const Eigen::Vector2d& b);
+
 // Tool body with its tip at the origin, axis +Z: radius at height h above
 // the tip is min(radius, h * tan(half_angle)) for a cone (engraver), radius
 // for a flat end mill; h in [0, length].
