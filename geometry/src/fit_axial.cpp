@@ -108,6 +108,16 @@ AxialResult Refine(const Eigen::Matrix3Xd& centred, AxisFrame frame,
       // This pass was solved in (almost) the final frame: keep its
       // covariance, which is about the frame's own axes.
       out.summary.iterations += pass;  // count the re-framing passes too
+      if (moved >= 1e-11) {
+        // Out of passes: report this pass's axis (which its radius and
+        // angle belong to), and say that the re-framing did not settle.
+        frame.q0 = q;
+        frame.w = d;
+        internal::CompleteFrame(d, &frame.u, &frame.v);
+        out.summary.converged = false;
+        out.summary.message =
+            "the axis was still moving after 9 re-framing passes";
+      }
       break;
     }
     frame.q0 = q;
