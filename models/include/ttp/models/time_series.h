@@ -1,0 +1,40 @@
+// A thermal test log as a time series: inputs (speeds, temperatures) at every
+// sample, outputs (displacements at the tool) where they were measured.
+// ../shared/spec/thermal-log.md is the file format; TALC logs are converted
+// into the same model (thermal::TalcLogToTimeSeries).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace ttp::models {
+
+struct TimeSeries {
+  std::string source;                         // file name, for messages
+  std::map<std::string, std::string> header;  // `# key: value` lines
+  std::vector<double> t_s;                    // strictly increasing
+  std::vector<std::string> input_names;       // n_* and T_* columns, in file order
+  Eigen::MatrixXd inputs;                     // rows: samples; cols: input_names
+  std::vector<std::string> output_names;      // d_* columns, in file order
+  Eigen::MatrixXd outputs_um;                 // NaN where not measured
+  // Rows i with t_s[i] - t_s[i-1] larger than ten sampling periods (the
+  // median step): a model restarts there instead of bridging the gap.
+  std::vector<std::size_t> gap_rows;
+  std::vector<std::string> warnings;
+
+  std::size_t rows() const { return t_s.size(); }
+  int InputIndex(std::string_view name) const;   // -1 when absent
+  int OutputIndex(std::string_view name) const;  // -1 when absent
+};
+
+// Reads a thermal-log.md file; bad input throws ttp::InputError naming file,
+// line and column.
+TimeSeries ReadThermalLog(const std::filesystem::path& path);
+TimeSeries ParseThermalLog(std::string_view text, const std::string& source);
+
+}  // namespace ttp::models
