@@ -19,8 +19,8 @@
 #include "ttp/inspect/point_io.h"
 #include "ttp/thermal/talc_log.h"
 
-#ifndef TTP_SHARED_DIR
-#define TTP_SHARED_DIR "/work/shared"
+#ifndef TTP_DATA_DIR
+#define TTP_DATA_DIR "."
 #endif
 
 using namespace ttp;
@@ -35,9 +35,9 @@ double Since(std::chrono::steady_clock::time_point t0) {
 
 int main() {
   const Config config;
-  const char* shared = std::getenv("TTP_SHARED_DIR");
+  const char* shared = std::getenv("TTP_DATA_DIR");
   const std::filesystem::path run_a =
-      std::filesystem::path(shared ? shared : TTP_SHARED_DIR) / "samples/run-a";
+      std::filesystem::path(shared ? shared : TTP_DATA_DIR) / "samples/run-a";
   if (std::filesystem::exists(run_a / "piece.ply")) {
     // The inspection JSON a user has after `ttp inspect --json`.
     const inspect::PointCloud cloud =

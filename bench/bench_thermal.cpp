@@ -14,8 +14,8 @@
 #include "ttp/thermal/simulate.h"
 #include "ttp/thermal/talc_log.h"
 
-#ifndef TTP_SHARED_DIR
-#define TTP_SHARED_DIR "/work/shared"
+#ifndef TTP_DATA_DIR
+#define TTP_DATA_DIR "."
 #endif
 
 using namespace ttp;
@@ -72,7 +72,7 @@ int main() {
              std::chrono::duration<double, std::milli>(t1 - t0).count());
 
   for (const char* run : {"run-a", "run-b"}) {
-    const std::string dir = std::string(TTP_SHARED_DIR) + "/samples/" + run;
+    const std::string dir = std::string(TTP_DATA_DIR) + "/samples/" + run;
     const TalcLog log = ReadTalcLog(dir + "/talc.csv");
     t0 = std::chrono::steady_clock::now();
     const LoadChangeComparison cmp = CompareAtLoadChanges(log);

@@ -19,7 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::string kSamples = std::string(TTP_SHARED_DIR) + "/samples/";
+const std::string kSamples = std::string(TTP_DATA_DIR) + "/samples/";
 
 std::vector<std::string> Lines(const std::string& path) {
   std::ifstream in(path);

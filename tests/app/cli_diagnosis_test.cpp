@@ -16,7 +16,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kSamples = fs::path(TTP_SHARED_DIR) / "samples";
+const fs::path kSamples = fs::path(TTP_DATA_DIR) / "samples";
 
 // Every key of diagnosis.md section 2, parameters with units in the names.
 void ExpectReportKeys(const nlohmann::json& d) {

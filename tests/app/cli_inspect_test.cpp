@@ -23,14 +23,14 @@ nlohmann::json Load(const fs::path& p) {
 
 TEST(CliInspect, SampleCloudToFiguresThenGrade) {
   const std::string sample =
-      std::string(TTP_SHARED_DIR) + "/samples/run-a/piece.ply";
+      std::string(TTP_DATA_DIR) + "/samples/run-a/piece.ply";
   const fs::path out = Dir() / "a.json";
   auto r = test::RunTtp("inspect " + sample + " --json " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("E_TTP"), std::string::npos);
   const nlohmann::json a = Load(out);
   const nlohmann::json truth =
-      Load(std::string(TTP_SHARED_DIR) + "/samples/run-a/truth.json");
+      Load(std::string(TTP_DATA_DIR) + "/samples/run-a/truth.json");
   EXPECT_EQ(a["kind"], "cloud");
   ASSERT_EQ(a["figures"].size(), 8u);
   for (size_t i = 0; i < 8; ++i) {

@@ -1,5 +1,5 @@
 // `ttp report` and `ttp report-html` end to end on the two sample runs made
-// outside the project (../shared/samples).
+// outside the project (samples/).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,7 +18,7 @@ using nlohmann::json;
 using test::RunTtp;
 
 fs::path Sample(const std::string& run, const std::string& file) {
-  return fs::path(TTP_SHARED_DIR) / "samples" / run / file;
+  return fs::path(TTP_DATA_DIR) / "samples" / run / file;
 }
 
 fs::path OutDir() { return test::TestDir("report"); }

@@ -12,7 +12,7 @@ namespace ttp {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kSamples = std::string(TTP_SHARED_DIR) + "/samples/";
+const std::string kSamples = std::string(TTP_DATA_DIR) + "/samples/";
 
 TEST(CliThermal, LogSummarisesTheSampleRun) {
   const fs::path json = test::TestDir("thermal") / "log.json";

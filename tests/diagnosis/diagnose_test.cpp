@@ -122,7 +122,7 @@ TEST(Diagnose, UnmeasuredAnglesAndMissingFeaturesAreLeftOut) {
 TEST(Diagnose, FiguresAndFacetAnglesAreReadAsGiven) {
   const Config config;
   const std::string path =
-      std::string(TTP_SHARED_DIR) + "/samples/run-a/truth.json";
+      std::string(TTP_DATA_DIR) + "/samples/run-a/truth.json";
   const nlohmann::json truth = nlohmann::json::parse(ReadTextFile(path));
   const MeasuredPiece m = LoadMeasuredPiece(config, path);
   EXPECT_TRUE(m.features.empty());

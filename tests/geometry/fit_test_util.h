@@ -16,7 +16,7 @@
 namespace ttp::fit::testing {
 
 inline std::string NistDir() {
-  return std::string(TTP_SHARED_DIR) + "/reference/nist-fits/";
+  return std::string(TTP_DATA_DIR) + "/reference/nist-fits/";
 }
 
 // NIST .ds: count, then x y z per line.
@@ -63,7 +63,7 @@ inline std::vector<std::string> NistCases(const std::string& shape) {
 }
 
 inline std::string QifPath() {
-  return std::string(TTP_SHARED_DIR) +
+  return std::string(TTP_DATA_DIR) +
          "/reference/cmm-files/QIF_PTS_SAMPLE.QIF";
 }
 

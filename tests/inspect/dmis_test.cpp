@@ -27,7 +27,7 @@ std::string ErrorOf(const std::string& text) {
 // The I++ simple part's output file: one inner circle.
 TEST(DmisTest, ReadsTheNistSimplePartOutput) {
   const std::string path =
-      std::string(TTP_SHARED_DIR) + "/reference/cmm-files/output.dms";
+      std::string(TTP_DATA_DIR) + "/reference/cmm-files/output.dms";
   const DmisResults r = ParseDmisOutput(ReadTextFile(path), path);
   ASSERT_EQ(r.features.size(), 1u);
   const DmisFeature& c = r.features[0];

@@ -243,7 +243,7 @@ TEST_F(MeasurementTest, BadFilesNameTheProblem) {
 // The sample run made outside the project: a cloud through LoadMeasurement
 // gives its truth figures.
 TEST_F(MeasurementTest, SampleCloudAgreesWithItsTruth) {
-  const std::string dir = std::string(TTP_SHARED_DIR) + "/samples/run-a/";
+  const std::string dir = std::string(TTP_DATA_DIR) + "/samples/run-a/";
   const Measurement m = LoadMeasurement(config_, dir + "piece.ply");
   EXPECT_EQ(m.kind, MeasurementKind::kCloud);
   const nlohmann::json truth =

@@ -1,4 +1,4 @@
-// The report of the sample run ../shared/samples/run-a (made outside the
+// The report of the sample run samples/run-a (made outside the
 // project), built by the `ttp report` binary, opened in headless Chromium
 // with no network. Every uPlot instance must have drawn every data point of
 // its series inside its plot area (the page's draw hook counts them from
@@ -114,7 +114,7 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
       << "Chromium not found (" << TTP_CHROMIUM
       << "): install the Debian packages chromium and chromium-driver "
          "(scripts/install-deps.sh)";
-  const fs::path sample = fs::path(TTP_SHARED_DIR) / "samples" / "run-a";
+  const fs::path sample = fs::path(TTP_DATA_DIR) / "samples" / "run-a";
   const fs::path html = dir_ / "run-a.html", data_path = dir_ / "run-a.json";
   const RunResult report = RunCommand(
       std::string(TTP_BINARY_DIR) + "/app/ttp report --log " +

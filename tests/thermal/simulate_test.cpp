@@ -76,7 +76,7 @@ TEST(Simulate, RadialTableGrowthShowsAsETtp) {
 // run-b was made outside the project with no hidden effect: its truth
 // figures are what the rigid-table model gives with the true errors.
 TEST(Simulate, ReproducesTheSampleRunWithoutEffect) {
-  const std::string dir = std::string(TTP_SHARED_DIR) + "/samples/run-b";
+  const std::string dir = std::string(TTP_DATA_DIR) + "/samples/run-b";
   const Simulation sim = SimulatePiece(ReadTalcLog(dir + "/talc.csv"), {});
   const auto truth = nlohmann::json::parse(ReadTextFile(dir + "/truth.json"));
   for (size_t k = 0; k < sim.figures.size(); ++k) {

@@ -60,7 +60,7 @@ TEST(TalcLog, ReadsAGoodLog) {
 
 TEST(TalcLog, ReadsTheSampleRuns) {
   for (const char* run : {"run-a", "run-b"}) {
-    const TalcLog log = ReadTalcLog(std::string(TTP_SHARED_DIR) + "/samples/" +
+    const TalcLog log = ReadTalcLog(std::string(TTP_DATA_DIR) + "/samples/" +
                                     run + "/talc.csv");
     EXPECT_EQ(log.cuts.size(), 45u) << run;
     EXPECT_GE(log.rtests.size(), 90u) << run;
