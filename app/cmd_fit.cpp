@@ -88,6 +88,15 @@ nlohmann::json RunFit(const FitArgs& a, const Eigen::Matrix3Xd& p,
     throw InputError("SHAPE", 0, "shape",
                      "'" + a.shape + "' is not one of " + list);
   }
+  // A fit that did not converge, or whose parameters the points do not
+  // determine (a cylinder through a plane, a cone of half angle 0), is no
+  // result: bad input for this shape, exit 2.
+  if (!summary.Usable()) {
+    throw InputError(a.points, 0, a.shape,
+                     std::string("no ") + a.shape + " fit: " +
+                         fit::FitStatusName(summary.status) + ": " +
+                         summary.message);
+  }
   nlohmann::json u = nlohmann::json::object();
   for (size_t i = 0; i < summary.parameter_names.size(); ++i) {
     const auto k = static_cast<Eigen::Index>(i);
@@ -100,6 +109,8 @@ nlohmann::json RunFit(const FitArgs& a, const Eigen::Matrix3Xd& p,
                       {"max_abs_mm", summary.max_abs_mm}};
   out["points"] = summary.points;
   out["converged"] = summary.converged;
+  out["status"] = fit::FitStatusName(summary.status);
+  out["termination"] = summary.termination;
   out["iterations"] = summary.iterations;
   if (!summary.message.empty()) out["message"] = summary.message;
   return out;
@@ -170,7 +181,14 @@ void Register(CLI::App& root, GlobalOptions& global) {
     ro.units = inspect::ParseLengthUnit(a->units);
     ro.units_given = true;
     const inspect::PointCloud cloud = inspect::ReadPointCloud(a->points, ro);
-    nlohmann::json doc = RunFit(*a, cloud.xyz_mm, fo);
+    nlohmann::json doc;
+    try {
+      doc = RunFit(*a, cloud.xyz_mm, fo);
+    } catch (const InputError& e) {
+      if (e.source() != "fit") throw;
+      // The fit's own checks (too few points, collinear): name the file.
+      throw InputError(a->points, 0, a->shape, e.problem());
+    }
     doc["shape"] = a->shape;
     doc["source"] = a->points;
     doc["robust"] = a->robust;

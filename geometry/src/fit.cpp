@@ -5,30 +5,121 @@
 #include "ttp/geometry/fit.h"
 
 #include <ceres/ceres.h>
+#include <glog/logging.h>
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstdio>
 
 #include "fit_internal.h"
 #include "ttp/geometry/error.h"
 
 namespace ttp::fit {
 
+namespace {
+
+bool Invalid(std::string* error, const std::string& message) {
+  if (error) *error = message;
+  return false;
+}
+
+}  // namespace
+
+bool FitOptions::IsValid(std::string* error) const {
+  if (!(loss_scale_mm > 0) || !std::isfinite(loss_scale_mm))
+    return Invalid(error,
+                   "FitOptions.loss_scale_mm: must be a positive finite "
+                   "length in mm");
+  if (max_iterations < 1)
+    return Invalid(error, "FitOptions.max_iterations: must be at least 1");
+  if (loss != Loss::kNone && loss != Loss::kHuber && loss != Loss::kCauchy)
+    return Invalid(error, "FitOptions.loss: unknown loss");
+  return true;
+}
+
 void FitOptions::Validate() const {
-  if (!(loss_scale_mm > 0) || !std::isfinite(loss_scale_mm)) {
-    throw InputError("FitOptions", 0, "FitOptions.loss_scale_mm",
-                     "must be a positive finite length in mm");
+  std::string error;
+  if (IsValid(&error)) return;
+  const size_t colon = error.find(':');
+  throw InputError("FitOptions", 0, error.substr(0, colon),
+                   error.substr(colon + 2));
+}
+
+bool RejectionOptions::IsValid(std::string* error) const {
+  if (!(k_sigma > 0) || !std::isfinite(k_sigma))
+    return Invalid(error,
+                   "RejectionOptions.k_sigma: must be a positive finite "
+                   "number of sigmas");
+  if (!(floor_mm >= 0) || !std::isfinite(floor_mm))
+    return Invalid(error,
+                   "RejectionOptions.floor_mm: must be a finite length >= 0");
+  if (max_rounds < 0)
+    return Invalid(error, "RejectionOptions.max_rounds: must be >= 0");
+  return true;
+}
+
+const char* FitStatusName(FitStatus status) {
+  switch (status) {
+    case FitStatus::kConverged:
+      return "converged";
+    case FitStatus::kNoConvergence:
+      return "not converged";
+    case FitStatus::kFailed:
+      return "failed";
+    case FitStatus::kDegenerate:
+      return "degenerate";
   }
-  if (max_iterations < 1) {
-    throw InputError("FitOptions", 0, "FitOptions.max_iterations",
-                     "must be at least 1");
-  }
-  if (loss != Loss::kNone && loss != Loss::kHuber && loss != Loss::kCauchy) {
-    throw InputError("FitOptions", 0, "FitOptions.loss", "unknown loss");
-  }
+  return "unknown";
 }
 
 namespace internal {
+
+void SilenceCeresLogging() {
+  static const bool silenced = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)silenced;
+}
+
+void SetStatusFromCeres(const ceres::Solver::Summary& summary, FitSummary* s) {
+  s->termination = ceres::TerminationTypeToString(summary.termination_type);
+  s->solution_usable =
+      summary.IsSolutionUsable() && std::isfinite(summary.final_cost);
+  s->iterations = static_cast<int>(summary.iterations.size()) - 1;
+  s->message = summary.message;
+  if (!s->solution_usable)
+    s->status = FitStatus::kFailed;
+  else if (summary.termination_type == ceres::CONVERGENCE)
+    s->status = FitStatus::kConverged;
+  else
+    s->status = FitStatus::kNoConvergence;
+  s->converged = s->status == FitStatus::kConverged;
+}
+
+bool CheckRank(const Eigen::MatrixXd& jacobian,
+               const std::vector<std::string>& names, FitSummary* s) {
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian, Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  const double largest = sv.size() ? sv(0) : 0.0;
+  const double ratio =
+      largest > 0 ? std::pow(sv(sv.size() - 1) / largest, 2) : 0.0;
+  if (ratio >= 1e-14 && std::isfinite(ratio)) return true;
+  Eigen::Index weakest = 0;
+  if (sv.size()) svd.matrixV().col(sv.size() - 1).cwiseAbs().maxCoeff(&weakest);
+  const std::string name = static_cast<size_t>(weakest) < names.size()
+                               ? names[static_cast<size_t>(weakest)]
+                               : "a parameter";
+  s->status = FitStatus::kDegenerate;
+  s->converged = false;
+  char condition[32];
+  std::snprintf(condition, sizeof condition, "%.3g", ratio);
+  s->message = "the points do not determine " + name +
+               " (reciprocal condition number " + condition + ")";
+  s->covariance.resize(0, 0);
+  return false;
+}
+
 
 void RequirePoints(const char* shape, long count, long minimum,
                    bool all_finite) {

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "fit_internal.h"
@@ -115,6 +116,8 @@ AxialResult Refine(const Eigen::Matrix3Xd& centred, AxisFrame frame,
         frame.w = d;
         internal::CompleteFrame(d, &frame.u, &frame.v);
         out.summary.converged = false;
+        if (out.summary.status == FitStatus::kConverged)
+          out.summary.status = FitStatus::kNoConvergence;
         out.summary.message =
             "the axis was still moving after 9 re-framing passes";
       }
@@ -157,6 +160,42 @@ Eigen::Vector3d Canonical(const Eigen::Vector3d& axis) {
   return axis(largest) < 0 ? Eigen::Vector3d(-axis) : axis;
 }
 
+// Every principal axis of the scatter as a seed (its algebraic circle in
+// the perpendicular plane; `seed_shape` turns it into the shape's radius
+// and half angle, or refuses it), refined; the lowest cost wins, and only
+// the winner is refined again for its covariance (the other seeds may sit
+// on a saddle).
+template <int P, class Functor, class SeedShape>
+AxialResult BestOfSeeds(const char* shape, const Eigen::Matrix3Xd& centred,
+                        const internal::Scatter<3>& s,
+                        const FitOptions& options,
+                        const std::vector<std::string>& names,
+                        SeedShape seed_shape) {
+  std::optional<AxialResult> best;
+  for (int k = 0; k < 3; ++k) {
+    double radius = 0;
+    const auto frame = SeedFrame(centred, s.eigenvectors.col(k), &radius);
+    if (!frame) continue;
+    double half_angle = 0;
+    if (!seed_shape(*frame, &radius, &half_angle)) continue;
+    AxialResult r = Refine<P, Functor>(centred, *frame, radius, half_angle,
+                                       options, names, false);
+    if (!std::isfinite(r.cost) || !r.frame.w.allFinite() ||
+        std::abs(r.half_angle_rad) >= M_PI / 2) {
+      continue;
+    }
+    if (!best || r.cost < best->cost) best = std::move(r);
+  }
+  if (!best) throw InputError("fit", 0, shape, "points are degenerate");
+  if (options.compute_covariance) {
+    const int iterations = best->summary.iterations;
+    best = Refine<P, Functor>(centred, best->frame, best->radius_mm,
+                              best->half_angle_rad, options, names, true);
+    best->summary.iterations += iterations;
+  }
+  return *std::move(best);
+}
+
 }  // namespace
 
 CylinderFit FitCylinder(const Eigen::Matrix3Xd& points,
@@ -168,34 +207,19 @@ CylinderFit FitCylinder(const Eigen::Matrix3Xd& points,
   const Eigen::Matrix3Xd centred = points.colwise() - s.centroid;
   const std::vector<std::string> names = {"shift_u_mm", "shift_v_mm",
                                           "tilt_u_rad", "tilt_v_rad", "r_mm"};
-  std::optional<AxialResult> best;
-  for (int k = 0; k < 3; ++k) {
-    double radius = 0;
-    const auto frame = SeedFrame(centred, s.eigenvectors.col(k), &radius);
-    if (!frame) continue;
-    AxialResult r = Refine<5, CylinderResidual>(centred, *frame, radius, 0,
-                                                options, names, false);
-    if (!std::isfinite(r.cost) || !r.frame.w.allFinite()) continue;
-    if (!best || r.cost < best->cost) best = std::move(r);
-  }
-  if (!best) throw InputError("fit", 0, "cylinder", "points are degenerate");
-  // Covariance only for the winner (the other seeds may sit on a saddle).
-  if (options.compute_covariance) {
-    const int iterations = best->summary.iterations;
-    best = Refine<5, CylinderResidual>(centred, best->frame, best->radius_mm, 0,
-                                       options, names, true);
-    best->summary.iterations += iterations;
-  }
+  const AxialResult best = BestOfSeeds<5, CylinderResidual>(
+      "cylinder", centred, s, options, names,
+      [](const AxisFrame&, double*, double*) { return true; });
   CylinderFit fit;
-  const Eigen::Vector3d axis = Canonical(best->frame.w);
-  fit.point = s.centroid + best->frame.q0;
+  const Eigen::Vector3d axis = Canonical(best.frame.w);
+  fit.point = s.centroid + best.frame.q0;
   fit.axis = axis;
-  fit.radius_mm = std::abs(best->radius_mm);
-  fit.u = best->frame.u;
-  fit.v = best->frame.v;
-  if (axis.dot(best->frame.w) < 0) fit.v = -fit.v;  // keep u x v = axis
-  fit.summary = std::move(best->summary);
-  if (axis.dot(best->frame.w) < 0 && fit.summary.covariance.size() == 25) {
+  fit.radius_mm = std::abs(best.radius_mm);
+  fit.u = best.frame.u;
+  fit.v = best.frame.v;
+  if (axis.dot(best.frame.w) < 0) fit.v = -fit.v;  // keep u x v = axis
+  fit.summary = best.summary;
+  if (axis.dot(best.frame.w) < 0 && fit.summary.covariance.size() == 25) {
     // v and the axis flipped: tilt and shift along v change sign.
     Eigen::MatrixXd flip = Eigen::MatrixXd::Identity(5, 5);
     flip(1, 1) = flip(3, 3) = -1;
@@ -213,46 +237,33 @@ ConeFit FitCone(const Eigen::Matrix3Xd& points, const FitOptions& options) {
   const std::vector<std::string> names = {
       "shift_u_mm", "shift_v_mm",         "tilt_u_rad",
       "tilt_v_rad", "radius_at_point_mm", "half_angle_rad"};
-  std::optional<AxialResult> best;
-  for (int k = 0; k < 3; ++k) {
-    double radius = 0;
-    const auto frame = SeedFrame(centred, s.eigenvectors.col(k), &radius);
-    if (!frame) continue;
-    // Radius against height along the seed axis: a straight line whose
-    // slope is tan(half angle).
-    const long n = centred.cols();
-    Eigen::MatrixXd a(n, 2);
-    Eigen::VectorXd rho(n);
-    for (long i = 0; i < n; ++i) {
-      const Eigen::Vector3d off = centred.col(i) - frame->q0;
-      const double h = off.dot(frame->w);
-      a(i, 0) = 1;
-      a(i, 1) = h;
-      rho(i) = (off - h * frame->w).norm();
-    }
-    const Eigen::Vector2d line = a.colPivHouseholderQr().solve(rho);
-    if (!line.allFinite()) continue;
-    AxialResult r = Refine<6, ConeResidual>(
-        centred, *frame, line(0), std::atan(line(1)), options, names, false);
-    if (!std::isfinite(r.cost) || !r.frame.w.allFinite() ||
-        std::abs(r.half_angle_rad) >= M_PI / 2) {
-      continue;
-    }
-    if (!best || r.cost < best->cost) best = std::move(r);
-  }
-  if (!best) throw InputError("fit", 0, "cone", "points are degenerate");
-  if (options.compute_covariance) {
-    const int iterations = best->summary.iterations;
-    best = Refine<6, ConeResidual>(centred, best->frame, best->radius_mm,
-                                   best->half_angle_rad, options, names, true);
-    best->summary.iterations += iterations;
-  }
+  const AxialResult best = BestOfSeeds<6, ConeResidual>(
+      "cone", centred, s, options, names,
+      [&centred](const AxisFrame& frame, double* radius, double* half_angle) {
+        // Radius against height along the seed axis: a straight line whose
+        // slope is tan(half angle).
+        const long n = centred.cols();
+        Eigen::MatrixXd a(n, 2);
+        Eigen::VectorXd rho(n);
+        for (long i = 0; i < n; ++i) {
+          const Eigen::Vector3d off = centred.col(i) - frame.q0;
+          const double h = off.dot(frame.w);
+          a(i, 0) = 1;
+          a(i, 1) = h;
+          rho(i) = (off - h * frame.w).norm();
+        }
+        const Eigen::Vector2d line = a.colPivHouseholderQr().solve(rho);
+        if (!line.allFinite()) return false;
+        *radius = line(0);
+        *half_angle = std::atan(line(1));
+        return true;
+      });
   ConeFit fit;
-  Eigen::Vector3d axis = best->frame.w;
-  double half_angle = best->half_angle_rad;
-  fit.u = best->frame.u;
-  fit.v = best->frame.v;
-  fit.summary = std::move(best->summary);
+  Eigen::Vector3d axis = best.frame.w;
+  double half_angle = best.half_angle_rad;
+  fit.u = best.frame.u;
+  fit.v = best.frame.v;
+  fit.summary = best.summary;
   if (half_angle < 0) {
     // Point the axis towards increasing radius.
     axis = -axis;
@@ -266,14 +277,32 @@ ConeFit FitCone(const Eigen::Matrix3Xd& points, const FitOptions& options) {
   }
   fit.axis = axis;
   fit.half_angle_rad = half_angle;
-  fit.point = s.centroid + best->frame.q0;
-  fit.radius_at_point_mm = best->radius_mm;
-  const double tan_half = std::tan(half_angle);
-  fit.apex =
-      tan_half > 0
-          ? Eigen::Vector3d(fit.point -
-                            axis * (fit.radius_at_point_mm / tan_half))
-          : Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  fit.point = s.centroid + best.frame.q0;
+  fit.radius_at_point_mm = best.radius_mm;
+  // A half angle of (almost) zero is a cylinder: the apex is at infinity
+  // and no cone is determined. 1e-9 rad puts the apex a billion radii away.
+  if (!(half_angle > 1e-9)) {
+    fit.apex =
+        Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    fit.summary.status = FitStatus::kDegenerate;
+    fit.summary.converged = false;
+    fit.summary.message =
+        "the half angle is 0: the points lie on a cylinder and the cone's "
+        "apex is undefined (fit a cylinder)";
+    fit.summary.covariance.resize(0, 0);
+  } else if (!(half_angle < M_PI / 2 - 1e-4)) {
+    // Within 0.1 mrad of 90 degrees the cone is a plane: its apex slides
+    // freely in it.
+    fit.apex = fit.point - axis * (fit.radius_at_point_mm / std::tan(half_angle));
+    fit.summary.status = FitStatus::kDegenerate;
+    fit.summary.converged = false;
+    fit.summary.message =
+        "the half angle is 90 degrees: the points lie on a plane and the "
+        "cone's apex is undefined (fit a plane)";
+    fit.summary.covariance.resize(0, 0);
+  } else {
+    fit.apex = fit.point - axis * (fit.radius_at_point_mm / std::tan(half_angle));
+  }
   return fit;
 }
 

@@ -85,6 +85,24 @@ struct SolveResult {
   double cost = 0;  // Ceres final cost (robustified)
 };
 
+// Status from Ceres' summary: converged, stopped at the iteration limit, or
+// not usable.
+void SetStatusFromCeres(const ceres::Solver::Summary& summary, FitSummary* s);
+
+// Whether the (robustified) Jacobian at the solution determines every
+// parameter: Ceres' own test for a dense covariance, (sigma_min /
+// sigma_max)^2 >= 1e-14. Otherwise marks `s` degenerate, naming the
+// parameter the weakest direction moves most. Checked before
+// ceres::Covariance, which would log the rank deficiency to stderr.
+// Ceres reports through glog (e.g. "Terminating: ..." from its minimizer
+// even when Solver::Options::logging_type is SILENT). The fits report
+// through FitSummary instead: raise glog's threshold to FATAL once, before
+// the first solve. The project uses glog for nothing else.
+void SilenceCeresLogging();
+
+bool CheckRank(const Eigen::MatrixXd& jacobian,
+               const std::vector<std::string>& names, FitSummary* s);
+
 template <int P, class Functor>
 SolveResult Solve(const std::vector<Functor>& functors,
                   std::array<double, P>* params, const FitOptions& options,
@@ -99,6 +117,7 @@ SolveResult Solve(const std::vector<Functor>& functors,
         new ceres::AutoDiffCostFunction<Functor, R, P>(new Functor(f)),
         loss.get(), params->data());
   }
+  SilenceCeresLogging();
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_QR;
   solver_options.max_num_iterations = options.max_iterations;
@@ -106,7 +125,9 @@ SolveResult Solve(const std::vector<Functor>& functors,
   solver_options.gradient_tolerance = 1e-18;
   solver_options.parameter_tolerance = 1e-15;
   solver_options.num_threads = 1;  // same input -> same output
+  // The library never writes to stdout/stderr: the status says it all.
   solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary ceres_summary;
   ceres::Solve(solver_options, &problem, &ceres_summary);
 
@@ -114,9 +135,7 @@ SolveResult Solve(const std::vector<Functor>& functors,
   out.cost = ceres_summary.final_cost;
   FitSummary& s = out.summary;
   s.points = static_cast<int>(functors.size());
-  s.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
-  s.iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
-  s.message = ceres_summary.message;
+  SetStatusFromCeres(ceres_summary, &s);
   s.parameter_names = std::move(names);
 
   // Plain (non-robust) residual statistics; weights of the robust loss for
@@ -141,6 +160,25 @@ SolveResult Solve(const std::vector<Functor>& functors,
   const double n_residuals = static_cast<double>(functors.size()) * R;
   s.rms_mm = std::sqrt(sum_sq / n_residuals);
   s.max_abs_mm = max_abs;
+  if (!s.solution_usable) return out;
+  // The rank test runs on every solve, wanted covariance or not: a fit
+  // whose parameters the points do not pin down is not a result.
+  ceres::CRSMatrix crs;
+  ceres::Problem::EvaluateOptions evaluate_options;
+  evaluate_options.num_threads = 1;
+  double cost = 0;
+  if (!problem.Evaluate(evaluate_options, &cost, nullptr, nullptr, &crs)) {
+    s.status = FitStatus::kFailed;
+    s.converged = false;
+    s.message = "the Jacobian could not be evaluated at the solution";
+    return out;
+  }
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(crs.num_rows, P);
+  for (int row = 0; row < crs.num_rows; ++row) {
+    for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k)
+      jacobian(row, crs.cols[k]) = crs.values[k];
+  }
+  if (!CheckRank(jacobian, s.parameter_names, &s)) return out;
   if (want_covariance) {
     const double dof = weight_sum - P;
     const double variance = dof > 0 ? weighted_sq / dof : 0.0;
@@ -156,7 +194,9 @@ SolveResult Solve(const std::vector<Functor>& functors,
                                       c.data())) {
       s.covariance = c * variance;
     } else {
-      s.message += " (covariance: Jacobian rank deficient)";
+      s.status = FitStatus::kDegenerate;
+      s.converged = false;
+      s.message = "the covariance could not be computed (rank deficient)";
     }
   }
   return out;

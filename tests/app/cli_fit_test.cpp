@@ -148,5 +148,34 @@ TEST(CliFit, BadInputExitsTwo) {
   EXPECT_NE(r.output.find("says 3 points"), std::string::npos) << r.output;
 }
 
+// Points that do not determine the shape: exit 2 naming the file and the
+// reason, and nothing of Ceres' own logging on stderr.
+TEST(CliFit, DegenerateShapesExitTwoWithAClearMessage) {
+  const fs::path dir = test::TestDir("fit");
+  {
+    std::ofstream plane(dir / "plane.xyz");
+    plane.precision(17);
+    for (int i = 0; i < 200; ++i)
+      plane << 500 + (i % 20) * 1.3 << " " << -200 + (i / 20) * 2.1 << " "
+            << 40 + 1e-3 * std::sin(i) << "\n";
+    std::ofstream four(dir / "four.xyz");
+    four << "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+  }
+  const std::string plane = (dir / "plane.xyz").string();
+  for (const char* shape : {"cylinder", "sphere", "cone"}) {
+    const auto r = test::RunTtp(std::string("fit ") + shape + " " + plane);
+    EXPECT_EQ(r.exit_code, 2) << shape << ": " << r.output;
+    EXPECT_NE(r.output.find("plane.xyz"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("degenerate"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("covariance_impl"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("InitGoogleLogging"), std::string::npos)
+        << r.output;
+  }
+  const auto r = test::RunTtp("fit cone " + (dir / "four.xyz").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("four.xyz"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("inf"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace ttp

@@ -239,5 +239,82 @@ TEST(FitCone, NoisyConeWithinUncertaintyAndRobust) {
   EXPECT_LT((rob.apex - apex).norm(), 5e-3);
 }
 
+// Points that fit a shape perfectly well but do not determine it: a
+// cylinder through a plane (radius and axis position run off together), a
+// cone on a cylinder (half angle 0: no apex) and on a plane (90 degrees).
+// Far from the origin, with noise: the status says so instead of a result.
+Eigen::Matrix3Xd NoisyPlane(std::mt19937_64& rng, int n) {
+  const Eigen::Vector3d origin(3e3, -2e3, 5e2), normal = RandomUnit(rng);
+  const Eigen::Vector3d u = normal.unitOrthogonal(), v = normal.cross(u);
+  std::uniform_real_distribution<double> x(-20, 20);
+  std::normal_distribution<double> g(0, 1e-3);
+  Eigen::Matrix3Xd p(3, n);
+  for (int i = 0; i < n; ++i)
+    p.col(i) = origin + x(rng) * u + x(rng) * v + g(rng) * normal;
+  return p;
+}
+
+TEST(FitCylinder, PlaneIsDegenerateNotAResult) {
+  std::mt19937_64 rng(41);
+  const CylinderFit fit = FitCylinder(NoisyPlane(rng, 200));
+  EXPECT_EQ(fit.summary.status, FitStatus::kDegenerate)
+      << fit.summary.message << " r = " << fit.radius_mm;
+  EXPECT_FALSE(fit.summary.Usable());
+  EXPECT_NE(fit.summary.message.find("do not determine"), std::string::npos);
+  EXPECT_EQ(fit.summary.covariance.size(), 0);
+}
+
+TEST(FitCone, CylinderAndPlaneAreDegenerate) {
+  std::mt19937_64 rng(42);
+  // Exact cylinder of radius 5 about a far, tilted axis.
+  const Eigen::Vector3d q(-7e3, 2e3, 1e3), axis = RandomUnit(rng);
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  std::uniform_real_distribution<double> t(0, 2 * M_PI), h(-15, 15);
+  Eigen::Matrix3Xd cyl(3, 60);
+  for (int i = 0; i < 60; ++i) {
+    const double a = t(rng);
+    cyl.col(i) = q + h(rng) * axis + 5 * (std::cos(a) * u + std::sin(a) * v);
+  }
+  const ConeFit on_cylinder = FitCone(cyl);
+  EXPECT_FALSE(on_cylinder.summary.Usable())
+      << "half angle " << on_cylinder.half_angle_rad << " apex "
+      << on_cylinder.apex.transpose();
+  const ConeFit on_plane = FitCone(NoisyPlane(rng, 200));
+  EXPECT_EQ(on_plane.summary.status, FitStatus::kDegenerate)
+      << on_plane.summary.message << " half angle "
+      << on_plane.half_angle_rad;
+  // A slender but real cone (0.5 degrees) is still a cone.
+  Eigen::Matrix3Xd slim(3, 60);
+  const double tan_half = std::tan(0.5 * M_PI / 180);
+  for (int i = 0; i < 60; ++i) {
+    const double a = t(rng), z = 100 + h(rng);
+    slim.col(i) = q + z * axis + z * tan_half * (std::cos(a) * u + std::sin(a) * v);
+  }
+  const ConeFit fit = FitCone(slim);
+  EXPECT_TRUE(fit.summary.Usable()) << fit.summary.message;
+  EXPECT_LT((fit.apex - q).norm(), 1e-5);
+}
+
+TEST(FitCylinder, IterationLimitIsReportedNotHidden) {
+  std::mt19937_64 rng(43);
+  const Eigen::Vector3d q(100, 200, 300), axis = RandomUnit(rng);
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  std::uniform_real_distribution<double> t(0, M_PI / 3), h(-15, 15);
+  std::normal_distribution<double> g(0, 1e-3);
+  Eigen::Matrix3Xd p(3, 80);
+  for (int i = 0; i < 80; ++i) {
+    const double a = t(rng);
+    p.col(i) = q + h(rng) * axis +
+               (8 + g(rng)) * (std::cos(a) * u + std::sin(a) * v);
+  }
+  FitOptions one;
+  one.max_iterations = 1;
+  const CylinderFit fit = FitCylinder(p, one);
+  EXPECT_EQ(fit.summary.status, FitStatus::kNoConvergence)
+      << fit.summary.termination << ": " << fit.summary.message;
+  EXPECT_FALSE(fit.summary.Usable());
+  EXPECT_EQ(FitCylinder(p).summary.status, FitStatus::kConverged);
+}
+
 }  // namespace
 }  // namespace ttp::fit

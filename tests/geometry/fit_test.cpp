@@ -293,6 +293,24 @@ TEST(FitOptions, ValidateNamesTheField) {
     EXPECT_EQ(e.field(), "FitOptions.max_iterations");
   }
   EXPECT_THROW(FitCircle2D(Eigen::Matrix2Xd::Random(2, 10), o), InputError);
+  std::string error;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_EQ(error.rfind("FitOptions.max_iterations:", 0), 0u) << error;
+  EXPECT_TRUE(FitOptions().IsValid(&error));
+}
+
+// A sphere through points on a plane far from the origin: its centre runs
+// off along the normal; the status says the points do not determine it.
+TEST(FitSphere, PlaneIsDegenerate) {
+  std::mt19937_64 rng(44);
+  std::uniform_real_distribution<double> x(-20, 20);
+  std::normal_distribution<double> g(0, 1e-3);
+  Eigen::Matrix3Xd p(3, 200);
+  for (int i = 0; i < 200; ++i)
+    p.col(i) = Eigen::Vector3d(4e3 + x(rng), -6e3 + x(rng), 250 + g(rng));
+  const SphereFit fit = FitSphere(p);
+  EXPECT_FALSE(fit.summary.Usable())
+      << fit.summary.message << " r = " << fit.radius_mm;
 }
 
 TEST(FitCircle2D, FarFromOriginFullCircle) {

@@ -1,12 +1,13 @@
-// Least-squares geometry fits with true orthogonal distances, double
-// precision on centred data (Ceres for every nonlinear fit; the plane and
-// line have closed forms that are the exact orthogonal solution). Each
-// result carries a summary: residual statistics and the covariance of its
-// parameters (scaled by the residual variance), in the order the struct
-// documents.
-//
-// CONTRACT: the names and fields below are used by inspect and thermal;
-// extend, do not rename.
+// The project's one fitting layer: least-squares geometry fits with true
+// orthogonal distances, double precision on centred data (Ceres for every
+// nonlinear fit; the plane and line have closed forms that are the exact
+// orthogonal solution), and stray rejection around a plane or circle fit.
+// Every measurement path fits through it: the cloud inspection (datums and
+// features), the probe results, and `ttp fit`. Each result carries a
+// summary: residual statistics, the covariance of its parameters (scaled by
+// the residual variance) in the order the struct documents, and a status
+// taken from Ceres' Solver::Summary, so that a caller can refuse a fit that
+// did not converge or whose parameters the points do not determine.
 #pragma once
 
 #include <Eigen/Core>
@@ -21,20 +22,41 @@ struct FitOptions {
   double loss_scale_mm = 1e-3;  // robust loss scale (residual units)
   bool compute_covariance = true;
   int max_iterations = 100;
-  // Throws InputError naming the field (e.g. "FitOptions.loss_scale_mm").
+  // Ceres style: false with a message naming the field
+  // (e.g. "FitOptions.loss_scale_mm: ...").
+  bool IsValid(std::string* error) const;
+  // Throws InputError naming the field when !IsValid.
   void Validate() const;
 };
+
+enum class FitStatus {
+  kConverged,      // closed form, or Ceres reported CONVERGENCE
+  kNoConvergence,  // Ceres stopped at its iteration limit (usable, not final)
+  kFailed,         // Ceres' solution is not usable (FAILURE, non-finite cost)
+  kDegenerate,     // the points do not determine every parameter (the
+                   // Jacobian is rank deficient at the solution, or the
+                   // shape degenerates, e.g. a cone of half angle 0)
+};
+const char* FitStatusName(FitStatus status);  // "converged", ...
 
 struct FitSummary {
   int points = 0;
   double rms_mm = 0;      // RMS of the orthogonal residuals
   double max_abs_mm = 0;  // largest |residual|
-  bool converged = true;
+  FitStatus status = FitStatus::kConverged;
+  bool converged = true;  // status == kConverged
+  // Ceres' termination type ("CONVERGENCE", "NO_CONVERGENCE", "FAILURE",
+  // ...) or "closed form"; Summary::IsSolutionUsable().
+  std::string termination = "closed form";
+  bool solution_usable = true;
   int iterations = 0;
-  std::string message;
-  // Covariance of the parameters listed in parameter_names (mm, rad).
+  std::string message;  // Ceres' message, or why the fit is degenerate
+  // Covariance of the parameters listed in parameter_names (mm, rad);
+  // empty when the fit is degenerate.
   Eigen::MatrixXd covariance;
   std::vector<std::string> parameter_names;
+  // A result the caller may use: converged and every parameter determined.
+  bool Usable() const { return status == FitStatus::kConverged; }
 };
 
 struct LineFit2D {  // point on the line (centroid) and unit direction
@@ -95,7 +117,9 @@ struct ConeFit {  // apex, unit axis pointing into the cone, half angle
 };
 
 // Points are columns. Each throws InputError if there are too few points
-// or they are degenerate for the shape (e.g. collinear for a plane).
+// or they are degenerate for the shape in a way seen before fitting (e.g.
+// collinear for a plane); degeneracies only the solution shows (a cylinder
+// through points on a plane) come back as FitStatus::kDegenerate.
 LineFit2D FitLine2D(const Eigen::Matrix2Xd& points,
                     const FitOptions& options = {});
 LineFit3D FitLine3D(const Eigen::Matrix3Xd& points,
@@ -111,5 +135,53 @@ SphereFit FitSphere(const Eigen::Matrix3Xd& points,
 CylinderFit FitCylinder(const Eigen::Matrix3Xd& points,
                         const FitOptions& options = {});
 ConeFit FitCone(const Eigen::Matrix3Xd& points, const FitOptions& options = {});
+
+// ---- Orientation and stray rejection (the cloud inspection's datums and
+// features) ----
+
+// The same plane with the normal turned towards `hint_normal` and u the
+// projection of `hint_u` onto the plane (v = normal x u); the covariance is
+// re-expressed for the new axes, so tilt_u_rad is the rotation of the
+// normal towards the given direction.
+PlaneFit OrientPlane(const PlaneFit& fit, const Eigen::Vector3d& hint_normal,
+                     const Eigen::Vector3d& hint_u);
+
+// Iterative stray rejection: fit, drop the points whose |residual| exceeds
+// max(k_sigma * sigma, floor_mm) with sigma = 1.4826 * median |residual|
+// (a robust sigma, from at most 20,000 residuals), refit, until the set is
+// stable or max_rounds refits were made.
+struct RejectionOptions {
+  double k_sigma = 5.0;
+  double floor_mm = 0.003;
+  int max_rounds = 8;
+  bool IsValid(std::string* error) const;
+};
+
+// The plane of `points.col(i)` for i in `indices` (oriented as OrientPlane
+// does) after stray rejection; `indices` becomes the inliers. `rejected`
+// counts the dropped points. Throws like FitPlane when fewer than three
+// points (or collinear ones) remain.
+struct TrimmedPlane {
+  PlaneFit plane;
+  std::vector<Eigen::Index> inliers;
+  int rejected = 0;
+};
+TrimmedPlane FitPlaneTrimmed(const Eigen::Matrix3Xd& points,
+                             std::vector<Eigen::Index> indices,
+                             const Eigen::Vector3d& hint_normal,
+                             const Eigen::Vector3d& hint_u,
+                             const RejectionOptions& rejection);
+
+// A circle in the plane after stray rejection: first within shrinking
+// bands about the circle (`bands_mm`, e.g. {5, 1, 0.3}: points farther
+// from the fitted circle are dropped before the refit), then as above (at
+// most max_rounds refits).
+struct TrimmedCircle {
+  CircleFit2D circle;
+  std::vector<Eigen::Index> inliers;  // columns of the input
+};
+TrimmedCircle FitCircle2DTrimmed(const Eigen::Matrix2Xd& points,
+                                 const std::vector<double>& bands_mm,
+                                 const RejectionOptions& rejection);
 
 }  // namespace ttp::fit
