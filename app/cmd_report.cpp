@@ -160,11 +160,15 @@ void RegisterReportHtml(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "report-html", "render a report data file (JSON) as one HTML page");
   auto data_path = std::make_shared<std::string>();
-  auto out = std::make_shared<std::string>("report.html");
+  auto out = std::make_shared<std::string>();
   cmd->add_option("DATA", *data_path, "report data (docs/REPORT.md)")
       ->required();
-  cmd->add_option("-o,--output", *out, "HTML file to write ('-' = stdout)");
+  cmd->add_option("-o,--output", *out,
+                  "HTML file to write ('-' = stdout; required; its folder "
+                  "must exist)")
+      ->required();
   cmd->callback([data_path, out, &global] {
+    if (*out != "-") CheckOutputPath(*out, {*data_path}, "--output");
     const std::string text = ReadTextFile(*data_path);
     nlohmann::json data;
     try {
