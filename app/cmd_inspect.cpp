@@ -100,32 +100,30 @@ void Register(CLI::App& root, GlobalOptions& global) {
   });
 
   auto limits = std::make_shared<inspect::GradeLimits>();
+  auto figures = std::make_shared<std::string>("thesis");
   auto gargs = std::make_shared<InspectArgs>();
   auto json_out = std::make_shared<std::string>();
+  auto verbose = std::make_shared<bool>(false);
   auto* grade =
       root.add_subcommand("grade",
                           "grade figures against limits (ISO 14253-1); exit 0 "
                           "pass, 1 fail or undecidable, 2 bad input");
   grade->add_option("measurement", gargs->measurement, kMeasurementHelp)
       ->required();
-  grade->add_option("--limit-linear-um", limits->linear_um,
-                    "limit for E_X, E_Y, E_Z, E_TTP (um)");
-  grade->add_option("--limit-angular-um-per-m", limits->angular_um_per_m,
-                    "limit for E_B, E_C (um/m)");
+  AddLimitOptions(grade, limits.get(), figures.get());
   grade->add_option("--json", *json_out, "write the verdict as JSON");
+  grade->add_flag("-v,--verbose", *verbose, "print every graded value");
   AddMeasurementOptions(grade, gargs.get());
-  grade->callback([&global, limits, gargs, json_out, grade] {
+  grade->callback([&global, limits, figures, gargs, json_out, verbose, grade] {
+    limits->figures = inspect::ParseFigureList(*figures);
     limits->Validate();
     gargs->units_given = grade->get_option("--units")->count() > 0;
     const Config config = global.LoadConfig();
     const inspect::Measurement m =
         inspect::LoadMeasurement(config, gargs->measurement, ToOptions(*gargs));
-    const nlohmann::json doc = inspect::MeasurementToJson(m);
-    const inspect::GradeResult r =
-        inspect::GradeFigures(doc, *limits, gargs->measurement);
-    if (!global.quiet) std::cout << inspect::GradeTable(r, *limits);
-    if (!json_out->empty())
-      WriteJson(*json_out, inspect::GradeToJson(r, *limits));
+    const inspect::GradeResult r = inspect::GradeMeasurement(m, *limits);
+    if (!global.quiet) std::cout << inspect::GradeTable(r, *verbose);
+    if (!json_out->empty()) WriteJson(*json_out, inspect::GradeToJson(r));
     if (r.overall != inspect::Verdict::kPass)
       global.exit_code = kExitJudgedFailure;
   });

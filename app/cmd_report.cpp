@@ -1,13 +1,20 @@
-// `ttp report --log LOG MEASUREMENT -o report.html [--json data.json]`: the
-// whole story of a run as one self-contained HTML page (docs/REPORT.md).
+// `ttp report [--log LOG] MEASUREMENT -o report.html [--json data.json]`:
+// the whole story of a run as one self-contained HTML page; `ttp report
+// --compare A B -o compare.html`: two pieces side by side (docs/REPORT.md).
+// The grade and the diagnosis are computed here by their modules; the report
+// module only renders them.
 // `ttp report-html DATA.json -o report.html`: renders a report data file.
 #include <cstdio>
+#include <filesystem>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "command.h"
 #include "planned_cuts.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/diagnosis/diagnose.h"
+#include "ttp/inspect/grade.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
 #include "ttp/report/report.h"
@@ -17,59 +24,135 @@
 namespace ttp::app {
 namespace {
 
+// Never overwrite an input, and never write into a folder that is not
+// there (a typo would otherwise scatter files).
+void CheckOutputPath(const std::string& out,
+                     const std::vector<std::string>& inputs,
+                     const char* option) {
+  namespace fs = std::filesystem;
+  const fs::path p(out);
+  const fs::path dir = p.parent_path();
+  if (!dir.empty() && !fs::is_directory(dir))
+    throw InputError(option, 0, "output",
+                     "the folder '" + dir.string() + "' does not exist");
+  std::error_code ec;
+  for (const std::string& in : inputs) {
+    if (!in.empty() && fs::exists(p) && fs::equivalent(p, in, ec))
+      throw InputError(option, 0, "output",
+                       "'" + out + "' is an input of this command");
+  }
+}
+
 void RegisterReport(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "report",
-      "the report of a run: measured piece vs its simulation from the TALC "
-      "log, verdict and diagnosis, as one HTML page");
+      "the report of a run as one HTML page: the measured piece, its verdict "
+      "(as `ttp grade`), and with --log its simulation from the TALC log and "
+      "the diagnosis; exit 1 unless the verdict is pass");
   auto log_path = std::make_shared<std::string>();
   auto measurement = std::make_shared<std::string>();
-  auto out = std::make_shared<std::string>("report.html");
+  auto out = std::make_shared<std::string>();
   auto json_out = std::make_shared<std::string>();
+  auto compare = std::make_shared<std::vector<std::string>>();
   auto options = std::make_shared<report::ReportOptions>();
-  cmd->add_option("--log", *log_path, "TALC log (CSV)")->required();
+  auto limits = std::make_shared<inspect::GradeLimits>();
+  auto figures = std::make_shared<std::string>("thesis");
   cmd->add_option("MEASUREMENT", *measurement,
                   "measured piece: point cloud (PLY, PCD, XYZ/CSV), "
                   "inspection JSON, dial-gauge CSV, DMIS output or probe "
-                  "results")
+                  "results");
+  cmd->add_option("--log", *log_path,
+                  "TALC log (CSV); without it the page shows the piece and "
+                  "its verdict only (e.g. an uncompensated acceptance test)");
+  cmd->add_option("--compare", *compare,
+                  "two measured pieces, A (e.g. without compensation) and B "
+                  "(with): their figures side by side and the spans over "
+                  "1 h, 4 h and 8 h (thesis table 7.2)")
+      ->expected(2);
+  cmd->add_option("-o,--output", *out,
+                  "HTML file to write (required; its folder must exist; "
+                  "an existing file is replaced, an input never)")
       ->required();
-  cmd->add_option("-o,--output", *out, "HTML file to write");
   cmd->add_option("--json", *json_out,
                   "also write the report data (JSON) the page is made from");
-  cmd->add_option("--limit-linear-um", options->limits.linear_um,
-                  "limit of E_X, E_Y, E_Z, E_TTP (default 5 um)");
-  cmd->add_option("--limit-angular-um-per-m", options->limits.angular_um_per_m,
-                  "limit of E_B (default 15 um/m)");
+  AddLimitOptions(cmd, limits.get(), figures.get());
   cmd->add_option("--evidence", options->diagnosis.evidence_threshold,
-                  "BIC margin over the nominal model needed to name a cause "
-                  "(default 10)");
-  cmd->add_option("--title", options->title, "title of the page");
+                  "BIC margin over the nominal model needed to name a cause")
+      ->capture_default_str();
+  cmd->add_option("--title", options->title, "title of the page")
+      ->capture_default_str();
   auto no_schedule = std::make_shared<bool>(false);
   cmd->add_flag("--no-schedule-check", *no_schedule,
                 "do not check the log's cuts against the program's schedule "
                 "(for a log of another program)");
-  cmd->callback([&global, log_path, measurement, out, json_out, options,
-                 no_schedule] {
+  cmd->callback([&global, log_path, measurement, out, json_out, compare,
+                 options, limits, figures, no_schedule] {
+    limits->figures = inspect::ParseFigureList(*figures);
+    limits->Validate();
     const Config config = global.LoadConfig();
-    const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
-    // As `ttp diagnose`: a log that did not come from this program is an
-    // input error.
-    if (!*no_schedule)
-      thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
+    if (!compare->empty()) {
+      if (!measurement->empty() || !log_path->empty())
+        throw InputError("--compare", 0, "compare",
+                         "give either --compare A B or one MEASUREMENT "
+                         "(with --log)");
+      CheckOutputPath(*out, *compare, "--output");
+      if (!json_out->empty()) CheckOutputPath(*json_out, *compare, "--json");
+      const inspect::Measurement a = inspect::LoadMeasurement(config, (*compare)[0]);
+      const inspect::Measurement b = inspect::LoadMeasurement(config, (*compare)[1]);
+      const inspect::GradeResult ga = inspect::GradeMeasurement(a, *limits);
+      const inspect::GradeResult gb = inspect::GradeMeasurement(b, *limits);
+      const std::string title = options->title == report::ReportOptions{}.title
+                                    ? "Thermal test pieces compared"
+                                    : options->title;
+      const nlohmann::json data = report::WriteComparison(
+          config, {&a, &ga}, {&b, &gb}, *out, *json_out, title);
+      if (!global.quiet)
+        std::fprintf(stderr, "comparison written to %s (A %s, B %s)\n",
+                     out->c_str(), inspect::VerdictName(ga.overall),
+                     inspect::VerdictName(gb.overall));
+      return;
+    }
+    if (measurement->empty())
+      throw InputError("report", 0, "MEASUREMENT",
+                       "missing: give the measured piece (or --compare A B)");
+    CheckOutputPath(*out, {*measurement, *log_path}, "--output");
+    if (!json_out->empty())
+      CheckOutputPath(*json_out, {*measurement, *log_path}, "--json");
     const inspect::Measurement m =
         inspect::LoadMeasurement(config, *measurement);
-    const inspect::InspectionResult& measured = m.result;
-    const std::string kind = inspect::MeasurementKindName(m.kind);
-    report::ReportOptions o = *options;
-    o.run_info.emplace("measurement kind", kind);
-    const nlohmann::json data =
-        report::WriteReport(log, config, measured, nullptr, *out, *json_out, o);
-    if (!global.quiet) {
-      std::fprintf(stderr, "report written to %s (verdict %s, cause %s)\n",
-                   out->c_str(),
-                   data["grade"]["verdict"].get<std::string>().c_str(),
-                   data["diagnosis"]["cause"].get<std::string>().c_str());
+    // The verdict of `ttp grade`, computed once and rendered as is.
+    const inspect::GradeResult grade = inspect::GradeMeasurement(m, *limits);
+    report::ReportInputs inputs;
+    inputs.measurement = &m;
+    inputs.grade = &grade;
+    std::optional<thermal::TalcLog> log;
+    diagnosis::PreparedDiagnosis diagnosed;
+    if (!log_path->empty()) {
+      log = thermal::ReadTalcLog(*log_path);
+      // As `ttp diagnose`: a log that did not come from this program is an
+      // input error.
+      if (!*no_schedule)
+        thermal::CheckLogAgainstSchedule(*log, PlannedCuts(config));
+      const diagnosis::MeasuredPiece piece =
+          diagnosis::MeasuredPieceFromInspection(config.part, m.result);
+      diagnosed.run =
+          diagnosis::PrepareRun(*log, config, piece, options->diagnosis);
+      diagnosed.report = diagnosis::DiagnosePrepared(
+          diagnosed.run, *log, config.part, piece, options->diagnosis);
+      inputs.log = &*log;
+      inputs.diagnosis = &diagnosed;
     }
+    const nlohmann::json data =
+        report::WriteReport(config, inputs, *out, *json_out, *options);
+    if (!global.quiet) {
+      std::fprintf(stderr, "report written to %s: %s%s\n", out->c_str(),
+                   data["grade"]["summary"].get<std::string>().c_str(),
+                   inputs.diagnosis
+                       ? ("; cause " + diagnosed.report.cause).c_str()
+                       : "");
+    }
+    if (grade.overall != inspect::Verdict::kPass)
+      global.exit_code = kExitJudgedFailure;
   });
 }
 
@@ -77,11 +160,15 @@ void RegisterReportHtml(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "report-html", "render a report data file (JSON) as one HTML page");
   auto data_path = std::make_shared<std::string>();
-  auto out = std::make_shared<std::string>("report.html");
+  auto out = std::make_shared<std::string>();
   cmd->add_option("DATA", *data_path, "report data (docs/REPORT.md)")
       ->required();
-  cmd->add_option("-o,--output", *out, "HTML file to write ('-' = stdout)");
+  cmd->add_option("-o,--output", *out,
+                  "HTML file to write ('-' = stdout; required; its folder "
+                  "must exist)")
+      ->required();
   cmd->callback([data_path, out, &global] {
+    if (*out != "-") CheckOutputPath(*out, {*data_path}, "--output");
     const std::string text = ReadTextFile(*data_path);
     nlohmann::json data;
     try {

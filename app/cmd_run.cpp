@@ -29,6 +29,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/part_mesh.h"
+#include "ttp/inspect/grade.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
 #include "ttp/thermal/check.h"
@@ -83,6 +84,7 @@ struct RunContext {
   diagnosis::TwinRun twin;
   diagnosis::Cause hidden = diagnosis::Cause::kNone;
   inspect::Measurement measurement;
+  inspect::GradeResult grade;  // of the measurement, as `ttp grade`
   thermal::TalcLog log;
   // The log's estimator and simulation: fitted once, shared by the check,
   // the diagnosis and the report.
@@ -241,6 +243,13 @@ void InspectStage(RunContext& ctx) {
       "inspection.json", inspect::MeasurementToJson(ctx.measurement),
       "inspection of the twin's cloud: E_X..E_TTP with U (k = 2)");
   const auto& r = ctx.measurement.result;
+  ctx.grade = inspect::GradeMeasurement(ctx.measurement, {});
+  ctx.WriteJsonFile("grade.json", inspect::GradeToJson(ctx.grade),
+                    "verdict on the twin's piece (as ttp grade)");
+  // The verdict is what a reader looks for first.
+  ctx.summary.insert(ctx.summary.begin(),
+                     "verdict: " + ctx.grade.Summary().substr(
+                                       0, ctx.grade.Summary().find('\n')));
   ctx.summary.push_back(
       fmt::format("inspection: {} points, {} on features, {} rejected as stray",
                   r.points_total, r.points_assigned, r.points_rejected));
@@ -274,9 +283,13 @@ void ReportStage(RunContext& ctx) {
   report::ReportOptions options;
   options.title = "Thermal test piece report (twin run)";
   options.run_info["measurement"] = "twin/piece.ply (synthetic CMM cloud)";
-  options.run_info["hidden effect"] = diagnosis::CauseName(ctx.hidden);
-  report::WriteReport(ctx.log, ctx.config, ctx.measurement.result,
-                      &ctx.diagnosis, ctx.out_dir / "report.html",
+  options.run_info["hidden_effect"] = diagnosis::CauseName(ctx.hidden);
+  report::ReportInputs inputs;
+  inputs.measurement = &ctx.measurement;
+  inputs.grade = &ctx.grade;
+  inputs.log = &ctx.log;
+  inputs.diagnosis = &ctx.diagnosis;
+  report::WriteReport(ctx.config, inputs, ctx.out_dir / "report.html",
                       ctx.out_dir / "report.json", options);
   ctx.written.emplace_back(ctx.out_dir / "report.html",
                            "the report (open in a browser; works offline)");

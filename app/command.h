@@ -11,6 +11,7 @@
 #include <string>
 
 #include "ttp/geometry/config.h"
+#include "ttp/inspect/grade.h"
 
 namespace ttp::app {
 
@@ -37,6 +38,13 @@ void RegisterAll(CLI::App& root, GlobalOptions& global);
 void WriteJson(const std::string& path, const nlohmann::json& doc);
 // Writes text atomically; "-" = stdout.
 void WriteText(const std::string& path, const std::string& text);
+
+// The grading options shared by `grade`, `report` and `run`:
+// --limit-linear-um, --limit-angular-um-per-m, --limits-basis and
+// --figures (a list such as "E_X,E_B", "thesis" or "all"; parse it with
+// inspect::ParseFigureList into limits->figures).
+void AddLimitOptions(CLI::App* cmd, inspect::GradeLimits* limits,
+                     std::string* figures);
 
 // True when stdout is a terminal (progress displays only then).
 bool StdoutIsTerminal();

@@ -237,6 +237,14 @@ InspectionResult FromInspectionJson(const PartSpec& part,
   }
   if (!doc.is_object())
     throw InputError(source, 0, "", "the JSON document is not an object");
+  // The answer of a simulated run (`ttp twin`, samples/*/truth.json) holds
+  // noise-free figures: grading or diagnosing it would judge the
+  // simulation, not a piece.
+  if (doc.contains("cause") && (doc.contains("noise_um") || doc.contains("params")))
+    throw InputError(source, 0, "cause",
+                     "this is a truth file (the answer of a simulated run), "
+                     "not a measurement: give the measured piece (e.g. "
+                     "piece.ply or measured.json beside it)");
   InspectionResult r;
   r.source = source;
   if (doc.contains("facets") || doc.contains("strips")) {

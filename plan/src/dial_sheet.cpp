@@ -55,7 +55,8 @@ segment's reference facet ({}-{}), then turn the table by C to the facet named
 and read; the reading is positive when the facet is nearer the axis than the
 reference. Strips: zero on strip Z{}, positive when the strip is deeper.
 Type the readings into the CSV template (<code>feature,reading_um</code>) and
-run <code>ttp inspect --dial readings.csv</code>.</p>
+run <code>ttp inspect dial_readings.csv</code> (the file of <code>ttp plan
+dial</code>, filled in).</p>
 <table><tr><th>cycle</th><th>feature</th><th>zero on</th><th>where</th>
 <th>how</th><th>reading (um)</th></tr>
 {}</table></body></html>

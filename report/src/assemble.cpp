@@ -166,23 +166,32 @@ json Residuals(const diagnosis::PreparedRun& run,
 
 }  // namespace
 
-json AssembleReportData(const thermal::TalcLog& log, const Config& config,
-                        const inspect::InspectionResult& measured,
-                        const diagnosis::PreparedDiagnosis* given,
+json AssembleReportData(const Config& config, const ReportInputs& in,
                         const ReportOptions& options) {
+  if (in.measurement == nullptr || in.grade == nullptr)
+    throw InputError("report", 0, "", "a report needs a measurement and its grade");
+  if (in.diagnosis != nullptr && in.log == nullptr)
+    throw InputError("report", 0, "", "a diagnosis needs its TALC log");
   const PartSpec& part = config.part;
-  options.limits.Validate();
+  const inspect::InspectionResult& measured = in.measurement->result;
+  const inspect::GradeLimits& limits = in.grade->limits;
   json data = {{"schema", kReportSchema}, {"title", options.title}};
 
   // Header: what was run and read.
   json run = json::object();
-  if (!log.machine.empty()) run["machine"] = log.machine;
-  run["compensation"] = log.compensation ? "on" : "off";
-  run["log"] = log.source;
-  run["log span"] = fmt::format("{:.2f} h, {} R-tests, {} cuts",
-                                (log.LastTimeS() - log.FirstTimeS()) / 3600,
-                                log.rtests.size(), log.cuts.size());
+  if (in.log != nullptr) {
+    const thermal::TalcLog& log = *in.log;
+    if (!log.machine.empty()) run["machine"] = log.machine;
+    run["compensation"] = log.compensation ? "on" : "off";
+    run["log"] = log.source;
+    run["log_span"] = fmt::format("{:.2f} h, {} R-tests, {} cuts",
+                                  (log.LastTimeS() - log.FirstTimeS()) / 3600,
+                                  log.rtests.size(), log.cuts.size());
+  } else {
+    run["log"] = "none (no TALC log: no simulation, machine or diagnosis)";
+  }
   if (!measured.source.empty()) run["measurement"] = measured.source;
+  run["measurement_kind"] = inspect::MeasurementKindName(in.measurement->kind);
   if (measured.points_total > 0) {
     run["points"] = fmt::format("{} read, {} on features, {} rejected",
                                 measured.points_total, measured.points_assigned,
@@ -191,30 +200,18 @@ json AssembleReportData(const thermal::TalcLog& log, const Config& config,
   for (const auto& [key, value] : options.run_info) run[key] = value;
   data["run"] = run;
   data["part"] = ConfigToJson(config)["part"];
-  data["limits"] = {{"linear_um", options.limits.linear_um},
-                    {"angular_um_per_m", options.limits.angular_um_per_m}};
+  data["limits"] = {{"linear_um", limits.linear_um},
+                    {"angular_um_per_m", limits.angular_um_per_m}};
 
-  // The measured piece as the diagnosis reads it (as `ttp diagnose` does).
-  const diagnosis::MeasuredPiece piece =
-      diagnosis::MeasuredPieceFromInspection(part, measured);
-  diagnosis::PreparedDiagnosis computed;
-  if (given == nullptr) {
-    computed.run = diagnosis::PrepareRun(log, config, piece, options.diagnosis);
-    computed.report = diagnosis::DiagnosePrepared(computed.run, log, part,
-                                                  piece, options.diagnosis);
+  // Drawn with the measurement's own U, as graded.
+  json figures = {{"measured", FiguresToJson(measured.figures)["figures"]}};
+  if (in.diagnosis != nullptr) {
+    const diagnosis::PreparedRun& prepared = in.diagnosis->run;
+    figures["simulated"] = SimulatedFigures(prepared.simulation.figures);
+    figures["simulated_linear"] =
+        SimulatedFigures(prepared.simulation.figures_linear);
   }
-  const diagnosis::PreparedRun& prepared = given ? given->run : computed.run;
-  const diagnosis::DiagnosisReport& d = given ? given->report : computed.report;
-
-  // Graded and drawn with the measurement's own U; the diagnosis judges
-  // the same values against the fits' scatter (piece.figures).
-  const json measured_figures = FiguresToJson(
-      measured.figures.empty() ? piece.figures : measured.figures)["figures"];
-  data["figures"] = {
-      {"measured", measured_figures},
-      {"simulated", SimulatedFigures(prepared.simulation.figures)},
-      {"simulated_linear",
-       SimulatedFigures(prepared.simulation.figures_linear)}};
+  data["figures"] = figures;
   json facets = json::object();
   for (const auto& [id, r] : measured.features) {
     FeatureKind kind;
@@ -224,48 +221,129 @@ json AssembleReportData(const thermal::TalcLog& log, const Config& config,
         kind != FeatureKind::kFacet) {
       continue;
     }
+    // An angle the instrument did not measure (dial gauge) is null: shown
+    // as "not measured", never as 0.
     facets[id] = {
-        {"distance_mm", r.present ? json(r.d_mm) : json()},
-        {"angle_error_urad", r.present ? json(r.angle_rad * 1e6) : json()}};
+        {"distance_mm", r.present ? NumberOrNull(r.d_mm) : json()},
+        {"angle_error_urad",
+         r.present ? NumberOrNull(r.angle_rad * 1e6) : json()}};
   }
   if (!facets.empty()) data["facets"] = facets;
 
-  const std::string grade_source =
+  data["grade"] = inspect::GradeToJson(*in.grade);
+  if (in.log != nullptr) data["log"] = LogData(*in.log);
+
+  if (in.diagnosis != nullptr) {
+    const diagnosis::DiagnosisReport& d = in.diagnosis->report;
+    json diag = diagnosis::DiagnosisToJson(d);
+    diag["summary"] = Summary(d, options.diagnosis.evidence_threshold);
+    diag["threshold"] = options.diagnosis.evidence_threshold;
+    diag["residuals"] = Residuals(in.diagnosis->run, d, part);
+    data["diagnosis"] = diag;
+  }
+
+  const std::string source =
       measured.source.empty() ? "measurement" : measured.source;
-  const inspect::GradeResult grade = inspect::GradeFigures(
-      json{{"figures", measured_figures}}, options.limits, grade_source);
-  data["grade"] = inspect::GradeToJson(grade, options.limits);
-
-  data["log"] = LogData(log);
-
-  json diag = diagnosis::DiagnosisToJson(d);
-  diag["summary"] = Summary(d, options.diagnosis.evidence_threshold);
-  diag["threshold"] = options.diagnosis.evidence_threshold;
-  diag["residuals"] = Residuals(prepared, d, part);
-  data["diagnosis"] = diag;
-
   json warnings = json::array();
-  for (const auto& w : log.warnings) {
-    warnings.push_back(fmt::format("{} line {}: {} ({})", log.source, w.line,
-                                   w.message, w.rule));
+  if (in.log != nullptr) {
+    for (const auto& w : in.log->warnings) {
+      warnings.push_back(fmt::format("{} line {}: {} ({})", in.log->source,
+                                     w.line, w.message, w.rule));
+    }
   }
-  for (const auto& w : measured.warnings) {
-    warnings.push_back(grade_source + ": " + w);
-  }
+  for (const auto& w : measured.warnings) warnings.push_back(source + ": " + w);
   if (!warnings.empty()) data["warnings"] = warnings;
 
   ValidateReportData(data, "assembled report data");
   return data;
 }
 
-json WriteReport(const thermal::TalcLog& log, const Config& config,
-                 const inspect::InspectionResult& measured,
-                 const diagnosis::PreparedDiagnosis* diagnosis,
+json WriteReport(const Config& config, const ReportInputs& inputs,
                  const std::filesystem::path& html_path,
                  const std::filesystem::path& json_path,
                  const ReportOptions& options) {
-  json data = AssembleReportData(log, config, measured, diagnosis, options);
+  json data = AssembleReportData(config, inputs, options);
   const std::string html = RenderReportHtml(data);
+  if (!json_path.empty()) WriteFileAtomic(json_path, data.dump(2) + "\n");
+  WriteFileAtomic(html_path, html);
+  return data;
+}
+
+double FigureSpanUm(const std::vector<CycleFigures>& figures,
+                    inspect::Figure figure, double hours,
+                    double cycle_period_s) {
+  double lo = 0, hi = 0;  // cycle 0: the reference
+  bool any = false;
+  for (const CycleFigures& cf : figures) {
+    if (cf.cycle * cycle_period_s > hours * 3600.0 + 1e-6) continue;
+    double v = std::nan("");
+    switch (figure) {
+      case inspect::Figure::kEX: v = cf.e_x_mm; break;
+      case inspect::Figure::kEY: v = cf.e_y_mm; break;
+      case inspect::Figure::kEZ: v = cf.e_z_mm; break;
+      case inspect::Figure::kETTP: v = cf.e_ttp_mm; break;
+      default: break;
+    }
+    if (!std::isfinite(v)) continue;
+    any = true;
+    lo = std::min(lo, v * 1e3);
+    hi = std::max(hi, v * 1e3);
+  }
+  return any ? hi - lo : std::nan("");
+}
+
+json AssembleComparisonData(const Config& config, const ComparedPiece& a,
+                            const ComparedPiece& b, const std::string& title) {
+  for (const ComparedPiece* p : {&a, &b}) {
+    if (p->measurement == nullptr || p->grade == nullptr)
+      throw InputError("report --compare", 0, "",
+                       "each piece needs its measurement and its grade");
+  }
+  const double period_s = config.process.cycle_period_s;
+  json pieces = json::array();
+  const char* labels[2] = {"A", "B"};
+  int k = 0;
+  for (const ComparedPiece* p : {&a, &b}) {
+    const inspect::Measurement& m = *p->measurement;
+    pieces.push_back(
+        {{"label", labels[k++]},
+         {"measurement", m.source},
+         {"measurement_kind", inspect::MeasurementKindName(m.kind)},
+         {"figures", FiguresToJson(m.result.figures)["figures"]},
+         {"grade", inspect::GradeToJson(*p->grade)}});
+  }
+  json spans = json::array();
+  for (inspect::Figure f : {inspect::Figure::kEX, inspect::Figure::kEY,
+                            inspect::Figure::kEZ, inspect::Figure::kETTP}) {
+    for (double hours : {1.0, 4.0, 8.0}) {
+      spans.push_back(
+          {{"figure", inspect::FigureName(f)},
+           {"period_h", hours},
+           {"a_um", NumberOrNull(FigureSpanUm(a.measurement->result.figures, f,
+                                              hours, period_s))},
+           {"b_um", NumberOrNull(FigureSpanUm(b.measurement->result.figures, f,
+                                              hours, period_s))}});
+    }
+  }
+  const inspect::GradeLimits& limits = a.grade->limits;
+  return {{"schema", kCompareSchema},
+          {"title", title},
+          {"part", ConfigToJson(config)["part"]},
+          {"limits",
+           {{"linear_um", limits.linear_um},
+            {"angular_um_per_m", limits.angular_um_per_m}}},
+          {"cycle_period_s", period_s},
+          {"pieces", pieces},
+          {"spans", spans}};
+}
+
+json WriteComparison(const Config& config, const ComparedPiece& a,
+                     const ComparedPiece& b,
+                     const std::filesystem::path& html_path,
+                     const std::filesystem::path& json_path,
+                     const std::string& title) {
+  json data = AssembleComparisonData(config, a, b, title);
+  const std::string html = RenderComparisonHtml(data);
   if (!json_path.empty()) WriteFileAtomic(json_path, data.dump(2) + "\n");
   WriteFileAtomic(html_path, html);
   return data;

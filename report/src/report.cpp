@@ -7,18 +7,22 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
 
 #include "piece_drawing.h"
 #include "report_schema.h"
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
-#include "ttp/inspect/grade.h"
+#include "ttp/report/format.h"
 
 namespace ttp::report_assets {
 extern const char* const kUplotJsPieces[];
 extern const char* const kUplotCssPieces[];
+extern const char* const kReportJsPieces[];
+extern const char* const kReportCssPieces[];
 }  // namespace ttp::report_assets
 
 namespace ttp {
@@ -70,6 +74,13 @@ std::string ScriptSafeJson(const json& doc) {
   return out;
 }
 
+// "log_span" -> "log span" for display.
+std::string Spaced(std::string key) {
+  for (char& c : key)
+    if (c == '_') c = ' ';
+  return key;
+}
+
 std::string NotAvailable(const std::string& what) {
   return "<p class=\"na\">Not available: " + Escape(what) + "</p>\n";
 }
@@ -78,9 +89,7 @@ const char* FigureUnit(const std::string& key) {
   return key == "E_B" ? "um/m" : "um";
 }
 
-std::string Num(double v, int decimals = 2) {
-  return fmt::format("{:.{}f}", v, decimals);
-}
+std::string Num(double v, int decimals = 2) { return FormatNumber(v, decimals); }
 
 // The section's input sub-document, or null when absent.
 const json* Find(const json& doc, const char* key) {
@@ -145,7 +154,7 @@ std::string PieceSection(const json& data, const PartSpec& part) {
       auto cell = [&](const char* key, int decimals) {
         return facet.contains(key) && !facet[key].is_null()
                    ? Num(facet[key].get<double>(), decimals)
-                   : std::string("-");
+                   : std::string("not measured");
       };
       html += "<tr><td>" + Escape(id) + "</td><td>" + cell("distance_mm", 4) +
               "</td><td>" + cell("angle_error_urad", 1) + "</td></tr>";
@@ -184,7 +193,9 @@ std::string FiguresSection(const json& data, const Limits& limits) {
   return html + "</div></section>\n";
 }
 
-std::string VerdictSection(const json& data, const Limits& limits) {
+// The grade exactly as inspect::GradeToJson gave it: nothing is decided
+// here.
+std::string VerdictSection(const json& data) {
   const json* grade = Find(data, "grade");
   std::string html =
       "<section id=\"verdict\"><h2>3. Verdict</h2>\n<p class=\"rule\">Decision "
@@ -192,72 +203,95 @@ std::string VerdictSection(const json& data, const Limits& limits) {
       "conformance zone reduced by the expanded uncertainty U, k = 2), "
       "non-conformance when |E| &gt; limit + U; in between the result is "
       "undecidable. A figure passes when every cycle passes; a missing value "
-      "leaves conformance unproven.</p>\n";
-  const json* figures = Find(data, "figures");
-  if (figures == nullptr || !figures->contains("measured") ||
-      (*figures)["measured"].empty()) {
-    return html + NotAvailable("no measured figures to grade") + "</section>\n";
+      "leaves conformance unproven. A figure the instrument cannot measure, "
+      "or whose U reaches its limit, is not decided and left out of the "
+      "verdict.</p>\n";
+  if (grade == nullptr) {
+    return html + NotAvailable("no grade of the measured figures") +
+           "</section>\n";
   }
-  std::map<int, const json*> by_cycle;
-  for (const json& entry : (*figures)["measured"]) {
-    by_cycle[entry["cycle"].get<int>()] = &entry;
-  }
-  std::string table = "<table class=\"verdict\"><tr><th>figure</th>";
-  for (const auto& [cycle, entry] : by_cycle) {
-    table += fmt::format("<th>cycle {}</th>", cycle);
-  }
-  table += "<th>limit</th><th>figure</th></tr>\n";
-  int fails = 0, undecidable = 0, missing = 0;
-  for (const auto& key : kFigureKeys) {
-    const double limit = limits.For(key);
-    table += "<tr><th>" + key + "</th>";
-    int key_fails = 0, key_undecidable = 0, key_missing = 0;
-    for (const auto& [cycle, entry] : by_cycle) {
-      if ((*entry)[key].is_null()) {
-        table += "<td class=\"missing\">missing</td>";
-        ++key_missing;
-        continue;
-      }
-      const double value = (*entry)[key].get<double>();
-      const double u = (*entry)["U"][key].get<double>();
-      // The rule of `ttp grade` (inspect::Decide).
-      const inspect::Verdict d = inspect::Decide(value, u, limit);
-      key_fails += d == inspect::Verdict::kFail;
-      key_undecidable += d == inspect::Verdict::kUndecidable;
-      table += fmt::format("<td class=\"{}\">{} &plusmn; {}</td>",
-                           inspect::VerdictName(d), Num(value), Num(u));
-    }
-    const char* key_result = key_fails         ? "fail"
-                             : key_undecidable ? "undecidable"
-                             : key_missing     ? "missing"
-                                               : "pass";
-    fails += key_fails;
-    undecidable += key_undecidable;
-    missing += key_missing;
-    table +=
-        fmt::format("<td>&plusmn;{} {}</td><td class=\"{}\">{}</td></tr>\n",
-                    limit, FigureUnit(key), key_result, key_result);
-  }
-  table += "</table>\n";
-  // Same rule as `ttp grade`: any fail fails; pass only if every value
-  // passes; otherwise (undecidable or missing values) undecidable.
-  std::string overall = fails                    ? "fail"
-                        : undecidable || missing ? "undecidable"
-                                                 : "pass";
-  if (grade != nullptr) overall = (*grade)["verdict"].get<std::string>();
+  const std::string overall = (*grade)["verdict"].get<std::string>();
   const std::string text =
       overall == "fail"   ? "FAIL - non-conformance proven"
       : overall == "pass" ? "PASS - conformance proven"
-                          : "UNDECIDABLE - conformance not proven (within "
-                            "the uncertainty at a limit, or values missing)";
+                          : "UNDECIDABLE - conformance not proven";
   html += fmt::format(
       "<div class=\"stamp {}\" id=\"overall-verdict\" "
       "data-verdict=\"{}\">{}</div>\n",
       overall, overall, text);
-  html += fmt::format(
-      "<p class=\"note\">{} value(s) fail, {} undecidable, {} missing{}.</p>\n",
-      fails, undecidable, missing,
-      grade != nullptr ? "; overall verdict from the grading (ttp grade)" : "");
+  if (grade->contains("summary"))
+    html += "<p class=\"summary\" id=\"grade-summary\">" +
+            Escape((*grade)["summary"].get<std::string>()) + ".</p>\n";
+  if (grade->contains("limits") && (*grade)["limits"].contains("description"))
+    html += "<p class=\"note\">Limits: " +
+            Escape((*grade)["limits"]["description"].get<std::string>()) +
+            ".</p>\n";
+  // Figures not decided, with the reason.
+  std::string reasons;
+  if (grade->contains("figures")) {
+    for (const json& f : (*grade)["figures"]) {
+      if (f["decided"].get<bool>()) continue;
+      reasons += "<li><b>" + Escape(f["figure"].get<std::string>()) +
+                 "</b>: " + Escape(f["reason"].get<std::string>()) + "</li>";
+    }
+  }
+  if (!reasons.empty())
+    html += "<p class=\"note\">Not decided:</p><ul class=\"not-decided\">" +
+            reasons + "</ul>\n";
+  // Every graded value, coloured by its own decision.
+  std::map<std::string, std::map<int, const json*>> by_figure;
+  std::map<int, bool> cycles;
+  std::vector<std::string> order;
+  if (grade->contains("values")) {
+    for (const json& v : (*grade)["values"]) {
+      const std::string f = v["figure"].get<std::string>();
+      if (!by_figure.count(f)) order.push_back(f);
+      by_figure[f][v["cycle"].get<int>()] = &v;
+      cycles[v["cycle"].get<int>()] = true;
+    }
+  }
+  if (order.empty()) return html + "</section>\n";
+  std::map<std::string, const json*> figure_grade;
+  if (grade->contains("figures"))
+    for (const json& f : (*grade)["figures"])
+      figure_grade[f["figure"].get<std::string>()] = &f;
+  std::string table = "<table class=\"verdict\"><tr><th>figure</th>";
+  for (const auto& [cycle, unused] : cycles)
+    table += fmt::format("<th>cycle {}</th>", cycle);
+  table += "<th>limit</th><th>figure</th></tr>\n";
+  for (const std::string& f : order) {
+    table += "<tr><th>" + Escape(f) + "</th>";
+    std::string unit, limit;
+    for (const auto& [cycle, unused] : cycles) {
+      auto it = by_figure[f].find(cycle);
+      if (it == by_figure[f].end()) {
+        table += "<td class=\"missing\">-</td>";
+        continue;
+      }
+      const json& v = *it->second;
+      unit = v["unit"].get<std::string>();
+      limit = FormatNumber(v["limit"].get<double>(), -1);
+      const std::string verdict = v["verdict"].get<std::string>();
+      if (v["value"].is_null()) {
+        table += "<td class=\"missing\">missing</td>";
+      } else {
+        table += fmt::format(
+            "<td class=\"{}\">{} &plusmn; {}</td>", verdict,
+            FormatNumber(v["value"].get<double>(), 2),
+            v["u_expanded"].is_null()
+                ? std::string("?")
+                : FormatNumber(v["u_expanded"].get<double>(), 2));
+      }
+    }
+    std::string fverdict = "not_decidable";
+    if (figure_grade.count(f) && !(*figure_grade[f])["verdict"].is_null())
+      fverdict = (*figure_grade[f])["verdict"].get<std::string>();
+    table += fmt::format(
+        "<td>&plusmn;{} {}</td><td class=\"{}\">{}</td></tr>\n", limit,
+        unit, fverdict,
+        fverdict == "not_decidable" ? "not decided" : fverdict);
+  }
+  table += "</table>\n";
   return html + table + "</section>\n";
 }
 
@@ -457,262 +491,9 @@ std::string DiagnosisSection(const json& data) {
   return html + "</table>\n</section>\n";
 }
 
-const char* kStyle = R"css(
-:root{--ink:#1b2430;--muted:#5b6675;--line:#d8dee6;--accent:#0b4f8a;
---pass:#1e7b34;--fail:#b3261e;--und:#b26a00}
-*{box-sizing:border-box}
-body{font:14px/1.45 "DejaVu Sans",Helvetica,Arial,sans-serif;color:var(--ink);
-margin:0;background:#f4f6f9}
-header{background:var(--accent);color:#fff;padding:18px 32px}
-header h1{margin:0;font-size:22px;font-weight:600}
-header .meta{font-size:12.5px;opacity:.9;margin-top:4px}
-main{max-width:1180px;margin:0 auto;padding:16px 24px 40px}
-section{background:#fff;border:1px solid var(--line);border-radius:6px;
-padding:14px 20px;margin:16px 0}
-h2{font-size:17px;margin:0 0 10px;color:var(--accent);border-bottom:2px solid
-var(--line);padding-bottom:6px}
-h3{font-size:14.5px;margin:14px 0 6px}
-.two{display:grid;grid-template-columns:minmax(320px,480px) 1fr;gap:20px;
-align-items:start}
-svg.piece{width:100%;height:auto}
-svg .cyl{fill:#eef1f5;stroke:#9aa5b1;stroke-width:.4;stroke-dasharray:2 1.5}
-svg .floor{fill:#e3e8ee;stroke:#7b8794;stroke-width:.4}
-svg .strip{opacity:.55;stroke:#fff;stroke-width:.25}
-svg .notch{fill:#c9d1da}
-svg .segment{fill:#b8c2cd;stroke:#56606b;stroke-width:.4}
-svg .facet{stroke-width:2.4;stroke-linecap:butt}
-svg .mark{stroke:#000;stroke-width:.8}
-svg .axes line{stroke:#333;stroke-width:.5}
-svg .lbl{font-size:5px;text-anchor:middle;fill:#1b2430}
-svg .lbl.small{font-size:4px}
-svg .lbl.seg{font-size:7px;font-weight:700}
-table{border-collapse:collapse;margin:6px 0;font-size:13px}
-th,td{border:1px solid var(--line);padding:3px 8px}
-th{background:#eef2f6;font-weight:600}
-table.num td{text-align:right;font-variant-numeric:tabular-nums}
-td.l{text-align:left!important}
-table.verdict td{text-align:center;font-variant-numeric:tabular-nums}
-td.pass{background:#e3f3e6;color:var(--pass)}
-td.fail{background:#fbe4e2;color:var(--fail);font-weight:600}
-td.undecidable{background:#fff1d6;color:var(--und)}
-td.missing{color:#8a94a0;font-style:italic}
-.stamp{display:inline-block;font-size:18px;font-weight:700;padding:6px 16px;
-border:3px solid;border-radius:4px;margin:4px 0 10px;letter-spacing:.5px}
-.stamp.pass{color:var(--pass)}.stamp.fail{color:var(--fail)}
-.stamp.undecidable{color:var(--und)}
-.rule{background:#f3f6fa;border-left:4px solid var(--accent);padding:6px 10px}
-.note{color:var(--muted);font-size:12.5px}
-.na{color:#8a4b00;background:#fff6e5;border:1px dashed #e0b060;padding:6px
-10px;border-radius:4px}
-.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(360px,1fr));
-gap:10px}
-.plot{min-height:250px}.plot.wide{grid-column:1/-1}
-.legend{display:flex;flex-wrap:wrap;gap:4px 12px;font-size:12px;margin-top:8px}
-.legend i,.dot{display:inline-block;width:11px;height:11px;border-radius:2px;
-margin-right:5px;vertical-align:-1px}
-.cards{display:flex;gap:12px;flex-wrap:wrap;margin-bottom:8px}
-.card{border:1px solid var(--line);border-radius:5px;padding:8px 14px;
-min-width:170px;background:#fafbfd}
-.card b{display:block;font-size:11.5px;color:var(--muted);font-weight:600}
-.card span{font-size:18px;font-weight:600}
-td.bar{width:160px}td.bar i{display:block;height:10px;background:#7ea6cf;
-border-radius:2px}
-tr.chosen td{background:#eaf2fb;font-weight:600}
-#js-errors:empty{display:none}
-details.warnings{background:#fff6e5;border:1px solid #e0b060;border-radius:
-4px;padding:6px 12px;margin-top:12px;font-size:13px}
-.card small{display:block;color:var(--muted);font-size:11.5px}
-#js-errors{background:#fbe4e2;color:var(--fail);padding:8px;white-space:pre}
-footer{color:var(--muted);font-size:12px;text-align:center;padding:10px}
-.uplot{font-family:inherit}.u-title{font-size:13.5px!important}
-)css";
 
-// Draws the plots and writes, per plot, how many data points landed inside
-// the plot area (data-points) so a browser test can check them.
-const char* kScript = R"js(
-(function(){
-"use strict";
-var data = JSON.parse(document.getElementById("ttp-data").textContent);
-var meta = JSON.parse(document.getElementById("ttp-meta").textContent);
-var FIG = ["E_X","E_Y","E_Z","E_B","E_TTP"];
-function el(id){ return document.getElementById(id); }
-function width(div){ return Math.max(340, div.clientWidth || 360); }
-function finite(v){ return v !== null && v !== undefined && isFinite(v); }
-// Counts the points of the data series (not limits) that were drawn inside
-// the plot area, after uPlot has drawn.
-function countHook(series){
-  return function(u){
-    var n = 0, b = u.bbox;
-    series.forEach(function(si){
-      var xs = u.data[0], ys = u.data[si];
-      for (var i = 0; i < xs.length; i++) {
-        if (!finite(ys[i])) continue;
-        var x = u.valToPos(xs[i], "x", true), y = u.valToPos(ys[i], u.series[si].scale, true);
-        if (x >= b.left - 1 && x <= b.left + b.width + 1 && y >= b.top - 1 && y <= b.top + b.height + 1) n++;
-      }
-    });
-    u.root.parentNode.setAttribute("data-points", String(n));
-  };
-}
-function cutLines(u){
-  var ctx = u.ctx, b = u.bbox;
-  ctx.save(); ctx.lineWidth = 1; ctx.setLineDash([3, 3]);
-  meta.cuts.forEach(function(c){
-    var x = u.valToPos(c.t_h, "x", true);
-    if (x < b.left || x > b.left + b.width) return;
-    ctx.strokeStyle = c.colour; ctx.globalAlpha = 0.55;
-    ctx.beginPath(); ctx.moveTo(x, b.top); ctx.lineTo(x, b.top + b.height); ctx.stroke();
-  });
-  ctx.restore();
-}
-// One legend entry for the pair of limit lines.
-function hideLegend(label){
-  return function(u){
-    u.root.querySelectorAll(".u-legend .u-series").forEach(function(row){
-      if (row.textContent.trim() === label) row.style.display = "none";
-    });
-  };
-}
-function byCycle(list){
-  var m = {}; (list || []).forEach(function(e){ m[e.cycle] = e; }); return m;
-}
-function figurePlots(){
-  var f = data.figures; if (!f) return;
-  var meas = byCycle(f.measured), sim = byCycle(f.simulated), lin = f.simulated_linear ? byCycle(f.simulated_linear) : null;
-  var cycles = Object.keys(Object.assign({}, meas, sim)).map(Number).sort(function(a,b){return a-b;});
-  FIG.forEach(function(key){
-    var div = el("plot-" + key); if (!div) return;
-    var lim = key === "E_B" ? meta.limits.angular_um_per_m : meta.limits.linear_um;
-    var unit = key === "E_B" ? "um/m" : "um";
-    var m = cycles.map(function(c){ return meas[c] ? meas[c][key] : null; });
-    var mu = cycles.map(function(c){ return meas[c] && meas[c].U ? meas[c].U[key] : null; });
-    var s = cycles.map(function(c){ return sim[c] ? sim[c][key] : null; });
-    var su = cycles.map(function(c){ return sim[c] && sim[c].U ? sim[c].U[key] : null; });
-    var hi = cycles.map(function(){ return lim; }), lo = cycles.map(function(){ return -lim; });
-    var sl = lin ? cycles.map(function(c){ return lin[c] ? lin[c][key] : null; }) : null;
-    function whiskers(u){
-      var ctx = u.ctx; ctx.save(); ctx.lineWidth = 1.5;
-      [[1, mu, "#0b4f8a"], [2, su, "#c2410c"]].forEach(function(w){
-        var ys = u.data[w[0]], us = w[1];
-        ctx.strokeStyle = w[2];
-        for (var i = 0; i < ys.length; i++) {
-          if (!finite(ys[i]) || !finite(us[i])) continue;
-          var x = u.valToPos(u.data[0][i], "x", true) + (w[0] === 2 ? 4 : 0);
-          var y0 = u.valToPos(ys[i] - us[i], "y", true), y1 = u.valToPos(ys[i] + us[i], "y", true);
-          ctx.beginPath(); ctx.moveTo(x, y0); ctx.lineTo(x, y1);
-          ctx.moveTo(x - 4, y0); ctx.lineTo(x + 4, y0); ctx.moveTo(x - 4, y1); ctx.lineTo(x + 4, y1);
-          ctx.stroke();
-        }
-      });
-      ctx.restore();
-    }
-    var all = m.concat(s, hi, lo, sl || []).filter(finite);
-    var ext = Math.max.apply(null, all.map(Math.abs).concat(mu.filter(finite).map(function(u, i){ return 0; })));
-    var ymax = Math.max(lim * 1.25, ext * 1.15);
-    cycles.forEach(function(c, i){ if (finite(m[i]) && finite(mu[i])) ymax = Math.max(ymax, (Math.abs(m[i]) + mu[i]) * 1.1); });
-    new uPlot({
-      title: key + " (" + unit + ")", width: width(div), height: 240, legend: { live: false },
-      scales: { x: { time: false, range: [cycles[0] - 0.5, cycles[cycles.length - 1] + 0.5] }, y: { range: [-ymax, ymax] } },
-      axes: [{ label: "cycle", incrs: [1], values: function(u, v){ return v.map(function(x){ return Number.isInteger(x) ? x : ""; }); } },
-             { label: unit, size: 60 }],
-      series: [{ label: "cycle" },
-        { label: "measured", stroke: "#0b4f8a", width: 0, paths: function(){ return null; }, points: { show: true, size: 9, fill: "#0b4f8a" } },
-        { label: "simulated", stroke: "#c2410c", width: 2, points: { show: true, size: 6, fill: "#fff" } },
-        { label: "limits", stroke: "#b3261e", width: 1.2, dash: [6, 4], points: { show: false } },
-        { label: "-limit", stroke: "#b3261e", width: 1.2, dash: [6, 4], points: { show: false } }].concat(sl ? [
-        { label: "simulated, straight line", stroke: "#7b8794", width: 1.2, dash: [2, 3], points: { show: true, size: 4, fill: "#7b8794" } }] : []),
-      hooks: { init: [hideLegend("-limit")], draw: [whiskers, countHook(sl ? [1, 2, 5] : [1, 2])] }
-    }, [cycles, m, s, hi, lo].concat(sl ? [sl] : []), div);
-  });
-}
-function logPlot(id, title, xs_h, series, axes){
-  var div = el(id); if (!div) return;
-  var d = [xs_h].concat(series.map(function(s){ return s.values; }));
-  var idx = series.map(function(s, i){ return i + 1; });
-  new uPlot({
-    title: title, width: width(div), height: 260, legend: { live: false },
-    scales: Object.assign({ x: { time: false } }, axes.scales || {}),
-    axes: [{ label: "time since log start (h)" }].concat(axes.list),
-    series: [{ label: "t (h)" }].concat(series.map(function(s){
-      return { label: s.label, stroke: s.colour, width: s.width || 1.5, scale: s.scale || "y",
-               paths: s.stepped ? uPlot.paths.stepped({ align: 1 }) : undefined,
-               points: { show: !!s.points, size: 5, fill: s.colour }, spanGaps: !!s.points };
-    })),
-    hooks: { draw: [cutLines, countHook(idx)] }
-  }, d, div);
-}
-function logPlots(){
-  var log = data.log; if (!log) return;
-  var palette = ["#0b4f8a", "#c2410c", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf"];
-  if (log.samples) {
-    var sm = log.samples, th = sm.t_s.map(function(t){ return t / 3600; });
-    var temps = [];
-    [["T_env", "T_env (degC)"], ["T_ws", "T_ws (degC)"], ["T_mwf", "T_mwf (degC)"]].forEach(function(c, i){
-      if (sm[c[0]]) temps.push({ label: c[1], values: sm[c[0]], colour: palette[i] });
-    });
-    if (sm.dT_cool) temps.push({ label: "dT_cool (K)", values: sm.dT_cool, colour: palette[3], scale: "K" });
-    logPlot("plot-temperatures", "Temperatures", th, temps,
-      { list: [{ label: "degC", size: 60 }, { label: "K", scale: "K", side: 1, size: 50, grid: { show: false } }] });
-    var speed = [];
-    if (sm.c_rpm) speed.push({ label: "C speed (1/min)", values: sm.c_rpm, colour: palette[0], stepped: true });
-    logPlot("plot-c-speed", "C-axis speed", th, speed, { list: [{ label: "1/min", size: 60 }] });
-  }
-  if (log.rtests) {
-    var rt = log.rtests, rh = rt.t_s.map(function(t){ return t / 3600; });
-    var lin = [], ang = [];
-    ["EX0C", "EY0C", "EZ0T", "ER0T"].forEach(function(k, i){
-      if (rt[k]) lin.push({ label: k + " (um)", values: rt[k], colour: palette[i], points: true });
-    });
-    ["EA0C", "EB0C", "EC0C"].forEach(function(k, i){
-      if (rt[k]) ang.push({ label: k + " (um/m)", values: rt[k], colour: palette[i + 4], points: true });
-    });
-    logPlot("plot-rtest-linear", "R-test: linear errors of the C axis", rh, lin, { list: [{ label: "um", size: 60 }] });
-    logPlot("plot-rtest-angular", "R-test: angular errors of the C axis", rh, ang, { list: [{ label: "um/m", size: 60 }] });
-  }
-}
-function residualPlots(){
-  var r = data.diagnosis && data.diagnosis.residuals; if (!r) return;
-  var keys = ["E_X", "E_Y", "E_Z", "E_TTP"], colours = ["#0b4f8a", "#c2410c", "#2ca02c", "#9467bd"];
-  var present = keys.filter(function(k){ return r.before[k]; });
-  var ymax = 0.5;
-  ["before", "after"].forEach(function(w){ present.forEach(function(k){ (r[w][k] || []).forEach(function(v, i){
-    if (finite(v)) ymax = Math.max(ymax, 1.15 * (Math.abs(v) + (r.sigma && r.sigma[k] && finite(r.sigma[k][i]) ? r.sigma[k][i] : 0)));
-  }); }); });
-  [["before", "Before: nominal model"], ["after", "After: with the fitted effect"]].forEach(function(w){
-    var div = el("plot-residual-" + w[0]); if (!div) return;
-    var d = [r.cycles].concat(present.map(function(k){ return r[w[0]][k]; }));
-    function bars(u){
-      if (!r.sigma) return;
-      var ctx = u.ctx; ctx.save(); ctx.lineWidth = 1.2;
-      present.forEach(function(k, s){
-        var ys = u.data[s + 1], us = r.sigma[k] || []; ctx.strokeStyle = colours[keys.indexOf(k)];
-        for (var i = 0; i < ys.length; i++) {
-          if (!finite(ys[i]) || !finite(us[i])) continue;
-          var x = u.valToPos(u.data[0][i], "x", true) + (s - 1.5) * 4;
-          var y0 = u.valToPos(ys[i] - us[i], "y", true), y1 = u.valToPos(ys[i] + us[i], "y", true);
-          ctx.beginPath(); ctx.moveTo(x, y0); ctx.lineTo(x, y1); ctx.stroke();
-        }
-      });
-      ctx.restore();
-    }
-    new uPlot({
-      title: w[1] + " (um)", width: width(div), height: 240, legend: { live: false },
-      scales: { x: { time: false, range: [r.cycles[0] - 0.5, r.cycles[r.cycles.length - 1] + 0.5] }, y: { range: [-ymax, ymax] } },
-      axes: [{ label: "cycle", incrs: [1], values: function(u, v){ return v.map(function(x){ return Number.isInteger(x) ? x : ""; }); } },
-             { label: "um", size: 60 }],
-      series: [{ label: "cycle" }].concat(present.map(function(k){
-        var c = colours[keys.indexOf(k)];
-        return { label: k, stroke: c, width: 1, dash: [2, 3], points: { show: true, size: 7, fill: c } };
-      })),
-      hooks: { draw: [bars, countHook(present.map(function(k, i){ return i + 1; }))] }
-    }, d, div);
-  });
-}
-try { figurePlots(); logPlots(); residualPlots(); }
-catch (e) { reportError(String(e && e.stack || e)); }
-document.body.setAttribute("data-plots-done", "1");
-})();
-)js";
+
+
 
 }  // namespace
 
@@ -728,6 +509,36 @@ std::string WarningsBlock(const json& data) {
     html += "<li>" + Escape(w.get<std::string>()) + "</li>";
   }
   return html + "</ul></details>\n";
+}
+// The page around the sections: style, the error hook, the data and the
+// scripts (uPlot and report/web/report.js).
+std::string Page(const std::string& title, const std::string& header_meta,
+                 const std::string& body, const json& data, const json& meta,
+                 const char* schema) {
+  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+         "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+         "\n<title>" +
+         Escape(title) + "</title>\n<style>\n" +
+         Joined(report_assets::kUplotCssPieces) + "\n" +
+         Joined(report_assets::kReportCssPieces) +
+         "</style>\n"
+         "<script>\n// Any script error is shown on the page (and read by the "
+         "browser test).\nfunction reportError(text){var e=document."
+         "getElementById('js-errors');if(e){e.textContent+=text+'\\n';}"
+         "document.documentElement.setAttribute('data-js-error','1');}\n"
+         "window.onerror=function(msg,src,line,col){reportError(msg+' ('+line+"
+         "':'+col+')');};\n</script>\n</head>\n<body>\n<header><h1>" +
+         Escape(title) + "</h1><div class=\"meta\">" + header_meta +
+         "</div></header>\n<main>\n<div id=\"js-errors\"></div>\n" + body +
+         "</main>\n<footer>Generated by ttp (schema " + schema +
+         "). Plots: uPlot (MIT).</footer>\n"
+         "<script type=\"application/json\" id=\"ttp-data\">" +
+         ScriptSafeJson(data) +
+         "</script>\n<script type=\"application/json\" id=\"ttp-meta\">" +
+         ScriptSafeJson(meta) + "</script>\n<script>\n" +
+         Joined(report_assets::kUplotJsPieces) + "\n</script>\n<script>" +
+         Joined(report_assets::kReportJsPieces) +
+         "</script>\n</body>\n</html>\n";
 }
 }  // namespace
 
@@ -769,34 +580,89 @@ std::string RenderReportHtml(const json& report_data) {
           Escape(value.is_string() ? value.get<std::string>() : value.dump());
     }
   }
-  std::string html =
-      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-      "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
-      "\n<title>" +
-      Escape(title) + "</title>\n<style>\n" +
-      Joined(report_assets::kUplotCssPieces) + "\n" + kStyle +
-      "</style>\n"
-      "<script>\n// Any script error is shown on the page (and read by the "
-      "browser test).\nfunction reportError(text){var e=document."
-      "getElementById('js-errors');if(e){e.textContent+=text+'\\n';}"
-      "document.documentElement.setAttribute('data-js-error','1');}\n"
-      "window.onerror=function(msg,src,line,col){reportError(msg+' ('+line+"
-      "':'+col+')');};\n</script>\n</head>\n<body>\n<header><h1>" +
-      Escape(title) + "</h1><div class=\"meta\">" + run_meta +
-      "</div></header>\n<main>\n<div id=\"js-errors\"></div>\n" +
-      WarningsBlock(report_data) + PieceSection(report_data, part) +
-      FiguresSection(report_data, limits) +
-      VerdictSection(report_data, limits) + LogSection(report_data, part) +
-      DiagnosisSection(report_data) +
-      "</main>\n<footer>Generated by ttp (schema " + kReportSchema +
-      "). Plots: uPlot (MIT).</footer>\n"
-      "<script type=\"application/json\" id=\"ttp-data\">" +
-      ScriptSafeJson(report_data) +
-      "</script>\n<script type=\"application/json\" id=\"ttp-meta\">" +
-      ScriptSafeJson(meta) + "</script>\n<script>\n" +
-      Joined(report_assets::kUplotJsPieces) + "\n</script>\n<script>" +
-      kScript + "</script>\n</body>\n</html>\n";
-  return html;
+  return Page(title, run_meta,
+              WarningsBlock(report_data) + PieceSection(report_data, part) +
+                  FiguresSection(report_data, limits) +
+                  VerdictSection(report_data) + LogSection(report_data, part) +
+                  DiagnosisSection(report_data),
+              report_data, meta, kReportSchema);
+}
+
+std::string RenderComparisonHtml(const json& d) {
+  if (!d.is_object() || d.value("schema", std::string()) != kCompareSchema)
+    throw InputError("comparison data", 0, "schema",
+                     std::string("must be \"") + kCompareSchema + "\"");
+  if (!d.contains("pieces") || !d["pieces"].is_array() ||
+      d["pieces"].size() != 2)
+    throw InputError("comparison data", 0, "pieces", "must hold two pieces");
+  const json& a = d["pieces"][0];
+  const json& b = d["pieces"][1];
+  const std::string title = d.value("title", std::string("Comparison"));
+  auto name = [](const json& p) {
+    return p["label"].get<std::string>() + ": " +
+           p["measurement"].get<std::string>() + " (" +
+           p["measurement_kind"].get<std::string>() + ")";
+  };
+  std::string body = "<section id=\"pieces\"><h2>1. The two pieces</h2><ul>";
+  for (const json* p : {&a, &b}) {
+    const std::string verdict = (*p)["grade"]["verdict"].get<std::string>();
+    body += "<li>" + Escape(name(*p)) + ": <span class=\"stamp-inline " +
+            verdict + "\" data-verdict=\"" + verdict + "\">" +
+            Escape((*p)["grade"]["summary"].get<std::string>()) +
+            "</span></li>";
+  }
+  body += "</ul></section>\n";
+  // Thesis table 7.2: spans over 1 h, 4 h and the whole test.
+  body +=
+      "<section id=\"spans\"><h2>2. Span of the figures (thesis table "
+      "7.2)</h2>\n<p>Span (max - min, um) of each figure over the first "
+      "hour, the first 4 hours and the whole test, cycle 0 (the reference) "
+      "included.</p>\n<table class=\"num spans\"><tr><th>period</th>";
+  std::vector<std::string> figures;
+  for (const json& s : d["spans"]) {
+    const std::string f = s["figure"].get<std::string>();
+    if (std::find(figures.begin(), figures.end(), f) == figures.end())
+      figures.push_back(f);
+  }
+  for (const std::string& f : figures)
+    body += "<th>" + Escape(f) + " A</th><th>" + Escape(f) + " B</th>";
+  body += "</tr>\n";
+  for (double hours : {1.0, 4.0, 8.0}) {
+    body += "<tr><th>" + FormatNumber(hours, -1) + " h</th>";
+    for (const std::string& f : figures) {
+      for (const json& s : d["spans"]) {
+        if (s["figure"] != f || s["period_h"].get<double>() != hours) continue;
+        for (const char* key : {"a_um", "b_um"}) {
+          body += "<td>" +
+                  (s[key].is_null() ? std::string("-")
+                                    : FormatNumber(s[key].get<double>(), 1)) +
+                  "</td>";
+        }
+      }
+    }
+    body += "</tr>\n";
+  }
+  body += "</table></section>\n";
+  body +=
+      "<section id=\"figures\"><h2>3. Figures per cycle</h2>\n<p>Piece A "
+      "(points) and piece B (line), bars: expanded uncertainty U (k = 2); the "
+      "red dashed lines are the limits.</p><div class=\"grid\">";
+  for (const auto& key : kFigureKeys) {
+    body += "<div class=\"plot\" id=\"plot-" + key + "\" data-plot=\"" + key +
+            "\"></div>";
+  }
+  body += "</div></section>\n";
+  // The page script draws figures.measured (A) and figures.simulated (B).
+  const json plot_data = {
+      {"figures", {{"measured", a["figures"]}, {"simulated", b["figures"]}}}};
+  const json meta = {{"limits", d.value("limits", json::object())},
+                     {"cuts", json::array()},
+                     {"labels",
+                      {{"measured", "A: " + a["measurement"].get<std::string>()},
+                       {"simulated",
+                        "B: " + b["measurement"].get<std::string>()}}}};
+  return Page(title, Escape(name(a)) + " &middot; " + Escape(name(b)), body,
+              plot_data, meta, kCompareSchema);
 }
 
 }  // namespace ttp

@@ -311,10 +311,13 @@ void CheckDiagnosis(const Checker& c, const json& d) {
   }
 }
 
-// The grading, as GradeToJson (inspect/grade.h) writes it.
+// The grading, as GradeToJson (inspect/grade.h) writes it
+// (schemas/grade.schema.json).
 void CheckGrade(const Checker& c, const json& g) {
   c.Object(g, "grade");
-  c.OnlyKeys(g, "grade", {"verdict", "rule", "limits", "counts", "values"});
+  c.OnlyKeys(g, "grade",
+             {"verdict", "decided_on", "summary", "rule", "limits", "counts",
+              "figures", "values"});
   const json& verdict = c.Required(g, "grade", "verdict");
   c.String(verdict, "grade.verdict");
   const std::string v = verdict.get<std::string>();
@@ -322,12 +325,51 @@ void CheckGrade(const Checker& c, const json& g) {
     c.Fail("grade.verdict", "must be pass, fail or undecidable");
   }
   c.String(c.Required(g, "grade", "rule"), "grade.rule");
-  if (g.contains("limits")) CheckNumberMap(c, g["limits"], "grade.limits");
+  if (g.contains("summary")) c.String(g["summary"], "grade.summary");
+  if (g.contains("limits")) {
+    c.Object(g["limits"], "grade.limits");
+    for (const char* key : {"linear_um", "angular_um_per_m"})
+      c.Number(c.Required(g["limits"], "grade.limits", key),
+               Checker::Join("grade.limits", key));
+    if (g["limits"].contains("description"))
+      c.String(g["limits"]["description"], "grade.limits.description");
+  }
   if (g.contains("counts")) CheckNumberMap(c, g["counts"], "grade.counts");
+  if (g.contains("decided_on")) {
+    c.Array(g["decided_on"], "grade.decided_on");
+    for (size_t i = 0; i < g["decided_on"].size(); ++i)
+      c.String(g["decided_on"][i], Checker::Index("grade.decided_on", i));
+  }
+  if (g.contains("figures")) {
+    c.Array(g["figures"], "grade.figures");
+    for (size_t i = 0; i < g["figures"].size(); ++i) {
+      const std::string p = Checker::Index("grade.figures", i);
+      const json& f = g["figures"][i];
+      c.Object(f, p);
+      c.String(c.Required(f, p, "figure"), Checker::Join(p, "figure"));
+      c.String(c.Required(f, p, "unit"), Checker::Join(p, "unit"));
+      c.Number(c.Required(f, p, "limit"), Checker::Join(p, "limit"));
+      if (!c.Required(f, p, "decided").is_boolean())
+        c.Fail(Checker::Join(p, "decided"), "must be true or false");
+      const json& reason = c.Required(f, p, "reason");
+      if (!f["decided"].get<bool>() && !reason.is_string())
+        c.Fail(Checker::Join(p, "reason"), "must say why it is not decided");
+    }
+  }
   if (g.contains("values")) {
     c.Array(g["values"], "grade.values");
     for (size_t i = 0; i < g["values"].size(); ++i) {
-      c.Object(g["values"][i], Checker::Index("grade.values", i));
+      const std::string p = Checker::Index("grade.values", i);
+      const json& e = g["values"][i];
+      c.Object(e, p);
+      c.Number(c.Required(e, p, "cycle"), Checker::Join(p, "cycle"));
+      c.String(c.Required(e, p, "figure"), Checker::Join(p, "figure"));
+      c.String(c.Required(e, p, "unit"), Checker::Join(p, "unit"));
+      c.String(c.Required(e, p, "verdict"), Checker::Join(p, "verdict"));
+      c.Number(c.Required(e, p, "limit"), Checker::Join(p, "limit"));
+      c.NumberOrNull(c.Required(e, p, "value"), Checker::Join(p, "value"));
+      c.NumberOrNull(c.Required(e, p, "u_expanded"),
+                     Checker::Join(p, "u_expanded"));
     }
   }
 }

@@ -121,9 +121,16 @@ TEST(Diagnose, UnmeasuredAnglesAndMissingFeaturesAreLeftOut) {
 // The samples' truth.json: figures and facet angles, no features.
 TEST(Diagnose, FiguresAndFacetAnglesAreReadAsGiven) {
   const Config config;
+  // The figures and facet angles of the sample's truth, without the rest of
+  // the truth file (a truth file itself is refused as a measurement).
+  const nlohmann::json truth = nlohmann::json::parse(ReadTextFile(
+      std::string(TTP_DATA_DIR) + "/samples/run-a/truth.json"));
   const std::string path =
-      std::string(TTP_DATA_DIR) + "/samples/run-a/truth.json";
-  const nlohmann::json truth = nlohmann::json::parse(ReadTextFile(path));
+      (test::TestDir("diagnose-figures") / "figures.json").string();
+  WriteFileAtomic(path, nlohmann::json{{"figures", truth["figures"]},
+                                       {"facet_angle_err_urad",
+                                        truth["facet_angle_err_urad"]}}
+                            .dump());
   const MeasuredPiece m = LoadMeasuredPiece(config, path);
   EXPECT_TRUE(m.features.empty());
   EXPECT_EQ(m.figures.size(), truth["figures"].size());

@@ -23,7 +23,11 @@ struct TwinFixture {
   Config config;
   diagnosis::TwinRun twin;
   thermal::TalcLog log;
-  inspect::InspectionResult measured;
+  inspect::Measurement measurement;
+  inspect::InspectionResult& measured = measurement.result;
+  inspect::GradeResult grade;
+  // The diagnosis as its caller (`ttp report`) prepares it.
+  diagnosis::PreparedDiagnosis diagnosed;
 
   TwinFixture() {
     diagnosis::TwinOptions o;
@@ -35,6 +39,21 @@ struct TwinFixture {
     measured.source = "twin measurement";
     measured.features = twin.measured;
     measured.figures = ComputeFigures(config.part, twin.measured);
+    measurement.kind = inspect::MeasurementKind::kInspectionJson;
+    grade = inspect::GradeMeasurement(measurement, {});
+    const diagnosis::MeasuredPiece piece =
+        diagnosis::MeasuredPieceFromInspection(config.part, measured);
+    diagnosed.run = diagnosis::PrepareRun(log, config, piece);
+    diagnosed.report =
+        diagnosis::DiagnosePrepared(diagnosed.run, log, config.part, piece);
+  }
+  ReportInputs Inputs() const {
+    ReportInputs in;
+    in.measurement = &measurement;
+    in.grade = &grade;
+    in.log = &log;
+    in.diagnosis = &diagnosed;
+    return in;
   }
 };
 
@@ -44,8 +63,7 @@ const TwinFixture& Twin() {
 }
 
 const json& TwinData() {
-  static const json data =
-      AssembleReportData(Twin().log, Twin().config, Twin().measured);
+  static const json data = AssembleReportData(Twin().config, Twin().Inputs());
   return data;
 }
 
@@ -101,31 +119,46 @@ TEST(AssembleReportData, LogHasEverySampleRTestAndCut) {
   EXPECT_TRUE(log["samples"].contains("c_rpm"));
 }
 
-TEST(AssembleReportData, GradeIsTheInspectionGrade) {
+// The page shows exactly the grade it is given (no second decision path):
+// a grade with other limits gives another verdict on the same figures.
+TEST(AssembleReportData, GradeIsTheGivenGrade) {
   const json& data = TwinData();
-  const inspect::GradeResult grade = inspect::GradeFigures(
-      json{{"figures", FiguresToJson(Twin().measured.figures)["figures"]}},
-      inspect::GradeLimits{}, "twin");
-  EXPECT_EQ(data["grade"]["verdict"], inspect::VerdictName(grade.overall));
-  EXPECT_EQ(data["grade"]["values"].size(), grade.values.size());
+  EXPECT_EQ(data["grade"], inspect::GradeToJson(Twin().grade));
   const std::string html = RenderReportHtml(data);
   EXPECT_NE(html.find(std::string("data-verdict=\"") +
-                      inspect::VerdictName(grade.overall) + "\""),
+                      inspect::VerdictName(Twin().grade.overall) + "\""),
+            std::string::npos);
+  inspect::GradeLimits wide;
+  wide.linear_um = 100;
+  wide.angular_um_per_m = 1000;
+  const inspect::GradeResult pass =
+      inspect::GradeMeasurement(Twin().measurement, wide);
+  ASSERT_EQ(pass.overall, inspect::Verdict::kPass);
+  ReportInputs in = Twin().Inputs();
+  in.grade = &pass;
+  const json wide_data = AssembleReportData(Twin().config, in);
+  EXPECT_EQ(wide_data["limits"]["linear_um"], 100.0);
+  EXPECT_EQ(wide_data["grade"]["verdict"], "pass");
+  EXPECT_NE(RenderReportHtml(wide_data).find("data-verdict=\"pass\""),
             std::string::npos);
 }
 
-TEST(AssembleReportData, LimitsReachTheGradeAndThePage) {
-  ReportOptions options;
-  options.limits.linear_um = 100;
-  options.limits.angular_um_per_m = 1000;
-  const json data = AssembleReportData(Twin().log, Twin().config,
-                                       Twin().measured, nullptr, options);
-  EXPECT_EQ(data["limits"]["linear_um"], 100.0);
-  EXPECT_EQ(data["grade"]["verdict"], "pass");
-  options.limits.linear_um = 0;
-  EXPECT_THROW(AssembleReportData(Twin().log, Twin().config, Twin().measured,
-                                  nullptr, options),
-               InputError);
+// An uncompensated acceptance test without a TALC log still gets a page:
+// the piece and its verdict.
+TEST(AssembleReportData, WithoutALog) {
+  ReportInputs in = Twin().Inputs();
+  in.log = nullptr;
+  in.diagnosis = nullptr;
+  const json data = AssembleReportData(Twin().config, in);
+  EXPECT_FALSE(data.contains("log"));
+  EXPECT_FALSE(data.contains("diagnosis"));
+  EXPECT_FALSE(data["figures"].contains("simulated"));
+  EXPECT_EQ(data["grade"], TwinData()["grade"]);
+  const std::string html = RenderReportHtml(data);
+  EXPECT_NE(html.find("id=\"overall-verdict\""), std::string::npos);
+  // A diagnosis without its log is refused.
+  in.diagnosis = &Twin().diagnosed;
+  EXPECT_THROW(AssembleReportData(Twin().config, in), InputError);
 }
 
 TEST(AssembleReportData, DiagnosisNamesTheHiddenCauseWithEvidence) {
@@ -137,7 +170,8 @@ TEST(AssembleReportData, DiagnosisNamesTheHiddenCauseWithEvidence) {
   EXPECT_EQ(d["candidates"].size(), 5u);
   EXPECT_NE(d["summary"].get<std::string>().find("workpiece_expansion"),
             std::string::npos);
-  // Same as the diagnosis run on its own.
+  // Same as the diagnosis run on its own (the report renders the one it
+  // is given).
   const diagnosis::DiagnosisReport alone =
       diagnosis::DiagnoseRun(Twin().log, Twin().config,
                              diagnosis::MeasuredPieceFromFeatures(
@@ -170,49 +204,49 @@ TEST(AssembleReportData, ResidualsAreMeasuredMinusSimulated) {
       << std::sqrt(before2 / n) << " " << std::sqrt(after2 / n);
 }
 
-TEST(AssembleReportData, TakesTheCallersDiagnosis) {
-  const diagnosis::MeasuredPiece piece = diagnosis::MeasuredPieceFromFeatures(
-      Twin().config.part, Twin().measured.features);
-  diagnosis::PreparedDiagnosis given;
-  given.run = diagnosis::PrepareRun(Twin().log, Twin().config, piece);
-  given.report = diagnosis::DiagnosePrepared(given.run, Twin().log,
-                                             Twin().config.part, piece);
-  const json same =
-      AssembleReportData(Twin().log, Twin().config, Twin().measured, &given);
-  EXPECT_EQ(same, TwinData());
+TEST(AssembleReportData, RendersTheCallersDiagnosis) {
+  diagnosis::PreparedDiagnosis given = Twin().diagnosed;
   given.report.cause = "none";
-  const json none =
-      AssembleReportData(Twin().log, Twin().config, Twin().measured, &given);
+  ReportInputs in = Twin().Inputs();
+  in.diagnosis = &given;
+  const json none = AssembleReportData(Twin().config, in);
   EXPECT_EQ(none["diagnosis"]["cause"], "none");
   // With no cause, "after" is "before".
   EXPECT_EQ(none["diagnosis"]["residuals"]["after"],
             none["diagnosis"]["residuals"]["before"]);
 }
 
-TEST(AssembleReportData, FiguresAloneAreEnough) {
-  inspect::InspectionResult figures_only;
-  figures_only.source = "figures.json";
-  figures_only.figures = Twin().measured.figures;
-  const json data = AssembleReportData(Twin().log, Twin().config, figures_only);
-  EXPECT_EQ(data["figures"]["measured"], TwinData()["figures"]["measured"]);
-  EXPECT_FALSE(data.contains("facets"));
-  EXPECT_EQ(data["run"]["measurement"], "figures.json");
+TEST(AssembleReportData, NeedsAMeasurementAndItsGrade) {
+  ReportInputs in = Twin().Inputs();
+  in.grade = nullptr;
+  EXPECT_THROW(AssembleReportData(Twin().config, in), InputError);
+}
 
-  inspect::InspectionResult empty;
-  empty.source = "empty.json";
-  try {
-    AssembleReportData(Twin().log, Twin().config, empty);
-    FAIL() << "accepted a measurement without results";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.source(), "empty.json");
+// Thesis table 7.2: spans over 1 h, 4 h and 8 h, cycle 0 (= 0) included.
+TEST(Comparison, SpansOverThePeriods) {
+  std::vector<CycleFigures> f(8);
+  const double x_um[8] = {2, -1, 3, 0.5, 7, 1, 1, -4};
+  for (int i = 0; i < 8; ++i) {
+    f[i].cycle = i + 1;
+    f[i].e_x_mm = x_um[i] * 1e-3;
   }
+  EXPECT_NEAR(FigureSpanUm(f, inspect::Figure::kEX, 1, 3600), 2.0, 1e-12);
+  EXPECT_NEAR(FigureSpanUm(f, inspect::Figure::kEX, 4, 3600), 4.0, 1e-12);
+  EXPECT_NEAR(FigureSpanUm(f, inspect::Figure::kEX, 8, 3600), 11.0, 1e-12);
+  f[0].e_x_mm = std::nan("");
+  EXPECT_TRUE(std::isnan(FigureSpanUm(f, inspect::Figure::kEX, 1, 3600)));
+  ComparedPiece a{&Twin().measurement, &Twin().grade};
+  const json data = AssembleComparisonData(Twin().config, a, a, "same");
+  EXPECT_EQ(data["spans"].size(), 12u);
+  for (const json& s : data["spans"]) EXPECT_EQ(s["a_um"], s["b_um"]);
+  const std::string html = RenderComparisonHtml(data);
+  EXPECT_NE(html.find("thesis table 7.2"), std::string::npos);
 }
 
 TEST(WriteReport, WritesThePageAndItsData) {
   const std::filesystem::path dir = test::TestDir("report");
-  const json data =
-      WriteReport(Twin().log, Twin().config, Twin().measured, nullptr,
-                  dir / "report.html", dir / "report.json");
+  const json data = WriteReport(Twin().config, Twin().Inputs(),
+                                dir / "report.html", dir / "report.json");
   EXPECT_EQ(json::parse(ReadTextFile(dir / "report.json")), data);
   EXPECT_EQ(ReadTextFile(dir / "report.html"), RenderReportHtml(data));
   std::filesystem::remove_all(dir);

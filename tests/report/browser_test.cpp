@@ -1,5 +1,6 @@
-// The report of the sample run samples/run-a (made outside the
-// project), built by the `ttp report` binary, opened in headless Chromium
+// The reports of the sample runs (samples/: a cloud, dial, DMIS and probe
+// measurement, with and without the TALC log, and the comparison of two
+// pieces), built by the `ttp report` binary, opened in headless Chromium
 // with no network. Every uPlot instance must have drawn every data point of
 // its series inside its plot area (the page's draw hook counts them from
 // uPlot's own data and scales into data-points), the page must log nothing
@@ -46,17 +47,23 @@ int Finite(const json& column) {
 std::map<std::string, int> ExpectedPoints(const json& data) {
   std::map<std::string, int> out;
   std::map<int, const json*> meas, sim;
-  for (const json& e : data["figures"]["measured"]) meas[e["cycle"]] = &e;
-  for (const json& e : data["figures"]["simulated"]) sim[e["cycle"]] = &e;
+  const json none = json::array();
+  const json& figures = data.contains("figures") ? data["figures"] : data;
+  const json measured = figures.value("measured", none);
+  const json simulated = figures.value("simulated", none);
+  const json linear = figures.value("simulated_linear", none);
+  for (const json& e : measured) meas[e["cycle"]] = &e;
+  for (const json& e : simulated) sim[e["cycle"]] = &e;
   for (const char* key : {"E_X", "E_Y", "E_Z", "E_B", "E_TTP"}) {
     int n = 0;
     for (const auto& [c, e] : meas) n += Finite(json::array({(*e)[key]}));
     for (const auto& [c, e] : sim) n += Finite(json::array({(*e)[key]}));
-    for (const json& e : data["figures"]["simulated_linear"]) {
+    for (const json& e : linear) {
       n += Finite(json::array({e[key]}));
     }
     out[key] = n;
   }
+  if (!data.contains("log")) return out;
   const json& samples = data["log"]["samples"];
   int temps = 0;
   for (const char* key : {"T_env", "T_ws", "T_mwf", "dT_cool"}) {
@@ -69,6 +76,7 @@ std::map<std::string, int> ExpectedPoints(const json& data) {
                         Finite(rtests["EZ0T"]) + Finite(rtests["ER0T"]);
   out["rtest-angular"] =
       Finite(rtests["EA0C"]) + Finite(rtests["EB0C"]) + Finite(rtests["EC0C"]);
+  if (!data.contains("diagnosis")) return out;
   const json& r = data["diagnosis"]["residuals"];
   for (const char* which : {"before", "after"}) {
     int n = 0;
@@ -79,17 +87,18 @@ std::map<std::string, int> ExpectedPoints(const json& data) {
 }
 
 class BrowserTest : public ::testing::Test {
- protected:
+ public:
   static void SetUpTestSuite() {
-    dir_ = fs::path(TTP_BINARY_DIR) / "report_browser";
+    dir_ = fs::path(TTP_BINARY_DIR) / "report_browser" / "run-a";
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
 
   // Chromium headless, no network: a dead proxy, unresolvable hosts, a
   // fresh profile, no background services. stderr carries the console.
-  static RunResult Chromium(const std::string& args) {
-    const fs::path profile = dir_ / "profile";
+  // `profile`: a folder of the calling test's own (ctest runs the tests in
+  // parallel).
+  static RunResult Chromium(const std::string& args, const fs::path& profile) {
     fs::remove_all(profile);
     return RunCommand(
         std::string("timeout 120 ") + TTP_CHROMIUM +
@@ -109,19 +118,13 @@ class BrowserTest : public ::testing::Test {
 };
 fs::path BrowserTest::dir_;
 
-TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
-  ASSERT_TRUE(fs::exists(TTP_CHROMIUM))
-      << "Chromium not found (" << TTP_CHROMIUM
-      << "): install the Debian packages chromium and chromium-driver "
-         "(scripts/install-deps.sh)";
-  const fs::path sample = fs::path(TTP_DATA_DIR) / "samples" / "run-a";
-  const fs::path html = dir_ / "run-a.html", data_path = dir_ / "run-a.json";
-  const RunResult report = RunCommand(
-      std::string(TTP_BINARY_DIR) + "/app/ttp report --log " +
-      Quote(sample / "talc.csv") + " " + Quote(sample / "piece.ply") + " -o " +
-      Quote(html) + " --json " + Quote(data_path) + " 2>&1");
-  ASSERT_EQ(report.exit_code, 0) << report.output;
-  const json data = json::parse(ReadFile(data_path));
+// Opens `html` in Chromium and checks that every plot drew every point
+// of `expected` (plot name -> points), that nothing was logged to the
+// console and that no script error was raised.
+void CheckPageDrawsEverything(const fs::path& html,
+                              const std::map<std::string, int>& expected,
+                              const std::string& verdict,
+                              std::string* dom_out) {
   const std::string page = ReadFile(html);
 
   // Self-contained: nothing is fetched (scripts, styles, images, fonts).
@@ -133,9 +136,11 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
       << "external reference: " << hit.str();
 
   const RunResult dom =
-      Chromium("--window-size=1280,1000 --dump-dom " +
-               Quote("file://" + fs::absolute(html).string()));
+      BrowserTest::Chromium("--window-size=1280,1000 --dump-dom " +
+               Quote("file://" + fs::absolute(html).string()),
+               html.parent_path() / "profile");
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
+  *dom_out = dom.output;
   std::string console;
   std::istringstream lines(dom.output);
   for (std::string line; std::getline(lines, line);) {
@@ -152,7 +157,6 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
       << "script errors shown on the page";
 
   // Every plot: drawn by uPlot, with all its points inside the plot area.
-  const std::map<std::string, int> expected = ExpectedPoints(data);
   std::map<std::string, int> drawn;
   const std::regex plot_tag(R"re(<div[^>]*\bdata-plot="([^"]+)"[^>]*>)re");
   const std::regex points_attr(R"re(data-points="(\d+)")re");
@@ -176,14 +180,33 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
     ++instances;
   }
   EXPECT_EQ(instances, expected.size()) << "uPlot instances in the page";
-  // What the page shows matches the data.
-  EXPECT_NE(dom.output.find("data-verdict=\"" +
-                            data["grade"]["verdict"].get<std::string>() + "\""),
+  EXPECT_NE(dom.output.find("data-verdict=\"" + verdict + "\""),
             std::string::npos);
-  EXPECT_NE(
-      dom.output.find("id=\"cause\">" +
-                      data["diagnosis"]["cause"].get<std::string>() + "<"),
-      std::string::npos);
+}
+
+TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
+  ASSERT_TRUE(fs::exists(TTP_CHROMIUM))
+      << "Chromium not found (" << TTP_CHROMIUM
+      << "): install the Debian packages chromium and chromium-driver "
+         "(scripts/install-deps.sh)";
+  // Made from the repository root with relative paths, as the README shows
+  // it: the page names no build machine's folder.
+  const fs::path html = fs::absolute(dir_ / "run-a.html");
+  const fs::path data_path = fs::absolute(dir_ / "run-a.json");
+  const RunResult report = RunCommand(
+      "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
+      "/app/ttp report --log samples/run-a/talc.csv samples/run-a/piece.ply"
+      " -o " + Quote(html) + " --json " + Quote(data_path) + " 2>&1");
+  ASSERT_EQ(report.exit_code, 1) << report.output;  // run-a fails
+  const json data = json::parse(ReadFile(data_path));
+  std::string dom;
+  CheckPageDrawsEverything(html, ExpectedPoints(data),
+                           data["grade"]["verdict"].get<std::string>(), &dom);
+  EXPECT_NE(dom.find("id=\"cause\">" +
+                     data["diagnosis"]["cause"].get<std::string>() + "<"),
+            std::string::npos);
+  EXPECT_EQ(ReadFile(html).find(TTP_DATA_DIR), std::string::npos)
+      << "the page names the build machine's folder";
 
   // The screenshot for the README.
   const fs::path png = fs::path(TTP_BINARY_DIR) / "docs" / "report.png";
@@ -191,12 +214,70 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   fs::remove(png);
   const RunResult shot =
       Chromium("--window-size=1280,2600 --screenshot=" + Quote(png) + " " +
-               Quote("file://" + fs::absolute(html).string()));
+               Quote("file://" + fs::absolute(html).string()),
+               dir_ / "profile");
   ASSERT_EQ(shot.exit_code, 0) << shot.output;
   ASSERT_TRUE(fs::exists(png)) << shot.output;
   const std::string image = ReadFile(png);
   EXPECT_EQ(image.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
   EXPECT_GT(image.size(), 50000u);  // a drawn page, not a blank one
 }
+
+// Every other kind of measurement (dial, DMIS and probe with and without
+// the TALC log) and the comparison of two pieces draw as well.
+struct PageCase {
+  const char* name;
+  const char* args;  // after `ttp report`, relative to the repository root
+  bool has_log;
+};
+
+class BrowserKinds : public ::testing::TestWithParam<PageCase> {};
+
+TEST_P(BrowserKinds, DrawsEveryPlot) {
+  ASSERT_TRUE(fs::exists(TTP_CHROMIUM)) << "Chromium not found";
+  const PageCase c = GetParam();
+  const fs::path dir = fs::path(TTP_BINARY_DIR) / "report_browser" / c.name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path html = fs::absolute(dir / (std::string(c.name) + ".html"));
+  const fs::path data_path = fs::absolute(dir / (std::string(c.name) + ".json"));
+  const RunResult report = RunCommand(
+      "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
+      "/app/ttp report " + c.args + " -o " + Quote(html) + " --json " +
+      Quote(data_path) + " 2>&1");
+  ASSERT_TRUE(report.exit_code == 0 || report.exit_code == 1) << report.output;
+  const json data = json::parse(ReadFile(data_path));
+  std::string verdict;
+  if (data.contains("grade")) {
+    verdict = data["grade"]["verdict"];
+  } else {  // a comparison: piece A's verdict is shown first
+    verdict = data["pieces"][0]["grade"]["verdict"];
+  }
+  std::map<std::string, int> expected;
+  if (data.contains("pieces")) {
+    expected = ExpectedPoints(json{{"figures",
+                                    {{"measured", data["pieces"][0]["figures"]},
+                                     {"simulated", data["pieces"][1]["figures"]}}}});
+  } else {
+    expected = ExpectedPoints(data);
+  }
+  EXPECT_EQ(expected.size() > 5, c.has_log);
+  std::string dom;
+  CheckPageDrawsEverything(html, expected, verdict, &dom);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Pages, BrowserKinds,
+    ::testing::Values(
+        PageCase{"dial", "--log samples/run-c/talc.csv samples/run-c/dial.csv",
+                 true},
+        PageCase{"dmis", "--log samples/run-c/talc.csv samples/run-c/piece.dmo",
+                 true},
+        PageCase{"probe", "samples/run-c/probe.csv", false},
+        PageCase{"cloud_no_log", "samples/run-b/piece.xyz", false},
+        PageCase{"compare",
+                 "--compare samples/run-a/piece.ply samples/run-b/piece.xyz",
+                 false}),
+    [](const auto& info) { return std::string(info.param.name); });
 
 }  // namespace

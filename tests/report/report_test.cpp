@@ -78,7 +78,7 @@ TEST(RenderReportHtml, ShowsAbsentSectionsAsNotAvailable) {
     EXPECT_TRUE(Has(html, std::string("<section id=\"") + id + "\"")) << id;
   }
   EXPECT_TRUE(Has(html, "Not available: no measured or simulated figures"));
-  EXPECT_TRUE(Has(html, "Not available: no measured figures to grade"));
+  EXPECT_TRUE(Has(html, "Not available: no grade of the measured figures"));
   EXPECT_TRUE(Has(html, "Not available: no TALC log"));
   EXPECT_TRUE(Has(html, "Not available: no diagnosis"));
   EXPECT_FALSE(Has(html, "data-plot="));
@@ -86,28 +86,36 @@ TEST(RenderReportHtml, ShowsAbsentSectionsAsNotAvailable) {
   EXPECT_TRUE(Has(html, "<svg class=\"piece\""));
 }
 
-TEST(RenderReportHtml, VerdictFollowsTheDecisionRule) {
+// The page decides nothing: each cell shows the verdict the grade gave it
+// and the figures not decided are listed with their reason.
+TEST(RenderReportHtml, VerdictTableIsTheGivenGrade) {
   json data = test::SyntheticReportData();
-  data.erase("grade");  // without a grading, the page applies the rule
-  for (json& entry : data["figures"]["measured"]) {
-    for (const char* key : {"E_X", "E_Y", "E_Z", "E_TTP"}) entry[key] = 1.0;
-    entry["E_B"] = 2.0;
-  }
-  EXPECT_TRUE(Has(RenderReportHtml(data), "data-verdict=\"pass\""));
-  data["figures"]["measured"][6]["E_Z"] = -4.5;  // 4.5 +- 0.8 at a 5 um limit
-  EXPECT_TRUE(Has(RenderReportHtml(data), "data-verdict=\"undecidable\""));
-  data["figures"]["measured"][2]["E_B"] = 30.0;  // 30 +- 8 at 15 um/m
-  EXPECT_TRUE(Has(RenderReportHtml(data), "data-verdict=\"fail\""));
-  data["limits"]["angular_um_per_m"] = 40.0;
-  EXPECT_TRUE(Has(RenderReportHtml(data), "data-verdict=\"undecidable\""));
-  data["limits"]["angular_um_per_m"] = 100.0;
-  EXPECT_TRUE(Has(RenderReportHtml(data), "data-verdict=\"undecidable\""));
-  data["figures"]["measured"][6]["E_Z"] = -1.0;
-  EXPECT_TRUE(Has(RenderReportHtml(data), "data-verdict=\"pass\""));
-  // A missing value leaves conformance unproven (as `ttp grade`).
-  data["figures"]["measured"][4]["E_X"] = nullptr;
-  data["figures"]["measured"][4]["U"]["E_X"] = nullptr;
-  EXPECT_TRUE(Has(RenderReportHtml(data), "data-verdict=\"undecidable\""));
+  data["grade"]["values"] = {{{"cycle", 1},
+                              {"figure", "E_X"},
+                              {"unit", "um"},
+                              {"value", 4.5},
+                              {"u_expanded", 0.8},
+                              {"limit", 5.0},
+                              {"verdict", "fail"}},  // not what the rule says
+                             {{"cycle", 1},
+                              {"figure", "E_B"},
+                              {"unit", "um/m"},
+                              {"value", -0.0001},
+                              {"u_expanded", 16.0},
+                              {"limit", 15.0},
+                              {"verdict", "not_decidable"}}};
+  data["grade"]["figures"] = {{{"figure", "E_B"},
+                               {"unit", "um/m"},
+                               {"limit", 15.0},
+                               {"decided", false},
+                               {"verdict", nullptr},
+                               {"reason", "U up to 16.0 um/m"},
+                               {"max_u_expanded", 16.0}}};
+  const std::string html = RenderReportHtml(data);
+  EXPECT_TRUE(Has(html, "<td class=\"fail\">4.50 &plusmn; 0.80</td>"));
+  // No "-0.00".
+  EXPECT_TRUE(Has(html, "<td class=\"not_decidable\">0.00 &plusmn; 16.00</td>"));
+  EXPECT_TRUE(Has(html, "<b>E_B</b>: U up to 16.0 um/m"));
 }
 
 TEST(RenderReportHtml, OverallVerdictComesFromTheGrading) {

@@ -22,3 +22,12 @@ void ValidateReportData(const nlohmann::json& report_data,
 std::string RenderReportHtml(const nlohmann::json& report_data);
 
 }  // namespace ttp
+
+namespace ttp {
+
+constexpr const char* kCompareSchema = "ttp-compare/1";
+// Renders a comparison of two pieces (AssembleComparisonData). Same input
+// gives the same bytes.
+std::string RenderComparisonHtml(const nlohmann::json& compare_data);
+
+}  // namespace ttp
