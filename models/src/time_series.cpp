@@ -1,0 +1,273 @@
+#include "ttp/models/time_series.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <regex>
+#include <set>
+
+#include "ttp/geometry/csv.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
+
+namespace ttp::models {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// thermal-log.md section 2: a step longer than this many sampling periods
+// (median step) is a gap.
+constexpr double kGapPeriods = 10.0;
+
+enum class ColumnKind { kTime, kInput, kOutput, kIgnored };
+
+ColumnKind KindOf(const std::string& name) {
+  if (name == "t_s") return ColumnKind::kTime;
+  if (name.rfind("n_", 0) == 0 || name.rfind("T_", 0) == 0)
+    return ColumnKind::kInput;
+  if (name.rfind("d_", 0) == 0) return ColumnKind::kOutput;
+  return ColumnKind::kIgnored;
+}
+
+std::vector<std::string> SplitLine(std::string_view line) {
+  std::vector<std::string> cells;
+  size_t begin = 0;
+  while (true) {
+    const size_t comma = line.find(',', begin);
+    const std::string_view cell = line.substr(
+        begin, comma == std::string_view::npos ? std::string_view::npos
+                                               : comma - begin);
+    cells.push_back(Trim(std::string(cell)));
+    if (comma == std::string_view::npos) break;
+    begin = comma + 1;
+  }
+  return cells;
+}
+
+double ParseCell(const std::string& cell, const std::string& source, int line,
+                 const std::string& column) {
+  const char* begin = cell.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (end == begin || *end != '\0') {
+    throw InputError(source, line, column,
+                     fmt::format("'{}' is not a number", cell));
+  }
+  if (!std::isfinite(v) || errno == ERANGE) {
+    throw InputError(source, line, column,
+                     fmt::format("'{}' is not a finite number", cell));
+  }
+  return v;
+}
+
+struct Column {
+  int position = 0;
+  ColumnKind kind = ColumnKind::kIgnored;
+  int slot = -1;  // index among inputs or outputs
+};
+
+// Marks steps longer than kGapPeriods median steps.
+void FindGaps(TimeSeries& ts, const std::vector<int>& lines) {
+  if (ts.rows() < 3) return;
+  std::vector<double> steps(ts.rows() - 1);
+  for (size_t i = 1; i < ts.rows(); ++i)
+    steps[i - 1] = ts.t_s[i] - ts.t_s[i - 1];
+  std::vector<double> sorted = steps;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
+                   sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  for (size_t i = 1; i < ts.rows(); ++i) {
+    if (steps[i - 1] > kGapPeriods * median) {
+      ts.gap_rows.push_back(i);
+      ts.warnings.push_back(fmt::format(
+          "{}:{}: t_s: gap of {:g} s from t_s = {:g} to {:g} ({:.0f} sampling "
+          "periods of {:g} s); models restart after it",
+          ts.source, lines[i], steps[i - 1], ts.t_s[i - 1], ts.t_s[i],
+          steps[i - 1] / median, median));
+    }
+  }
+}
+
+}  // namespace
+
+int TimeSeries::InputIndex(std::string_view name) const {
+  for (size_t i = 0; i < input_names.size(); ++i)
+    if (input_names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+int TimeSeries::OutputIndex(std::string_view name) const {
+  for (size_t i = 0; i < output_names.size(); ++i)
+    if (output_names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
+  TimeSeries ts;
+  ts.source = source;
+  static const std::regex key_value(R"(^#\s*([A-Za-z0-9_.-]+)\s*:\s*(.*)$)");
+  static const std::regex iso8601(
+      R"(^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})$)");
+
+  std::vector<Column> columns;
+  std::vector<std::string> names;
+  int header_line = 0;
+  int time_position = -1;
+  std::vector<std::vector<double>> in_rows, out_rows;
+  std::vector<int> lines;
+  double last_t = -std::numeric_limits<double>::infinity();
+
+  int line_no = 0;
+  size_t pos = 0;
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") pos = 3;
+  while (pos <= text.size()) {
+    size_t nl = text.find('\n', pos);
+    if (nl == std::string_view::npos) nl = text.size();
+    std::string line(text.substr(pos, nl - pos));
+    pos = nl + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (Trim(line).empty()) {
+      if (nl == text.size()) break;
+      continue;
+    }
+    if (line[0] == '#') {
+      if (header_line != 0) {
+        throw InputError(source, line_no, "#",
+                         "comment line after the header row (comments are "
+                         "allowed only before it)");
+      }
+      std::smatch m;
+      if (std::regex_match(line, m, key_value)) ts.header[m[1]] = Trim(m[2]);
+      continue;
+    }
+    if (header_line == 0) {
+      header_line = line_no;
+      // Required header keys, checked once the header block is complete.
+      auto version = ts.header.find("thermal-log");
+      if (version == ts.header.end()) {
+        throw InputError(source, line_no, "# thermal-log",
+                         "required header key is missing (a thermal log "
+                         "starts with `# thermal-log: 1`)");
+      }
+      if (version->second != "1") {
+        throw InputError(source, line_no, "# thermal-log",
+                         fmt::format("version '{}' is not supported (only 1)",
+                                     version->second));
+      }
+      auto start = ts.header.find("start");
+      if (start == ts.header.end()) {
+        throw InputError(source, line_no, "# start",
+                         "required header key is missing (ISO 8601 date-time "
+                         "with offset of t_s = 0)");
+      }
+      if (!std::regex_match(start->second, iso8601)) {
+        throw InputError(source, line_no, "# start",
+                         fmt::format("'{}' is not an ISO 8601 date-time with "
+                                     "offset",
+                                     start->second));
+      }
+      names = SplitLine(line);
+      std::set<std::string> seen;
+      for (int i = 0; i < static_cast<int>(names.size()); ++i) {
+        const std::string& name = names[i];
+        if (name.empty())
+          throw InputError(source, line_no, fmt::format("column {}", i + 1),
+                           "empty column name");
+        if (!seen.insert(name).second)
+          throw InputError(source, line_no, name, "column named twice");
+        Column c;
+        c.position = i;
+        c.kind = KindOf(name);
+        if (c.kind == ColumnKind::kTime) time_position = i;
+        if (c.kind == ColumnKind::kInput) {
+          c.slot = static_cast<int>(ts.input_names.size());
+          ts.input_names.push_back(name);
+        } else if (c.kind == ColumnKind::kOutput) {
+          c.slot = static_cast<int>(ts.output_names.size());
+          ts.output_names.push_back(name);
+        }
+        columns.push_back(c);
+      }
+      if (time_position < 0)
+        throw InputError(source, line_no, "t_s",
+                         "required column is missing from the header");
+      if (ts.input_names.empty())
+        throw InputError(source, line_no, "n_* / T_*",
+                         "no input column (a speed n_<name> or a temperature "
+                         "T_<name>)");
+      continue;
+    }
+    const std::vector<std::string> cells = SplitLine(line);
+    if (cells.size() != names.size()) {
+      throw InputError(source, line_no, "",
+                       fmt::format("{} cells where the header has {} columns",
+                                   cells.size(), names.size()));
+    }
+    std::vector<double> in(ts.input_names.size()), out(ts.output_names.size());
+    double t = 0;
+    for (const Column& c : columns) {
+      const std::string& cell = cells[c.position];
+      const std::string& name = names[c.position];
+      switch (c.kind) {
+        case ColumnKind::kTime:
+          if (cell.empty())
+            throw InputError(source, line_no, name, "empty time cell");
+          t = ParseCell(cell, source, line_no, name);
+          break;
+        case ColumnKind::kInput:
+          if (cell.empty())
+            throw InputError(source, line_no, name,
+                             "empty input cell (speeds and temperatures are "
+                             "required in every row)");
+          in[c.slot] = ParseCell(cell, source, line_no, name);
+          break;
+        case ColumnKind::kOutput:
+          out[c.slot] =
+              cell.empty() ? kNaN : ParseCell(cell, source, line_no, name);
+          break;
+        case ColumnKind::kIgnored:
+          break;
+      }
+    }
+    if (!(t > last_t)) {
+      throw InputError(
+          source, line_no, "t_s",
+          fmt::format("time {:g} s does not increase (previous row: {:g} s)", t,
+                      last_t));
+    }
+    last_t = t;
+    ts.t_s.push_back(t);
+    in_rows.push_back(std::move(in));
+    out_rows.push_back(std::move(out));
+    lines.push_back(line_no);
+  }
+  if (header_line == 0)
+    throw InputError(source, line_no, "t_s",
+                     "no header row (required column t_s is missing)");
+  if (ts.t_s.empty())
+    throw InputError(source, header_line, "", "no data rows after the header");
+
+  const Eigen::Index n = static_cast<Eigen::Index>(ts.rows());
+  ts.inputs.resize(n, static_cast<Eigen::Index>(ts.input_names.size()));
+  ts.outputs_um.resize(n, static_cast<Eigen::Index>(ts.output_names.size()));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < ts.inputs.cols(); ++j)
+      ts.inputs(i, j) = in_rows[i][j];
+    for (Eigen::Index j = 0; j < ts.outputs_um.cols(); ++j)
+      ts.outputs_um(i, j) = out_rows[i][j];
+  }
+  FindGaps(ts, lines);
+  return ts;
+}
+
+TimeSeries ReadThermalLog(const std::filesystem::path& path) {
+  const std::string text = ReadTextFile(path);
+  return ParseThermalLog(text, path.string());
+}
+
+}  // namespace ttp::models
