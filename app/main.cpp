@@ -1,6 +1,4 @@
 // ttp: the thermal test piece toolkit.
-#include <spdlog/spdlog.h>
-
 #include <iostream>
 
 #include "command.h"

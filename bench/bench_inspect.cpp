@@ -1,4 +1,4 @@
-// Issue 3's inspection benchmark: a 1,000,000-point binary PLY (double
+// The inspection benchmark: a 1,000,000-point binary PLY (double
 // properties, scanner-like sampling, 0.5 um noise, 0.2 % strays) in a random
 // pose to all figures. Each pipeline runs in its own child process so that
 // its peak memory (ru_maxrss) is its own:

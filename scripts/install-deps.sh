@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   libeigen3-dev libceres-dev libpcl-dev libcgal-dev libopenmesh-dev
-  libcli11-dev nlohmann-json3-dev libfmt-dev libspdlog-dev
+  libcli11-dev nlohmann-json3-dev libfmt-dev
   libtomlplusplus-dev libgtest-dev
   linuxcnc-uspace
   chromium chromium-driver

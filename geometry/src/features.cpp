@@ -57,27 +57,66 @@ std::string DatumCylinderId(const PartSpec& part) {
   return CylinderId(part.ref_cylinders.front().diameter_mm);
 }
 
-bool ParseFeatureId(const std::string& id, FeatureKind* kind, Segment* segment,
-                    int* index) {
+std::string FeatureId::ToString() const {
+  switch (kind) {
+    case FeatureKind::kFacet:
+      return FacetId(segment, index);
+    case FeatureKind::kStrip:
+      return StripId(index);
+    case FeatureKind::kTopFace:
+      return "TOP";
+    case FeatureKind::kFlank:
+      return index < 0 ? "FLANK-Y" : "FLANK+Y";
+    case FeatureKind::kCylinder:
+      return CylinderId(index);
+    case FeatureKind::kMark:
+      return "MARK";
+    case FeatureKind::kNotchFloor:
+      return index == 0 ? "NOTCH_SMALL" : "NOTCH_BIG";
+  }
+  return "?";
+}
+
+std::optional<FeatureId> FeatureId::Parse(const std::string& text) {
   static const std::regex facet(R"(^(X1|Y1|X2|Y2)-([1-9])$)");
   static const std::regex strip(R"(^Z([1-9])$)");
+  static const std::regex cylinder(R"(^CYL([1-9][0-9]{0,3})$)");
   std::smatch m;
-  if (std::regex_match(id, m, facet)) {
+  if (std::regex_match(text, m, facet)) {
     const std::string s = m[1];
-    *kind = FeatureKind::kFacet;
-    *segment = s == "X1"   ? Segment::kX1
-               : s == "Y1" ? Segment::kY1
-               : s == "X2" ? Segment::kX2
-                           : Segment::kY2;
-    *index = std::stoi(m[2]);
-    return true;
+    const Segment seg = s == "X1"   ? Segment::kX1
+                        : s == "Y1" ? Segment::kY1
+                        : s == "X2" ? Segment::kX2
+                                    : Segment::kY2;
+    return Facet(seg, m[2].str()[0] - '0');
   }
-  if (std::regex_match(id, m, strip)) {
-    *kind = FeatureKind::kStrip;
-    *index = std::stoi(m[1]);
-    return true;
-  }
-  return false;
+  if (std::regex_match(text, m, strip)) return Strip(m[1].str()[0] - '0');
+  if (text == "TOP") return Datum(FeatureKind::kTopFace);
+  if (text == "FLANK+Y") return Datum(FeatureKind::kFlank, +1);
+  if (text == "FLANK-Y") return Datum(FeatureKind::kFlank, -1);
+  if (text == "MARK") return Datum(FeatureKind::kMark);
+  if (text == "NOTCH_SMALL") return Datum(FeatureKind::kNotchFloor, 0);
+  if (text == "NOTCH_BIG") return Datum(FeatureKind::kNotchFloor, 1);
+  if (std::regex_match(text, m, cylinder))
+    return Datum(FeatureKind::kCylinder, std::stoi(m[1]));
+  return std::nullopt;
+}
+
+bool FeatureId::operator<(const FeatureId& o) const {
+  if (kind != o.kind) return kind < o.kind;
+  if (kind == FeatureKind::kFacet && segment != o.segment)
+    return segment < o.segment;
+  return index < o.index;
+}
+
+bool ParseFeatureId(const std::string& id, FeatureKind* kind, Segment* segment,
+                    int* index) {
+  const std::optional<FeatureId> f = FeatureId::Parse(id);
+  if (!f || !f->IsTestFeature()) return false;
+  *kind = f->kind;
+  if (f->kind == FeatureKind::kFacet) *segment = f->segment;
+  *index = f->index;
+  return true;
 }
 
 namespace {

@@ -41,55 +41,48 @@ void Require(const RejectionOptions& rejection) {
   }
 }
 
-// A plane through the indexed points; a degenerate summary instead of an
-// exception when they are too few or collinear (a region of a cloud that
-// holds no feature is an outcome, not bad input).
+void MarkDegenerate(FitSummary* s, const std::string& why) {
+  s->status = FitStatus::kDegenerate;
+  s->converged = false;
+  s->message = why;
+}
+
+// `fit` of the indexed columns; a degenerate summary instead of an
+// exception when they are too few or degenerate for the shape (a region of
+// a cloud that holds no feature is an outcome, not bad input).
+template <class Result, class Points, class Fit>
+Result FitSubset(const Points& points, const std::vector<Index>& indices,
+                 Fit fit) {
+  Result out;
+  out.summary.points = static_cast<int>(indices.size());
+  if (indices.size() < 3) {
+    MarkDegenerate(&out.summary, "fewer than 3 points");
+    return out;
+  }
+  Points subset(points.rows(), static_cast<Index>(indices.size()));
+  for (size_t k = 0; k < indices.size(); ++k)
+    subset.col(static_cast<Index>(k)) = points.col(indices[k]);
+  try {
+    return fit(subset);
+  } catch (const InputError& e) {
+    MarkDegenerate(&out.summary, e.what());
+    return out;
+  }
+}
+
 PlaneFit PlaneOf(const Eigen::Matrix3Xd& points,
                  const std::vector<Index>& indices,
                  const Eigen::Vector3d& hint_normal,
                  const Eigen::Vector3d& hint_u) {
-  PlaneFit fit;
-  fit.summary.points = static_cast<int>(indices.size());
-  if (indices.size() < 3) {
-    fit.summary.status = FitStatus::kDegenerate;
-    fit.summary.converged = false;
-    fit.summary.message = "fewer than 3 points";
-    return fit;
-  }
-  Eigen::Matrix3Xd subset(3, static_cast<Index>(indices.size()));
-  for (size_t k = 0; k < indices.size(); ++k)
-    subset.col(static_cast<Index>(k)) = points.col(indices[k]);
-  try {
-    return OrientPlane(FitPlane(subset), hint_normal, hint_u);
-  } catch (const InputError& e) {
-    fit.summary.status = FitStatus::kDegenerate;
-    fit.summary.converged = false;
-    fit.summary.message = e.what();
-    return fit;
-  }
+  return FitSubset<PlaneFit>(points, indices, [&](const Eigen::Matrix3Xd& p) {
+    return OrientPlane(FitPlane(p), hint_normal, hint_u);
+  });
 }
 
 CircleFit2D CircleOf(const Eigen::Matrix2Xd& points,
                      const std::vector<Index>& indices) {
-  CircleFit2D fit;
-  fit.summary.points = static_cast<int>(indices.size());
-  if (indices.size() < 3) {
-    fit.summary.status = FitStatus::kDegenerate;
-    fit.summary.converged = false;
-    fit.summary.message = "fewer than 3 points";
-    return fit;
-  }
-  Eigen::Matrix2Xd subset(2, static_cast<Index>(indices.size()));
-  for (size_t k = 0; k < indices.size(); ++k)
-    subset.col(static_cast<Index>(k)) = points.col(indices[k]);
-  try {
-    return FitCircle2D(subset);
-  } catch (const InputError& e) {
-    fit.summary.status = FitStatus::kDegenerate;
-    fit.summary.converged = false;
-    fit.summary.message = e.what();
-    return fit;
-  }
+  return FitSubset<CircleFit2D>(
+      points, indices, [](const Eigen::Matrix2Xd& p) { return FitCircle2D(p); });
 }
 
 }  // namespace

@@ -40,7 +40,7 @@ double LineDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
   return (p - a).cross(d.normalized()).norm();
 }
 
-// 1e-6 mm and 1e-8 rad: issue 3's agreement for the fits.
+// 1e-6 mm and 1e-8 rad: the agreement asked of the fits.
 constexpr double kMm = 1e-6, kRad = 1e-8;
 
 TEST(CliFit, NistReferencePairs) {

@@ -62,6 +62,35 @@ TEST(Features, ParseFeatureIds) {
   EXPECT_FALSE(ParseFeatureId("X3-1", &kind, &s, &index));
   EXPECT_FALSE(ParseFeatureId("Z0", &kind, &s, &index));
   EXPECT_FALSE(ParseFeatureId("X1-10", &kind, &s, &index));
+  EXPECT_FALSE(ParseFeatureId("TOP", &kind, &s, &index));  // a datum
+}
+
+// Every nominal feature's name parses to a typed id that prints back the
+// same name; names of no feature parse to nothing; ids order and compare
+// by their parts, not by their text ("X1-10" would sort before "X1-2").
+TEST(Features, FeatureIdRoundTripsEveryNominalName) {
+  const PartSpec part;
+  for (const NominalFeature& f :
+       BuildNominalFeatures(part, Stage::kFinished)) {
+    const std::optional<FeatureId> id = FeatureId::Parse(f.id);
+    ASSERT_TRUE(id.has_value()) << f.id;
+    EXPECT_EQ(id->ToString(), f.id);
+    EXPECT_EQ(id->kind, f.kind) << f.id;
+    if (f.kind == FeatureKind::kFacet) {
+      EXPECT_EQ(id->segment, *f.segment) << f.id;
+      EXPECT_EQ(id->index, f.index) << f.id;
+    }
+  }
+  for (const char* bad : {"", "X1-0", "X3-1", "Z10", "x1-5", "TOP ", "CYL",
+                          "CYL0", "FLANK+X", "Z-1"})
+    EXPECT_FALSE(FeatureId::Parse(bad).has_value()) << bad;
+  EXPECT_EQ(*FeatureId::Parse("Y2-7"), FeatureId::Facet(Segment::kY2, 7));
+  EXPECT_NE(FeatureId::Facet(Segment::kX1, 7), FeatureId::Facet(Segment::kY1, 7));
+  EXPECT_NE(FeatureId::Facet(Segment::kX1, 7), FeatureId::Strip(7));
+  EXPECT_TRUE(FeatureId::Facet(Segment::kX1, 2) <
+              FeatureId::Facet(Segment::kX1, 9));
+  EXPECT_EQ(FeatureId::Datum(FeatureKind::kCylinder, 199).ToString(),
+            DatumCylinderId(part));
 }
 
 TEST(Features, StagesHoldTheRightFeatures) {

@@ -1,6 +1,5 @@
 // Golden outputs: every measurement path (cloud PLY and XYZ, probe CSV,
-// DMIS output, dial CSV), the grade of two of them and `ttp fit` on NIST
-// reference sets, compared with the outputs committed under
+// DMIS output, dial CSV) and `ttp fit` on NIST reference sets, compared with the outputs committed under
 // tests/inspect/golden/ (written by `ttp ... --json` from the same inputs).
 // A refactoring must not change them beyond the last digits.
 //
@@ -15,7 +14,7 @@
 // To regenerate after an intended change of the outputs, run from the
 // repository root (and say why in the commit):
 //   ttp -q inspect samples/run-a/piece.ply --json tests/inspect/golden/run-a.inspect.json
-//   (likewise run-b, probe.csv, piece.dmo, dial.csv; `ttp -q grade ...`;
+//   (likewise run-b, probe.csv, piece.dmo, dial.csv;
 //   `ttp -q fit SHAPE reference/nist-fits/...ds --json .../fit-NAME.json`)
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -28,7 +27,6 @@
 
 #include "ttp/geometry/config.h"
 #include "ttp/geometry/fit.h"
-#include "ttp/inspect/grade.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/inspect/point_io.h"
 
@@ -132,18 +130,6 @@ INSTANTIATE_TEST_SUITE_P(
         if (c == '-') c = '_';
       return name;
     });
-
-TEST(GoldenGrade, SameAsCommitted) {
-  for (const Case& c : {Case{"samples/run-a/piece.ply", "run-a.grade.json"},
-                        Case{"tests/inspect/golden/probe.csv",
-                             "probe.grade.json"}}) {
-    const Measurement m = Load(c.input);
-    const GradeLimits limits;
-    const GradeResult r =
-        GradeFigures(MeasurementToJson(m), limits, m.source);
-    ExpectGolden(GradeToJson(r, limits), c.golden);
-  }
-}
 
 nlohmann::json Vec(const Eigen::VectorXd& v) {
   nlohmann::json a = nlohmann::json::array();

@@ -53,7 +53,7 @@ std::string ErrorOf(const PointCloud& cloud) {
   return "";
 }
 
-// Issue 3: 20,000 points, 0.5 um noise, 0.2 % strays, random pose: the
+// The accuracy asked of the inspection: 20,000 points, 0.5 um noise, 0.2 % strays, random pose: the
 // figures within 0.2 um (linear) and 3 um/m (E_B) of the truth.
 TEST(InspectCloudTest, FiguresFromASyntheticCloudInAnyPose) {
   const PartSpec part;

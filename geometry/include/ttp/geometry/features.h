@@ -63,8 +63,44 @@ std::string CylinderId(double diameter_mm);  // "CYL199"
 // The datum circle's cylinder: the first reference cylinder ("CYL199").
 std::string DatumCylinderId(const PartSpec& part);
 
-// Parses a feature name of talc-log.md section 5. Returns false if it is
-// not one (the caller reports it).
+// A feature's identity as typed data: a facet (segment, index 1..9), a
+// strip (index 1..9) or a datum (the top face; a flank, index +1 / -1 for
+// FLANK+Y / FLANK-Y; a reference cylinder, index = its diameter in mm; the
+// mark; a notch floor, index 0 small / 1 big). Code keys and compares features by this; the name of talc-log.md
+// section 5 ("X1-5", "Z3", "TOP", "FLANK+Y", "CYL199", "MARK",
+// "NOTCH_BIG") is its form
+// in files and messages only (ToString / Parse).
+struct FeatureId {
+  FeatureKind kind = FeatureKind::kFacet;
+  Segment segment = Segment::kX1;  // facets only
+  int index = 0;
+
+  static FeatureId Facet(Segment s, int j) {
+    return {FeatureKind::kFacet, s, j};
+  }
+  static FeatureId Strip(int k) { return {FeatureKind::kStrip, Segment::kX1, k}; }
+  static FeatureId Datum(FeatureKind kind, int index = 0) {
+    return {kind, Segment::kX1, index};
+  }
+  bool IsTestFeature() const {
+    return kind == FeatureKind::kFacet || kind == FeatureKind::kStrip;
+  }
+  std::string ToString() const;
+  // The id named by `text`, or nothing when it names no feature (the caller
+  // reports it with its file and line).
+  static std::optional<FeatureId> Parse(const std::string& text);
+
+  bool operator==(const FeatureId& o) const {
+    return kind == o.kind && index == o.index &&
+           (kind != FeatureKind::kFacet || segment == o.segment);
+  }
+  bool operator!=(const FeatureId& o) const { return !(*this == o); }
+  bool operator<(const FeatureId& o) const;
+};
+
+// Parses a test feature's name (a facet or a strip) of talc-log.md section
+// 5. Returns false if it is not one (the caller reports it). Equivalent to
+// FeatureId::Parse restricted to facets and strips.
 bool ParseFeatureId(const std::string& id, FeatureKind* kind, Segment* segment,
                     int* index);
 

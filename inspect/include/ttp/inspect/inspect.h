@@ -1,28 +1,10 @@
 // From a measured point cloud of the finished piece to the thermal figures:
 // find the workpiece frame W from the datums (test-piece.md section 5) in any
 // pose, assign points to the nominal features, reject strays, fit planes and
-// compute E_X..E_TTP (plus E_C from the facets) with their uncertainty.
-//
-// Stated rules (also in docs/INSPECT.md):
-// - Regions: a point belongs to a facet / strip when it lies inside the
-//   feature's nominal extent in W shrunk by edge margins (facets 1.0 mm
-//   tangentially, 0.5 mm in z; strips 0.5 mm in y, and 0.5 mm from the small
-//   notch and the rim in x) and within capture_band_mm of its nominal surface.
-// - Strays: after a first fit, points with |residual| > max(stray_sigma *
-//   robust sigma (1.4826 MAD), stray_floor_mm) are dropped and the fit is
-//   repeated until nothing changes (at most 8 rounds).
-// - A feature with fewer than min_points points left is missing (its
-//   figures are null); fewer than thin_points is reported thin.
-// - Uncertainty (k = 1 in FeatureResult, k = 2 in the JSON): the plane fit's
-//   covariance (residual variance times (A^T A)^-1 of the linear plane
-//   model) propagated to d and the angle, plus for a CMM the instrument:
-//   MPE_E = a + L / b (1.2 um + L/400 mm, thesis 7.3) read as a rectangular
-//   bound, u = MPE / sqrt(3), with L the feature's distance from the datum
-//   origin for d; for angles only the length-proportional part, u_angle =
-//   (1 / b) / sqrt(3) = 1.44 um/m (the constant part is probing scatter that
-//   the fit residuals already hold); all
-//   taken independent between features (conservative: correlated CMM errors
-//   would cancel in the figures' differences).
+// compute E_X..E_TTP (plus E_C from the facets) with their uncertainty. The
+// stages, each with its typed result, are in cloud_stages.h; the rules
+// (regions, strays, missing and thin features, uncertainty) are stated
+// there and in docs/INSPECT.md.
 #pragma once
 
 #include <Eigen/Core>
@@ -52,6 +34,10 @@ struct InspectOptions {
   double cmm_mpe_l_mm = 400.0;  // b
   // Check that the cloud is a piece in millimetres (not metres or inches).
   bool check_units = true;
+  // Ceres style: false with "InspectOptions.<field>: <problem>".
+  bool IsValid(std::string* error) const;
+  // Throws InputError("InspectOptions", 0, "InspectOptions.<field>", ...).
+  void Validate() const;
 };
 
 // Cloud frame -> W: w = rotation * p + translation.
@@ -99,7 +85,8 @@ struct InspectionResult {
 };
 
 // Throws InputError (source = cloud.source, field "alignment"/"units") when
-// the cloud is not a test piece in millimetres.
+// the cloud is not a test piece in millimetres, when a datum W needs is
+// missing, or when the cloud is a mirror image of the piece.
 InspectionResult InspectCloud(const PartSpec& part, const PointCloud& cloud,
                               const InspectOptions& options = {});
 
@@ -109,7 +96,7 @@ InspectionResult InspectCloud(const PartSpec& part, const PointCloud& cloud,
 // every measurement path so that all report the same figures the same way.
 void ComputeResultFigures(const PartSpec& part, InspectionResult* result);
 
-// The issue 3 interface: {"figures": [...], "facets": {...}, "strips": {...},
+// The inspection JSON: {"figures": [...], "facets": {...}, "strips": {...},
 // "alignment": {...}, "segmentation": {...}, "warnings": [...]}, um, um/m.
 nlohmann::json InspectionToJson(const InspectionResult& result);
 

@@ -1,12 +1,12 @@
 // Any measurement of a finished piece (measurements.md), read into one
 // shape: per-feature results on the nominal model, the figures E_X..E_TTP
-// computed from them, and the inspection JSON of issue 3.
+// computed from them, and the inspection JSON.
 //
 // Formats, recognised from the content (then the extension):
 // - point clouds (PLY, PCD, .xyz/.txt/.csv with three numbers per line):
 //   aligned, segmented and fitted by InspectCloud;
 // - an inspection JSON written by `ttp inspect --json` (or any JSON with the
-//   issue 3 "facets"/"strips" keys);
+//   "facets"/"strips" keys of that format);
 // - the dial-gauge CSV (header `feature,reading_um`);
 // - a DMIS output file (FA(...) = FEAT/...);
 // - the probe results CSV of `ttp plan probe` (header starting `point_id`).

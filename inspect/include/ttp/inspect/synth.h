@@ -1,4 +1,4 @@
-// A synthetic measured piece (issue 3): the finished part (geometry's
+// A synthetic measured piece: the finished part (geometry's
 // tagged mesh) with known per-feature deviations, sampled like a scanner
 // (every visible surface, by area) or a CMM (only the measured features,
 // each facet and strip with its own share of the points: 45 % over the

@@ -1,0 +1,455 @@
+// Stage 1 of the cloud inspection: the workpiece frame W from the datums
+// (test-piece.md section 5), in any pose of the cloud:
+//   1. the top face (Z and z = 0): the end of the disc's axis that is a
+//      plane;
+//   2. a rough centre from the reference cylinders (else the facets);
+//   3. the big-notch flanks: their symmetry plane gives X, Y;
+//   4. the origin: the centre of the datum circle (the 199 cylinder between
+//      z -16 and -14);
+//   5. the engraved mark decides the 180 degree ambiguity (which end is
+//      X1) and shows a mirror image (a mark where only a mirrored piece has
+//      it).
+// A datum that is missing is not replaced by a guess: the cloud is refused
+// naming it (a rough origin moves E_Y by micrometres; a wrong end swaps
+// the segments and reverses the cycles).
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+
+#include "cloud_util.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/fit.h"
+#include "ttp/inspect/cloud_stages.h"
+
+namespace ttp::inspect {
+namespace {
+
+using internal::Index;
+using internal::Indices;
+using internal::Median;
+using internal::Quantile;
+using internal::Subsample;
+
+constexpr double kDeg = M_PI / 180.0;
+
+[[noreturn]] void NoPiece(const std::string& source, const std::string& why) {
+  throw InputError(source, 0, "alignment",
+                   "no test piece found in the cloud: " + why);
+}
+
+[[noreturn]] void Refuse(const std::string& source, const std::string& why) {
+  throw InputError(source, 0, "alignment", why);
+}
+
+bool Usable(const fit::PlaneFit& f) { return f.summary.Usable(); }
+bool Usable(const fit::CircleFit2D& f) {
+  return f.summary.Usable() && std::isfinite(f.radius_mm) && f.radius_mm > 0;
+}
+
+// The plane through the indexed points, normal towards hint_n, tilt axes
+// from hint_u; degenerate (not an exception) when they are too few.
+fit::PlaneFit PlaneThrough(const Eigen::Matrix3Xd& p, const Indices& idx,
+                           const Eigen::Vector3d& hint_n,
+                           const Eigen::Vector3d& hint_u) {
+  fit::RejectionOptions none;
+  none.max_rounds = 0;
+  return fit::FitPlaneTrimmed(p, idx, hint_n, hint_u, none).plane;
+}
+
+Eigen::Matrix2Xd ToMatrix(const std::vector<Eigen::Vector2d>& pts) {
+  Eigen::Matrix2Xd m(2, static_cast<Index>(pts.size()));
+  for (size_t i = 0; i < pts.size(); ++i) m.col(static_cast<Index>(i)) = pts[i];
+  return m;
+}
+
+// A plain circle (no rejection) of the points; degenerate when too few.
+fit::CircleFit2D CircleThrough(const std::vector<Eigen::Vector2d>& pts) {
+  fit::RejectionOptions none;
+  none.max_rounds = 0;
+  return fit::FitCircle2DTrimmed(ToMatrix(pts), {}, none).circle;
+}
+
+// The circle after rejection: shrinking bands of 5, 1 and 0.3 mm about it,
+// then strays beyond max(k sigma, floor) (at most 6 rounds).
+fit::CircleFit2D CircleTrimmed(const std::vector<Eigen::Vector2d>& pts,
+                               double k_sigma, double floor_mm) {
+  fit::RejectionOptions ro;
+  ro.k_sigma = k_sigma;
+  ro.floor_mm = floor_mm;
+  ro.max_rounds = 6;
+  return fit::FitCircle2DTrimmed(ToMatrix(pts), {5.0, 1.0, 0.3}, ro).circle;
+}
+
+fit::RejectionOptions Rejection(const InspectOptions& o, double floor_mm) {
+  fit::RejectionOptions ro;
+  ro.k_sigma = o.stray_sigma;
+  ro.floor_mm = floor_mm;
+  ro.max_rounds = 8;
+  return ro;
+}
+
+// 1. The top face datum: the end of the axis whose cross-section is a plane.
+fit::PlaneFit FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
+                          const std::string& source,
+                          std::vector<std::string>* warnings) {
+  // The search runs on an even subsample of at most 100,000 points (a
+  // million-point scan holds far more top-face points than the datum
+  // needs); the final robust fit uses the sample's top-face points.
+  const Indices sub = Subsample(p.cols(), 100000);
+  const Index n = static_cast<Index>(sub.size());
+  // Robust centre and the disc's axis (smallest PCA axis), ignoring points
+  // far from the median (fixture, far strays).
+  Eigen::Vector3d med;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> v(n);
+    for (Index k = 0; k < n; ++k) v[k] = p(a, sub[k]);
+    med(a) = Median(std::move(v));
+  }
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d s = Eigen::Matrix3d::Zero();
+  Index used = 0;
+  for (Index i : sub) {
+    const Eigen::Vector3d d = p.col(i) - med;
+    if (d.squaredNorm() > 160.0 * 160.0) continue;
+    mean += d;
+    s.noalias() += d * d.transpose();
+    ++used;
+  }
+  if (used < 100)
+    NoPiece(source,
+            "fewer than 100 points within 160 mm of the cloud's median");
+  mean /= static_cast<double>(used);
+  s = s / static_cast<double>(used) - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s);
+  const Eigen::Vector3d axis = es.eigenvectors().col(0);
+  const Eigen::Vector3d centre = med + mean;
+  std::vector<double> h(n);
+  for (Index k = 0; k < n; ++k) h[k] = (p.col(sub[k]) - centre).dot(axis);
+  // Try both ends: fit a plane to the points near the end, tightening the
+  // band; the top face is the end with a plane of many points.
+  fit::PlaneFit best;
+  best.summary.status = fit::FitStatus::kDegenerate;
+  Indices best_idx;
+  for (double sign : {+1.0, -1.0}) {
+    std::vector<double> hs(n);
+    for (Index k = 0; k < n; ++k) hs[k] = sign * h[k];
+    const double end = Quantile(hs, 0.995);
+    Indices idx;
+    for (Index k = 0; k < n; ++k) {
+      if (hs[k] > end - 2.0 && hs[k] < end + 2.0) idx.push_back(sub[k]);
+    }
+    fit::PlaneFit pl = PlaneThrough(p, idx, sign * axis, axis.unitOrthogonal());
+    for (double band : {1.0, 0.3, 0.1, 0.03}) {
+      if (!Usable(pl)) break;
+      Indices next;
+      for (Index i : sub) {
+        if (std::abs((p.col(i) - pl.point).dot(pl.normal)) < band)
+          next.push_back(i);
+      }
+      idx = std::move(next);
+      pl = PlaneThrough(p, idx, sign * axis, axis.unitOrthogonal());
+    }
+    if (Usable(pl) && pl.summary.points > best.summary.points) {
+      best = pl;
+      best_idx = idx;
+    }
+  }
+  if (!Usable(best) || best.summary.points < 20)
+    NoPiece(source, "no flat top face at either end of the disc's axis");
+  // The bulk of the piece lies below the top face.
+  double below = 0;
+  for (Index i : sub) below += (p.col(i) - best.point).dot(best.normal) < 0;
+  if (below < 0.5 * n) {
+    warnings->push_back(
+        "most points lie above the plane taken as the top face");
+  }
+  return fit::FitPlaneTrimmed(p, best_idx, best.normal, best.u,
+                              Rejection(o, o.stray_floor_mm))
+      .plane;
+}
+
+}  // namespace
+
+Eigen::Matrix3Xd PointsInW(const Alignment& a, const Eigen::Matrix3Xd& p) {
+  Eigen::Matrix3Xd w(3, p.cols());
+  AdviseHugePages(w.data(), sizeof(double) * 3 * p.cols());
+  for (Index i = 0; i < p.cols(); ++i)
+    w.col(i).noalias() = a.rotation * p.col(i) + a.translation;
+  return w;
+}
+
+AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
+                        const InspectOptions& o) {
+  AlignedCloud out;
+  const std::string& source = cloud.source;
+  const Eigen::Matrix3Xd& p = cloud.xyz_mm;
+  const Index n = p.cols();
+  if (n == 0) throw InputError(source, 0, "", "the cloud has no points");
+
+  // 1. Top face -> Z and z = 0, in a temporary frame q.
+  const fit::PlaneFit top = FindTopFace(p, o, source, &out.warnings);
+  out.alignment.top_points = top.summary.points;
+  out.alignment.top_rms_mm = top.summary.rms_mm;
+  Eigen::Matrix3d f_rot;  // rows e1 e2 n
+  {
+    const Eigen::Vector3d z = top.normal;
+    const Eigen::Vector3d x = z.unitOrthogonal();
+    f_rot.row(0) = x.transpose();
+    f_rot.row(1) = z.cross(x).transpose();
+    f_rot.row(2) = z.transpose();
+  }
+  const Eigen::Vector3d f_origin = top.point;
+  Eigen::Matrix3Xd q(3, n);
+  AdviseHugePages(q.data(), sizeof(double) * 3 * n);
+  for (Index i = 0; i < n; ++i) q.col(i) = f_rot * (p.col(i) - f_origin);
+
+  // 2. Approximate centre from the outermost surfaces under the segments
+  // (reference cylinders), else from the facets.
+  const double r_cyl = part.ref_cylinders.front().diameter_mm / 2;
+  // (A rough centre: an even subsample of at most 200,000 points will do.)
+  const Indices rough_sample = Subsample(n, 200000);
+  auto ring = [&](double z_lo, double z_hi) {
+    std::vector<Eigen::Vector2d> pts;
+    for (Index i : rough_sample) {
+      if (q(2, i) > z_lo && q(2, i) < z_hi) pts.emplace_back(q(0, i), q(1, i));
+    }
+    return pts;
+  };
+  fit::CircleFit2D rough;
+  rough.summary.status = fit::FitStatus::kDegenerate;
+  {
+    auto pts = ring(-part.height_mm() + 0.3, part.big_notch_floor_z_mm - 0.3);
+    // Keep the outer points: interior floors would pull a first fit.
+    if (pts.size() >= 20) {
+      const fit::CircleFit2D c0 = CircleThrough(pts);
+      if (Usable(c0)) {
+        std::vector<Eigen::Vector2d> outer;
+        for (const auto& x : pts) {
+          if ((x - c0.centre).norm() > 0.8 * r_cyl) outer.push_back(x);
+        }
+        rough = CircleTrimmed(outer, o.stray_sigma, 0.05);
+      }
+    }
+    if (!Usable(rough) || rough.summary.points < 20 ||
+        std::abs(rough.radius_mm - r_cyl) > 3) {
+      auto facet_pts = ring(part.facet_bottom_z_mm + 0.5, -0.5);
+      const fit::CircleFit2D c0 = CircleThrough(facet_pts);
+      std::vector<Eigen::Vector2d> outer;
+      if (Usable(c0)) {
+        for (const auto& x : facet_pts) {
+          if ((x - c0.centre).norm() > 0.9 * part.facet_final_distance_mm)
+            outer.push_back(x);
+        }
+      }
+      rough = CircleTrimmed(outer, o.stray_sigma, 0.2);
+      if (!Usable(rough) || rough.summary.points < 20 ||
+          std::abs(rough.radius_mm - part.facet_final_distance_mm) > 3) {
+        NoPiece(source,
+                "neither the reference cylinders nor the facets form a circle "
+                "of the piece's size");
+      }
+      out.warnings.push_back(
+          "reference cylinders not found; rough centre from the facets");
+    }
+  }
+
+  // 3. Flanks -> X direction (their symmetry plane).
+  const double half_notch = part.big_notch_half_width_mm;
+  Indices wall;
+  std::vector<Eigen::Vector2d> wall2;
+  for (Index i = 0; i < n; ++i) {
+    if (q(2, i) < part.big_notch_floor_z_mm + 1.0 || q(2, i) > -1.0) continue;
+    const Eigen::Vector2d d(q(0, i) - rough.centre.x(),
+                            q(1, i) - rough.centre.y());
+    const double r = d.norm();
+    if (r < half_notch - 2 || r > part.facet_final_distance_mm - 2) continue;
+    wall.push_back(i);
+    wall2.push_back(d);
+  }
+  if (wall.size() < 20)
+    NoPiece(source, "the big-notch flanks (datum for X) are missing");
+  Eigen::Vector2d flank_normal;
+  {
+    // The direction across the notch: the one for which most wall points
+    // sit 53 mm either side of the rough centre (a 1-D Hough search over
+    // 0.25 deg steps on at most 4000 of the points, then the best of its
+    // neighbours within 0.05 deg).
+    const size_t step = std::max<size_t>(1, wall2.size() / 4000);
+    auto count_at = [&](double theta) {
+      const Eigen::Vector2d e(std::cos(theta), std::sin(theta));
+      int count = 0;
+      for (size_t j = 0; j < wall2.size(); j += step)
+        count += std::abs(std::abs(wall2[j].dot(e)) - half_notch) < 0.5;
+      return count;
+    };
+    int best_count = -1;
+    double best_theta = 0;
+    for (int k = 0; k < 720; ++k) {
+      const double theta = k * 0.25 * kDeg;
+      const int c = count_at(theta);
+      if (c > best_count) {
+        best_count = c;
+        best_theta = theta;
+      }
+    }
+    for (int k = -5; k <= 5; ++k) {
+      const double theta = best_theta + k * 0.05 * kDeg;
+      const int c = count_at(theta);
+      if (c > best_count) {
+        best_count = c;
+        best_theta = theta;
+      }
+    }
+    flank_normal = Eigen::Vector2d(std::cos(best_theta), std::sin(best_theta));
+    if (best_count * static_cast<int>(step) < 20)
+      NoPiece(source, "no pair of parallel flanks 2 x 53 mm apart");
+  }
+  Eigen::Vector3d y_dir;
+  {
+    Eigen::Vector3d fn[2];
+    for (int side = 0; side < 2; ++side) {
+      const double sign = side == 0 ? 1.0 : -1.0;
+      const Eigen::Vector3d hint(sign * flank_normal.x(),
+                                 sign * flank_normal.y(), 0);
+      // The PCA direction is only rough (uneven coverage along the flanks
+      // tilts it): take a wide band, fit, then narrow the band around the
+      // fitted plane and refit.
+      Indices idx;
+      for (size_t j = 0; j < wall.size(); ++j) {
+        if (std::abs(wall2[j].dot(flank_normal) - sign * half_notch) < 1.0)
+          idx.push_back(wall[j]);
+      }
+      fit::PlaneFit pl = fit::FitPlaneTrimmed(q, idx, hint,
+                                              Eigen::Vector3d::UnitZ(),
+                                              Rejection(o, 0.05))
+                             .plane;
+      for (double band : {0.5, 0.1}) {
+        if (!Usable(pl)) break;
+        idx.clear();
+        for (Index i : wall) {
+          if (std::abs((q.col(i) - pl.point).dot(pl.normal)) < band)
+            idx.push_back(i);
+        }
+        pl = fit::FitPlaneTrimmed(q, idx, pl.normal, Eigen::Vector3d::UnitZ(),
+                                  Rejection(o, o.stray_floor_mm))
+                 .plane;
+      }
+      if (!Usable(pl) || pl.summary.points < o.min_points)
+        NoPiece(source, "a big-notch flank has too few points");
+      out.alignment.flank_points[side] = pl.summary.points;
+      fn[side] = pl.normal;  // outward from the notch centre
+    }
+    y_dir = fn[0] - fn[1];
+    y_dir.z() = 0;  // in the top face plane
+    y_dir.normalize();
+  }
+  Eigen::Vector3d x_dir = y_dir.cross(Eigen::Vector3d::UnitZ());
+  // Frame rotation (temporary frame -> W up to the 180 deg flip).
+  Eigen::Matrix3d rz;
+  rz.row(0) = x_dir.transpose();
+  rz.row(1) = y_dir.transpose();
+  rz.row(2) = Eigen::Vector3d::UnitZ().transpose();
+
+  // 4. Origin: least-squares circle of the 199 cylinder between z -16..-14.
+  Eigen::Vector2d origin2;
+  Eigen::Matrix2d origin_cov;  // mm^2, q frame
+  {
+    std::vector<Eigen::Vector2d> pts;
+    for (Index i = 0; i < n; ++i) {
+      if (q(2, i) < part.datum_circle_z_min_mm + 0.1 ||
+          q(2, i) > part.datum_circle_z_max_mm - 0.1)
+        continue;
+      const Eigen::Vector2d d(q(0, i), q(1, i));
+      if (std::abs((d - rough.centre).norm() - r_cyl) < 0.5) pts.push_back(d);
+    }
+    const fit::CircleFit2D c =
+        CircleTrimmed(pts, o.stray_sigma, o.stray_floor_mm);
+    if (!Usable(c) || c.summary.points < o.min_points ||
+        std::abs(c.radius_mm - r_cyl) >= 0.5) {
+      char why[400];
+      std::snprintf(
+          why, sizeof why,
+          "the datum circle %s (the %g mm cylinder between z %g and %g mm) "
+          "is missing: %zu points near it, %d needed; the origin of W "
+          "cannot be determined",
+          DatumCylinderId(part).c_str(), 2 * r_cyl,
+          part.datum_circle_z_min_mm, part.datum_circle_z_max_mm, pts.size(),
+          o.min_points);
+      Refuse(source, why);
+    }
+    origin2 = c.centre;
+    origin_cov = c.summary.covariance.topLeftCorner<2, 2>();
+    out.alignment.circle_points = c.summary.points;
+    out.alignment.circle_diameter_mm = 2 * c.radius_mm;
+    out.alignment.circle_rms_mm = c.summary.rms_mm;
+  }
+
+  // 5. The mark decides the 180 deg ambiguity and the handedness: counted
+  // where the piece has it (phi, phi + 180 deg) and where a mirror image
+  // has it (-phi, 180 deg - phi).
+  {
+    const double phi = part.mark_phi_deg * kDeg;
+    const double candidates[4] = {phi, phi + M_PI, -phi, M_PI - phi};
+    int count[4] = {0, 0, 0, 0};
+    for (Index i = 0; i < n; ++i) {
+      const double z = q(2, i);
+      if (z > -0.02 || z < -part.mark_depth_mm - 0.05) continue;
+      const Eigen::Vector3d d =
+          rz * Eigen::Vector3d(q(0, i) - origin2.x(), q(1, i) - origin2.y(), 0);
+      for (int k = 0; k < 4; ++k) {
+        const double a = candidates[k];
+        const double along = d.x() * std::cos(a) + d.y() * std::sin(a);
+        const double across = -d.x() * std::sin(a) + d.y() * std::cos(a);
+        if (along > part.mark_r_start_mm - 1 &&
+            along < part.mark_r_end_mm + 1 &&
+            std::abs(across) < part.mark_width_mm) {
+          ++count[k];
+        }
+      }
+    }
+    const int proper = std::max(count[0], count[1]);
+    const int mirrored = std::max(count[2], count[3]);
+    out.alignment.mark_points = proper;
+    out.alignment.mark_points_opposite = std::min(count[0], count[1]);
+    // With the mark on a symmetry axis of the flanks (phi = 0 or 90 deg)
+    // the mirror positions coincide with the proper ones: no test then.
+    const bool distinct =
+        std::abs(std::remainder(2 * phi, 2 * M_PI)) > 1e-6 &&
+        std::abs(std::remainder(2 * phi - M_PI, 2 * M_PI)) > 1e-6;
+    out.alignment.mark_found = proper >= 3 && count[0] != count[1] &&
+                               (!distinct || proper > mirrored);
+    if (!out.alignment.mark_found) {
+      char why[400];
+      if (distinct && mirrored >= 3 && mirrored > proper) {
+        std::snprintf(why, sizeof why,
+                      "the cloud is a mirror image of the piece: the engraved "
+                      "mark (%d points) is at %g deg where the piece has it "
+                      "at %g deg; a mirrored cloud (e.g. x -> -x) reverses "
+                      "the cycles",
+                      mirrored, -part.mark_phi_deg, part.mark_phi_deg);
+      } else {
+        std::snprintf(why, sizeof why,
+                      "the engraved mark (datum for +X: %g deg, r %g..%g mm) "
+                      "is missing (%d and %d points at either end): which "
+                      "end is X1 cannot be determined",
+                      part.mark_phi_deg, part.mark_r_start_mm,
+                      part.mark_r_end_mm, count[0], count[1]);
+      }
+      Refuse(source, why);
+    }
+    if (count[1] > count[0]) {
+      rz.row(0) *= -1;
+      rz.row(1) *= -1;
+    }
+  }
+  out.alignment.rotation = rz * f_rot;
+  const Eigen::Vector3d origin_q(origin2.x(), origin2.y(), 0.0);
+  out.alignment.translation = -rz * (f_rot * f_origin + origin_q);
+  const Eigen::Matrix2d rz2 = rz.topLeftCorner<2, 2>();
+  out.origin_covariance_mm2 = rz2 * origin_cov * rz2.transpose();
+  return out;
+}
+
+}  // namespace ttp::inspect
