@@ -289,6 +289,10 @@ void ReportStage(RunContext& ctx) {
   inputs.grade = &ctx.grade;
   inputs.log = &ctx.log;
   inputs.diagnosis = &ctx.diagnosis;
+  const diagnosis::DiagnosisExplanation explained = diagnosis::ExplainDiagnosis(
+      ctx.diagnosis.run, ctx.diagnosis.report, ctx.config.part,
+      options.diagnosis.evidence_threshold);
+  inputs.explanation = &explained;
   report::WriteReport(ctx.config, inputs, ctx.out_dir / "report.html",
                       ctx.out_dir / "report.json", options);
   ctx.written.emplace_back(ctx.out_dir / "report.html",
