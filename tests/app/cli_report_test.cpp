@@ -292,8 +292,9 @@ TEST(CliReportCompare, SpansOfTwoPieces) {
   // The uncompensated piece with its hidden workpiece expansion spreads
   // more in E_TTP over the 8 hours than the compensated one.
   for (const json& s : data["spans"]) {
-    if (s["figure"] == "E_TTP" && s["period_h"] == 8.0)
+    if (s["figure"] == "E_TTP" && s["period_h"] == 8.0) {
       EXPECT_GT(s["a_um"].get<double>(), s["b_um"].get<double>());
+    }
   }
   EXPECT_NE(ReadTextFile(dir / "compare.html").find("thesis table 7.2"),
             std::string::npos);
