@@ -83,17 +83,19 @@ void Register(CLI::App& root, GlobalOptions& global) {
       "inspect", "measured piece (any format) -> E_X..E_TTP with U (k=2)");
   cmd->add_option("measurement", args->measurement, kMeasurementHelp)
       ->required();
-  cmd->add_option("--json", args->json,
-                  "write the figures, facets and diagnostics as JSON");
+  AddJsonOption(cmd, &args->json,
+                "the figures, facets and diagnostics as JSON");
   AddMeasurementOptions(cmd, args.get());
   cmd->callback([&global, args, cmd] {
     args->units_given = cmd->get_option("--units")->count() > 0;
     const Config config = global.LoadConfig();
     const inspect::Measurement m =
         inspect::LoadMeasurement(config, args->measurement, ToOptions(*args));
+    // With --json - stdout is pure JSON: the table goes to stderr.
+    std::ostream& text = JsonToStdout(args->json) ? std::cerr : std::cout;
     if (!global.quiet) {
-      std::cout << "(" << inspect::MeasurementKindName(m.kind) << ") "
-                << inspect::InspectionTable(m.result);
+      text << "(" << inspect::MeasurementKindName(m.kind) << ") "
+           << inspect::InspectionTable(m.result);
     }
     if (!args->json.empty())
       WriteJson(args->json, inspect::MeasurementToJson(m));
@@ -111,8 +113,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   grade->add_option("measurement", gargs->measurement, kMeasurementHelp)
       ->required();
   AddLimitOptions(grade, limits.get(), figures.get());
-  grade->add_option("--json", *json_out, "write the verdict as JSON");
-  grade->add_flag("-v,--verbose", *verbose, "print every graded value");
+  AddJsonOption(grade, json_out.get(), "the verdict as JSON");
+  AddVerboseFlag(grade, verbose.get());
   AddMeasurementOptions(grade, gargs.get());
   grade->callback([&global, limits, figures, gargs, json_out, verbose, grade] {
     limits->figures = inspect::ParseFigureList(*figures);
@@ -122,7 +124,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     const inspect::Measurement m =
         inspect::LoadMeasurement(config, gargs->measurement, ToOptions(*gargs));
     const inspect::GradeResult r = inspect::GradeMeasurement(m, *limits);
-    if (!global.quiet) std::cout << inspect::GradeTable(r, *verbose);
+    std::ostream& text = JsonToStdout(*json_out) ? std::cerr : std::cout;
+    if (!global.quiet) text << inspect::GradeTable(r, *verbose);
     if (!json_out->empty()) WriteJson(*json_out, inspect::GradeToJson(r));
     if (r.overall != inspect::Verdict::kPass)
       global.exit_code = kExitJudgedFailure;

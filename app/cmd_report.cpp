@@ -127,6 +127,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
     inputs.grade = &grade;
     std::optional<thermal::TalcLog> log;
     diagnosis::PreparedDiagnosis diagnosed;
+    diagnosis::DiagnosisExplanation explained;
     if (!log_path->empty()) {
       log = thermal::ReadTalcLog(*log_path);
       // As `ttp diagnose`: a log that did not come from this program is an
@@ -139,8 +140,12 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
           diagnosis::PrepareRun(*log, config, piece, options->diagnosis);
       diagnosed.report = diagnosis::DiagnosePrepared(
           diagnosed.run, *log, config.part, piece, options->diagnosis);
+      explained = diagnosis::ExplainDiagnosis(
+          diagnosed.run, diagnosed.report, config.part,
+          options->diagnosis.evidence_threshold);
       inputs.log = &*log;
       inputs.diagnosis = &diagnosed;
+      inputs.explanation = &explained;
     }
     const nlohmann::json data =
         report::WriteReport(config, inputs, *out, *json_out, *options);

@@ -248,7 +248,8 @@ void InspectStage(RunContext& ctx) {
                     "verdict on the twin's piece (as ttp grade)");
   // The verdict is what a reader looks for first.
   ctx.summary.insert(ctx.summary.begin(),
-                     "verdict: " + ctx.grade.Summary().substr(
+                     "verdict on the twin's piece (as ttp grade): " +
+                         ctx.grade.Summary().substr(
                                        0, ctx.grade.Summary().find('\n')));
   ctx.summary.push_back(
       fmt::format("inspection: {} points, {} on features, {} rejected as stray",
@@ -289,6 +290,10 @@ void ReportStage(RunContext& ctx) {
   inputs.grade = &ctx.grade;
   inputs.log = &ctx.log;
   inputs.diagnosis = &ctx.diagnosis;
+  const diagnosis::DiagnosisExplanation explained = diagnosis::ExplainDiagnosis(
+      ctx.diagnosis.run, ctx.diagnosis.report, ctx.config.part,
+      options.diagnosis.evidence_threshold);
+  inputs.explanation = &explained;
   report::WriteReport(ctx.config, inputs, ctx.out_dir / "report.html",
                       ctx.out_dir / "report.json", options);
   ctx.written.emplace_back(ctx.out_dir / "report.html",
@@ -386,12 +391,13 @@ void Register(CLI::App& root, GlobalOptions& global) {
     }
     if (ctx.judged_failure) global.exit_code = kExitJudgedFailure;
     if (global.quiet) return;
+    // What was decided first (the verdict leads), then where it is.
+    for (const auto& line : ctx.summary) std::cout << line << "\n";
     std::cout << fmt::format(
         "wrote {} files into {}:\n", ctx.written.size(),
         fs::absolute(ctx.out_dir).lexically_normal().string());
     for (const auto& [path, what] : ctx.written)
       std::cout << fmt::format("  {:<40} {}\n", path.string(), what);
-    for (const auto& line : ctx.summary) std::cout << line << "\n";
   });
 }
 

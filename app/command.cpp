@@ -2,8 +2,12 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdlib>
+#include <cctype>
 #include <iostream>
 #include <map>
+#include <set>
 
 #include "ttp/geometry/file_io.h"
 
@@ -56,6 +60,160 @@ void AddLimitOptions(CLI::App* cmd, inspect::GradeLimits* limits,
                   "figures graded: thesis (E_X,E_Y,E_Z,E_B,E_TTP), all (adds "
                   "E_C) or a comma-separated list")
       ->capture_default_str();
+}
+
+CLI::Option* AddOutputOption(CLI::App* cmd, std::string* path,
+                             const std::string& what, bool required) {
+  CLI::Option* o = cmd->add_option("-o,--output", *path, what);
+  if (required) o->required();
+  return o;
+}
+
+CLI::Option* AddJsonOption(CLI::App* cmd, std::string* path,
+                           const std::string& what) {
+  return cmd->add_option("--json", *path,
+                         what + " ('-': pure JSON on stdout)");
+}
+
+CLI::Option* AddVerboseFlag(CLI::App* cmd, bool* verbose) {
+  return cmd->add_flag("-v,--verbose", *verbose,
+                       "details after the summary");
+}
+
+namespace {
+
+// Options whose values are names (enums): compared case-insensitively.
+const std::set<std::string>& EnumOptions() {
+  static const std::set<std::string> names = {
+      "--dialect", "--effect",     "--compensation", "--robust",
+      "--units",   "--instrument", "--probe-frame",  "--measurement",
+      "--cause"};
+  return names;
+}
+
+// Options that hold counts or seeds: a negative value is an error, not a
+// wrap-around to 2^64 - 1.
+const std::set<std::string>& NonNegativeOptions() {
+  static const std::set<std::string> names = {"--seed", "--points",
+                                              "--cycles", "--runs"};
+  return names;
+}
+
+void ApplyTo(CLI::App* app) {
+  for (CLI::Option* o : app->get_options()) {
+    std::string long_name;
+    for (const std::string& n : o->get_lnames()) long_name = "--" + n;
+    if (EnumOptions().count(long_name)) {
+      o->transform(
+          [](std::string v) {
+            std::transform(v.begin(), v.end(), v.begin(), [](unsigned char c) {
+              return static_cast<char>(std::tolower(c));
+            });
+            return v;
+          },
+          "", "case-insensitive");
+    }
+    if (NonNegativeOptions().count(long_name)) {
+      o->check(CLI::Validator(
+          [](std::string& v) {
+            return !v.empty() && v[0] == '-'
+                       ? std::string("must be 0 or more, not ") + v
+                       : std::string();
+          },
+          "", "non-negative"));
+    }
+  }
+  for (CLI::App* sub : app->get_subcommands({})) ApplyTo(sub);
+}
+
+std::vector<std::string> OptionNames(const CLI::App& app) {
+  std::vector<std::string> out;
+  for (const CLI::Option* o : app.get_options()) {
+    for (const std::string& n : o->get_lnames()) out.push_back("--" + n);
+    for (const std::string& n : o->get_snames()) out.push_back("-" + n);
+  }
+  return out;
+}
+
+}  // namespace
+
+void ApplyConventions(CLI::App& root) { ApplyTo(&root); }
+
+int EditDistance(const std::string& a, const std::string& b) {
+  // Optimal string alignment: Levenshtein plus the swap of two neighbours,
+  // the commonest typo ("grdae").
+  const size_t n = a.size(), m = b.size();
+  std::vector<std::vector<int>> d(n + 1, std::vector<int>(m + 1));
+  for (size_t i = 0; i <= n; ++i) d[i][0] = static_cast<int>(i);
+  for (size_t j = 0; j <= m; ++j) d[0][j] = static_cast<int>(j);
+  for (size_t i = 1; i <= n; ++i) {
+    for (size_t j = 1; j <= m; ++j) {
+      const int cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1,
+                          d[i - 1][j - 1] + cost});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  }
+  return d[n][m];
+}
+
+std::string ClosestMatch(const std::string& word,
+                         const std::vector<std::string>& candidates) {
+  std::string best;
+  int best_d = std::max(1, static_cast<int>(word.size()) / 3) + 1;
+  for (const std::string& c : candidates) {
+    const int d = EditDistance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  return best;
+}
+
+std::string DidYouMean(const CLI::App& root, int argc,
+                       const char* const* argv) {
+  // The subcommand chain named on the command line, then the first word
+  // that is neither a known subcommand nor a known option.
+  const CLI::App* app = &root;
+  std::vector<std::string> known = OptionNames(root);
+  for (int i = 1; i < argc; ++i) {
+    std::string word = argv[i];
+    if (word == "--") break;
+    const std::string name = word.substr(0, word.find('='));
+    char* end = nullptr;
+    std::strtod(word.c_str(), &end);
+    const bool number = !word.empty() && end != nullptr && *end == '\0';
+    if (name.rfind("-", 0) == 0 && !number) {
+      std::vector<std::string> here = OptionNames(*app);
+      here.insert(here.end(), known.begin(), known.end());
+      if (std::find(here.begin(), here.end(), name) != here.end()) continue;
+      const std::string match = ClosestMatch(name, here);
+      if (!match.empty())
+        return "unknown option '" + name + "'; did you mean '" + match + "'?";
+      continue;
+    }
+    std::vector<std::string> subs;
+    const CLI::App* next = nullptr;
+    for (const CLI::App* sub : app->get_subcommands({})) {
+      subs.push_back(sub->get_name());
+      if (sub->get_name() == word) next = sub;
+    }
+    if (next != nullptr) {
+      known = OptionNames(*app);
+      app = next;
+      continue;
+    }
+    // A positional argument of the current command, or a misspelt
+    // subcommand when the command has subcommands and takes none.
+    if (!subs.empty() && app->get_require_subcommand_min() > 0) {
+      const std::string match = ClosestMatch(word, subs);
+      if (!match.empty())
+        return "unknown command '" + word + "'; did you mean '" + match + "'?";
+    }
+  }
+  return "";
 }
 
 bool StdoutIsTerminal() { return ::isatty(STDOUT_FILENO) != 0; }

@@ -9,6 +9,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "ttp/geometry/config.h"
 #include "ttp/inspect/grade.h"
@@ -45,6 +46,37 @@ void WriteText(const std::string& path, const std::string& text);
 // inspect::ParseFigureList into limits->figures).
 void AddLimitOptions(CLI::App* cmd, inspect::GradeLimits* limits,
                      std::string* figures);
+
+// ---- Shared conventions of every subcommand (one option vocabulary) ----
+// -o/--output: the command's main output (a file or a folder).
+CLI::Option* AddOutputOption(CLI::App* cmd, std::string* path,
+                             const std::string& what, bool required = false);
+// --json FILE: the command's result as JSON; "-" writes pure JSON to stdout
+// (the command then sends its table to stderr or leaves it out: see
+// JsonToStdout).
+CLI::Option* AddJsonOption(CLI::App* cmd, std::string* path,
+                           const std::string& what = "the result as JSON");
+inline bool JsonToStdout(const std::string& json_path) {
+  return json_path == "-";
+}
+// -v/--verbose: details after the summary.
+CLI::Option* AddVerboseFlag(CLI::App* cmd, bool* verbose);
+
+// Applied by main() to the whole command tree after registration: values of
+// enum-like options are case-insensitive (--dialect FANUC), counts and
+// seeds must be non-negative (no wrap-around of -1), defaults are shown in
+// the help.
+void ApplyConventions(CLI::App& root);
+
+// Edit distance: insert, delete, substitute, swap two neighbours (1 each).
+int EditDistance(const std::string& a, const std::string& b);
+// The closest of `candidates` to `word` within a distance that still reads
+// as a typo (about a third of the word); empty when none is.
+std::string ClosestMatch(const std::string& word,
+                         const std::vector<std::string>& candidates);
+// "did you mean" for a command line CLI11 refused: an unknown subcommand
+// or option of the chosen subcommand. Empty when it has no suggestion.
+std::string DidYouMean(const CLI::App& root, int argc, const char* const* argv);
 
 // True when stdout is a terminal (progress displays only then).
 bool StdoutIsTerminal();

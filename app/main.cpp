@@ -10,15 +10,23 @@ int main(int argc, char** argv) {
       "ttp - thermal test pieces: G-code, inspection, TALC log checks and "
       "diagnosis.\nExit codes: 0 ok, 1 judged failure, 2 bad input."};
   root.require_subcommand(1);
+  // Global options are also accepted after the subcommand
+  // (`ttp grade --config machine.toml piece.ply`), and defaults show in
+  // every --help.
+  root.fallthrough();
+  root.option_defaults()->always_capture_default();
   GlobalOptions global;
   root.add_option("--config", global.config_path,
                   "part/machine/process description (TOML or JSON)")
       ->check(CLI::ExistingFile);
   root.add_flag("-q,--quiet", global.quiet, "no progress or info output");
   RegisterAll(root, global);
+  ApplyConventions(root);
   try {
     root.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    const std::string hint = DidYouMean(root, argc, argv);
+    if (!hint.empty()) std::cerr << "ttp: " << hint << "\n";
     const int rc = root.exit(e);
     return rc == 0 ? kExitOk : kExitBadInput;
   } catch (const ttp::InputError& e) {

@@ -9,6 +9,7 @@ packages=(
   libtomlplusplus-dev libgtest-dev
   linuxcnc-uspace
   chromium chromium-driver
+  python3-jsonschema
 )
 missing=()
 for p in "${packages[@]}"; do

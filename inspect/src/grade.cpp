@@ -266,6 +266,58 @@ GradeResult GradeMeasurement(const Measurement& m, const GradeLimits& limits) {
                       limits);
 }
 
+GradeResult GradeFigures(const nlohmann::json& doc, const GradeLimits& limits,
+                         const std::string& source) {
+  if (!doc.is_object() || !doc.contains("figures") ||
+      !doc["figures"].is_array()) {
+    throw InputError(source, 0, "figures",
+                     "missing: not an inspection result (ttp inspect --json)");
+  }
+  Capability capability;
+  if (doc.contains("kind") && doc["kind"] == "dial")
+    capability = CapabilityOf(MeasurementKind::kDial);
+  std::vector<CycleFigures> figures;
+  std::vector<CycleExtras> extras;
+  for (size_t i = 0; i < doc["figures"].size(); ++i) {
+    const nlohmann::json& f = doc["figures"][i];
+    const std::string where = "figures[" + std::to_string(i) + "]";
+    if (!f.is_object() || !f.contains("cycle") ||
+        !f["cycle"].is_number_integer())
+      throw InputError(source, 0, where + ".cycle", "missing or not an integer");
+    const nlohmann::json u =
+        f.contains("U") && f["U"].is_object() ? f["U"] : nlohmann::json::object();
+    // Value (um or um/m) and U (k = 2) -> CycleFigures' mm/rad and k = 1.
+    auto get = [&](const char* key, double scale, double* v, double* sd) {
+      if (!f.contains(key)) throw InputError(source, 0, where + "." + key, "missing");
+      const nlohmann::json& x = f[key];
+      if (!x.is_null() && !x.is_number())
+        throw InputError(source, 0, where + "." + key, "not a number");
+      *v = x.is_number() ? x.get<double>() * scale : kNaN;
+      const bool has_u = u.contains(key) && u[key].is_number();
+      *sd = has_u ? u[key].get<double>() * scale / 2 : (x.is_number() ? 0.0 : kNaN);
+    };
+    CycleFigures cf;
+    cf.cycle = f["cycle"].get<int>();
+    get("E_X", 1e-3, &cf.e_x_mm, &cf.u_x_mm);
+    get("E_Y", 1e-3, &cf.e_y_mm, &cf.u_y_mm);
+    get("E_Z", 1e-3, &cf.e_z_mm, &cf.u_z_mm);
+    get("E_B", 1e-6, &cf.e_b_rad, &cf.u_b_rad);
+    get("E_TTP", 1e-3, &cf.e_ttp_mm, &cf.u_ttp_mm);
+    figures.push_back(cf);
+    CycleExtras ex;
+    ex.cycle = cf.cycle;
+    ex.e_c_rad = ex.u_c_rad = kNaN;
+    if (f.contains("E_C")) get("E_C", 1e-6, &ex.e_c_rad, &ex.u_c_rad);
+    extras.push_back(ex);
+  }
+  if (figures.empty()) throw InputError(source, 0, "figures", "empty");
+  return GradeFigures(figures, extras, capability, limits);
+}
+
+nlohmann::json GradeToJson(const GradeResult& result, const GradeLimits&) {
+  return GradeToJson(result);
+}
+
 std::vector<Figure> GradeResult::DecidedOn() const {
   std::vector<Figure> out;
   for (const FigureGrade& fg : figures)

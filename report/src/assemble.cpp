@@ -9,7 +9,7 @@
 #include <cmath>
 
 #include "report_schema.h"
-#include "ttp/diagnosis/effects.h"
+#include "ttp/diagnosis/explain.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/figures.h"
@@ -79,87 +79,21 @@ json SimulatedFigures(const std::vector<CycleFigures>& figures) {
   return list;
 }
 
-std::string ParamText(const diagnosis::ParamEstimate& p) {
-  return fmt::format("{} = {:.3g} +- {:.2g}", p.name, p.value, p.uncertainty);
-}
-
-// What a person reads first: the cause and its evidence against the others.
-std::string Summary(const diagnosis::DiagnosisReport& d, double threshold) {
-  std::vector<const diagnosis::CandidateResult*> ranked;
-  for (const auto& c : d.candidates) {
-    if (c.cause != diagnosis::Cause::kNone) ranked.push_back(&c);
-  }
-  std::sort(ranked.begin(), ranked.end(), [](const auto* a, const auto* b) {
-    return a->delta_bic < b->delta_bic;
-  });
-  if (d.cause == "none") {
-    std::string s = fmt::format(
-        "No cause beyond noise: no extension of the model beats the nominal "
-        "model by the evidence threshold (delta BIC < -{:g}).",
-        threshold);
-    if (!ranked.empty()) {
-      s += fmt::format(" Best candidate: {} (delta BIC {:.1f}).",
-                       diagnosis::CauseName(ranked[0]->cause),
-                       ranked[0]->delta_bic);
-    }
-    return s;
-  }
-  std::string s;
-  for (const auto* c : ranked) {
-    if (diagnosis::CauseName(c->cause) != d.cause) continue;
-    s = fmt::format(
-        "{}: its BIC is lower than the nominal model's by {:.1f} (delta "
-        "BIC {:+.1f}; a cause is named below -{:g})",
-        d.cause, -c->delta_bic, c->delta_bic, threshold);
-  }
-  for (const auto* c : ranked) {
-    if (diagnosis::CauseName(c->cause) == d.cause) continue;
-    s += fmt::format("; the next best candidate, {}, has delta BIC {:+.1f}",
-                     diagnosis::CauseName(c->cause), c->delta_bic);
-    break;
-  }
-  s += ". Fitted: ";
-  for (size_t i = 0; i < d.params.size(); ++i) {
-    s += (i ? ", " : "") + ParamText(d.params[i]);
-  }
-  s += fmt::format(
-      ". Residual RMS of the figures {:.2f} um -> {:.2f} um; on held-out "
-      "cycles the extension removes {:.0f} % of the residual.",
-      d.baseline_rms_um, d.extended_rms_um, d.gain_pct);
-  return s;
-}
-
-// Residuals of the figures per cycle before and after the chosen effect.
-json Residuals(const diagnosis::PreparedRun& run,
-               const diagnosis::DiagnosisReport& d, const PartSpec& part) {
-  const diagnosis::Observations& obs = run.observations;
-  std::vector<double> effect(obs.size(), 0.0);
-  for (const auto& c : d.candidates) {
-    if (diagnosis::CauseName(c.cause) == d.cause &&
-        c.cause != diagnosis::Cause::kNone && !c.params.empty()) {
-      effect = diagnosis::EffectOnObservations(c.cause, c.params, obs,
-                                               run.context, part);
-    }
-  }
-  const char* keys[4] = {"E_X", "E_Y", "E_Z", "E_TTP"};
-  json out = {{"cycles", json::array()},
+// The residual table as the report data holds it (null where none).
+json ResidualsJson(const diagnosis::ResidualTable& t) {
+  json out = {{"cycles", t.cycles},
               {"before", json::object()},
               {"after", json::object()},
               {"sigma", json::object()}};
-  for (int c = 1; c <= part.cycles(); ++c) out["cycles"].push_back(c);
-  for (const char* part_name : {"before", "after", "sigma"}) {
-    for (const char* key : keys) {
-      out[part_name][key] = json::array();
-      for (int c = 1; c <= part.cycles(); ++c)
-        out[part_name][key].push_back(nullptr);
+  for (size_t g = 0; g < diagnosis::ResidualTable::kFigures.size(); ++g) {
+    const char* key = diagnosis::ResidualTable::kFigures[g];
+    for (auto [name, column] :
+         {std::pair{"before", &t.before_um[g]}, std::pair{"after", &t.after_um[g]},
+          std::pair{"sigma", &t.sigma_um[g]}}) {
+      json values = json::array();
+      for (double v : *column) values.push_back(NumberOrNull(v));
+      out[name][key] = values;
     }
-  }
-  for (size_t i = 0; i < obs.size(); ++i) {
-    const int g = obs.group[i], c = obs.cycle[i];
-    if (g < 0 || g > 3 || c < 1 || c > part.cycles()) continue;
-    out["before"][keys[g]][c - 1] = obs.value[i];
-    out["after"][keys[g]][c - 1] = obs.value[i] - effect[i];
-    out["sigma"][keys[g]][c - 1] = obs.sigma[i];
   }
   return out;
 }
@@ -172,6 +106,9 @@ json AssembleReportData(const Config& config, const ReportInputs& in,
     throw InputError("report", 0, "", "a report needs a measurement and its grade");
   if (in.diagnosis != nullptr && in.log == nullptr)
     throw InputError("report", 0, "", "a diagnosis needs its TALC log");
+  if ((in.diagnosis == nullptr) != (in.explanation == nullptr))
+    throw InputError("report", 0, "",
+                     "a diagnosis and its explanation go together");
   const PartSpec& part = config.part;
   const inspect::InspectionResult& measured = in.measurement->result;
   const inspect::GradeLimits& limits = in.grade->limits;
@@ -236,9 +173,9 @@ json AssembleReportData(const Config& config, const ReportInputs& in,
   if (in.diagnosis != nullptr) {
     const diagnosis::DiagnosisReport& d = in.diagnosis->report;
     json diag = diagnosis::DiagnosisToJson(d);
-    diag["summary"] = Summary(d, options.diagnosis.evidence_threshold);
+    diag["summary"] = in.explanation->summary;
     diag["threshold"] = options.diagnosis.evidence_threshold;
-    diag["residuals"] = Residuals(in.diagnosis->run, d, part);
+    diag["residuals"] = ResidualsJson(in.explanation->residuals);
     data["diagnosis"] = diag;
   }
 

@@ -255,6 +255,25 @@ INSTANTIATE_TEST_SUITE_P(
       return name;
     });
 
+// `ttp run` grades its twin's piece as `ttp grade` does and its report
+// shows that grade; its summary leads with the verdict.
+TEST(CliVerdicts, RunAgreesWithGrade) {
+  const fs::path dir = OutDir() / "run";
+  const auto run = RunTtp("run --seed 4 -o " + Q(dir));
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 1) << run.output;
+  const auto g = RunTtp("grade " + Q(dir / "twin" / "piece.ply") + " --json " +
+                        Q(OutDir() / "run-grade.json"));
+  ASSERT_TRUE(g.exit_code == 0 || g.exit_code == 1) << g.output;
+  const json grade = json::parse(ReadTextFile(OutDir() / "run-grade.json"));
+  EXPECT_EQ(json::parse(ReadTextFile(dir / "grade.json")), grade);
+  EXPECT_EQ(json::parse(ReadTextFile(dir / "report.json"))["grade"], grade);
+  EXPECT_EQ(run.output.rfind("verdict on the twin's piece (as ttp grade): " +
+                                 grade["summary"].get<std::string>(),
+                             0),
+            0u)
+      << run.output;
+}
+
 // Thesis table 7.2 on the samples: run-a (compensation off) against run-b
 // (on).
 TEST(CliReportCompare, SpansOfTwoPieces) {
@@ -273,8 +292,9 @@ TEST(CliReportCompare, SpansOfTwoPieces) {
   // The uncompensated piece with its hidden workpiece expansion spreads
   // more in E_TTP over the 8 hours than the compensated one.
   for (const json& s : data["spans"]) {
-    if (s["figure"] == "E_TTP" && s["period_h"] == 8.0)
+    if (s["figure"] == "E_TTP" && s["period_h"] == 8.0) {
       EXPECT_GT(s["a_um"].get<double>(), s["b_um"].get<double>());
+    }
   }
   EXPECT_NE(ReadTextFile(dir / "compare.html").find("thesis table 7.2"),
             std::string::npos);

@@ -146,6 +146,19 @@ TEST(Grade, InstrumentWithoutAnglesDecidesOnTheRest) {
   EXPECT_EQ(part.overall, Verdict::kUndecidable);  // cycle 1's E_B missing
 }
 
+// An inspection JSON grades as the typed figures it holds.
+TEST(Grade, InspectionJsonGradesAsItsFigures) {
+  const std::vector<CycleFigures> f = {Cycle(1, 1.0, 4.8, -0.5, 2.0, 0.2, 1, 2)};
+  const nlohmann::json doc = {
+      {"kind", "cloud"},
+      {"figures", FiguresToJson(f)["figures"]}};
+  const GradeResult a = GradeFigures(doc, GradeLimits{}, "piece.json");
+  const GradeResult b = GradeFigures(f, {}, Capability{}, GradeLimits{});
+  EXPECT_EQ(GradeToJson(a), GradeToJson(b));
+  EXPECT_THROW(GradeFigures(nlohmann::json::object(), GradeLimits{}, "x.json"),
+               InputError);
+}
+
 TEST(Grade, LimitsValidateAndJsonHasOneTypePerKey) {
   GradeLimits limits;
   limits.linear_um = 0;

@@ -28,6 +28,7 @@ struct TwinFixture {
   inspect::GradeResult grade;
   // The diagnosis as its caller (`ttp report`) prepares it.
   diagnosis::PreparedDiagnosis diagnosed;
+  diagnosis::DiagnosisExplanation explained;
 
   TwinFixture() {
     diagnosis::TwinOptions o;
@@ -46,6 +47,8 @@ struct TwinFixture {
     diagnosed.run = diagnosis::PrepareRun(log, config, piece);
     diagnosed.report =
         diagnosis::DiagnosePrepared(diagnosed.run, log, config.part, piece);
+    explained = diagnosis::ExplainDiagnosis(diagnosed.run, diagnosed.report,
+                                            config.part, 10.0);
   }
   ReportInputs Inputs() const {
     ReportInputs in;
@@ -53,6 +56,7 @@ struct TwinFixture {
     in.grade = &grade;
     in.log = &log;
     in.diagnosis = &diagnosed;
+    in.explanation = &explained;
     return in;
   }
 };
@@ -149,6 +153,7 @@ TEST(AssembleReportData, WithoutALog) {
   ReportInputs in = Twin().Inputs();
   in.log = nullptr;
   in.diagnosis = nullptr;
+  in.explanation = nullptr;
   const json data = AssembleReportData(Twin().config, in);
   EXPECT_FALSE(data.contains("log"));
   EXPECT_FALSE(data.contains("diagnosis"));
@@ -207,8 +212,11 @@ TEST(AssembleReportData, ResidualsAreMeasuredMinusSimulated) {
 TEST(AssembleReportData, RendersTheCallersDiagnosis) {
   diagnosis::PreparedDiagnosis given = Twin().diagnosed;
   given.report.cause = "none";
+  const diagnosis::DiagnosisExplanation explained = diagnosis::ExplainDiagnosis(
+      given.run, given.report, Twin().config.part, 10.0);
   ReportInputs in = Twin().Inputs();
   in.diagnosis = &given;
+  in.explanation = &explained;
   const json none = AssembleReportData(Twin().config, in);
   EXPECT_EQ(none["diagnosis"]["cause"], "none");
   // With no cause, "after" is "before".

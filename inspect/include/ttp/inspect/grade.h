@@ -112,8 +112,16 @@ GradeResult GradeFigures(const std::vector<CycleFigures>& figures,
 // The measurement's figures with the capability of its kind.
 GradeResult GradeMeasurement(const Measurement& m, const GradeLimits& limits);
 
+// The same on an inspection JSON document (`ttp inspect --json`: its
+// "figures" with U, and "kind" for the capability). Throws
+// InputError(source, 0, field, problem) on a malformed document.
+GradeResult GradeFigures(const nlohmann::json& inspection,
+                         const GradeLimits& limits, const std::string& source);
+
 // schemas/grade.schema.json
 nlohmann::json GradeToJson(const GradeResult& result);
+// Same; `limits` must be the result's own (kept for callers that pass it).
+nlohmann::json GradeToJson(const GradeResult& result, const GradeLimits& limits);
 // Summary first; the per-value table with verbose.
 std::string GradeTable(const GradeResult& result, bool verbose = true);
 

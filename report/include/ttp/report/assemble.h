@@ -11,6 +11,7 @@
 #include <string>
 
 #include "ttp/diagnosis/diagnose.h"
+#include "ttp/diagnosis/explain.h"
 #include "ttp/geometry/config.h"
 #include "ttp/inspect/grade.h"
 #include "ttp/inspect/inspect.h"
@@ -39,6 +40,9 @@ struct ReportInputs {
   // Optional (needs the log): the diagnosis with the run it was prepared on
   // (simulation and residuals).
   const diagnosis::PreparedDiagnosis* diagnosis = nullptr;
+  // With the diagnosis: its summary and residual table
+  // (diagnosis::ExplainDiagnosis).
+  const diagnosis::DiagnosisExplanation* explanation = nullptr;
 };
 
 // The report data (docs/REPORT.md). Throws InputError when a required input

@@ -1,0 +1,100 @@
+#include "ttp/diagnosis/explain.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "ttp/diagnosis/effects.h"
+
+namespace ttp::diagnosis {
+namespace {
+
+std::string ParamText(const ParamEstimate& p) {
+  return fmt::format("{} = {:.3g} +- {:.2g}", p.name, p.value, p.uncertainty);
+}
+
+// The cause and its evidence against the others, best candidate first.
+std::string Summary(const DiagnosisReport& d, double threshold) {
+  std::vector<const CandidateResult*> ranked;
+  for (const auto& c : d.candidates) {
+    if (c.cause != Cause::kNone) ranked.push_back(&c);
+  }
+  std::sort(ranked.begin(), ranked.end(), [](const auto* a, const auto* b) {
+    return a->delta_bic < b->delta_bic;
+  });
+  if (d.cause == "none") {
+    std::string s = fmt::format(
+        "No cause beyond noise: no extension of the model beats the nominal "
+        "model by the evidence threshold (delta BIC < -{:g}).",
+        threshold);
+    if (!ranked.empty()) {
+      s += fmt::format(" Best candidate: {} (delta BIC {:.1f}).",
+                       CauseName(ranked[0]->cause), ranked[0]->delta_bic);
+    }
+    return s;
+  }
+  std::string s;
+  for (const auto* c : ranked) {
+    if (CauseName(c->cause) != d.cause) continue;
+    s = fmt::format(
+        "{}: its BIC is lower than the nominal model's by {:.1f} (delta "
+        "BIC {:+.1f}; a cause is named below -{:g})",
+        d.cause, -c->delta_bic, c->delta_bic, threshold);
+  }
+  for (const auto* c : ranked) {
+    if (CauseName(c->cause) == d.cause) continue;
+    s += fmt::format("; the next best candidate, {}, has delta BIC {:+.1f}",
+                     CauseName(c->cause), c->delta_bic);
+    break;
+  }
+  s += ". Fitted: ";
+  for (size_t i = 0; i < d.params.size(); ++i) {
+    s += (i ? ", " : "") + ParamText(d.params[i]);
+  }
+  s += fmt::format(
+      ". Residual RMS of the figures {:.2f} um -> {:.2f} um; on held-out "
+      "cycles the extension removes {:.0f} % of the residual.",
+      d.baseline_rms_um, d.extended_rms_um, d.gain_pct);
+  return s;
+}
+
+ResidualTable Residuals(const PreparedRun& run, const DiagnosisReport& d,
+                        const PartSpec& part) {
+  const Observations& obs = run.observations;
+  std::vector<double> effect(obs.size(), 0.0);
+  for (const auto& c : d.candidates) {
+    if (CauseName(c.cause) == d.cause && c.cause != Cause::kNone &&
+        !c.params.empty()) {
+      effect = EffectOnObservations(c.cause, c.params, obs, run.context, part);
+    }
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ResidualTable t;
+  for (int c = 1; c <= part.cycles(); ++c) t.cycles.push_back(c);
+  for (int g = 0; g < 4; ++g) {
+    t.before_um[g].assign(part.cycles(), nan);
+    t.after_um[g].assign(part.cycles(), nan);
+    t.sigma_um[g].assign(part.cycles(), nan);
+  }
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const int g = obs.group[i], c = obs.cycle[i];
+    if (g < 0 || g > 3 || c < 1 || c > part.cycles()) continue;
+    t.before_um[g][c - 1] = obs.value[i];
+    t.after_um[g][c - 1] = obs.value[i] - effect[i];
+    t.sigma_um[g][c - 1] = obs.sigma[i];
+  }
+  return t;
+}
+
+}  // namespace
+
+DiagnosisExplanation ExplainDiagnosis(const PreparedRun& run,
+                                      const DiagnosisReport& report,
+                                      const PartSpec& part,
+                                      double evidence_threshold) {
+  return {Summary(report, evidence_threshold), Residuals(run, report, part)};
+}
+
+}  // namespace ttp::diagnosis

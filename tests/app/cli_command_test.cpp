@@ -1,0 +1,82 @@
+// The conventions every subcommand shares (app/command.h, app/main.cpp):
+// suggestions for misspelt commands and options, case-insensitive enum
+// values, validated counts, global options after the subcommand, `--json -`
+// as pure JSON, defaults in the help.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "../../app/command.h"
+#include "run_ttp.h"
+
+namespace ttp {
+namespace {
+
+namespace fs = std::filesystem;
+using test::RunCommand;
+using test::RunTtp;
+
+std::string Sample(const std::string& rel) {
+  return std::string(TTP_DATA_DIR) + "/samples/" + rel;
+}
+
+TEST(EditDistance, CountsInsertionsDeletionsSubstitutionsSwaps) {
+  EXPECT_EQ(app::EditDistance("inspct", "inspect"), 1);
+  EXPECT_EQ(app::EditDistance("--jsn", "--json"), 1);
+  EXPECT_EQ(app::EditDistance("kitten", "sitting"), 3);
+  EXPECT_EQ(app::EditDistance("", "abc"), 3);
+  EXPECT_EQ(app::EditDistance("grdae", "grade"), 1);  // a swap
+  EXPECT_EQ(app::ClosestMatch("grdae", {"grade", "gcode", "report"}), "grade");
+  // Nothing close enough: no suggestion rather than a wrong one.
+  EXPECT_EQ(app::ClosestMatch("xyzzy", {"grade", "gcode", "report"}), "");
+}
+
+TEST(CliCommand, SuggestsMisspeltCommandsAndOptions) {
+  auto r = RunTtp("inspct " + Sample("run-a/piece.ply"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("did you mean 'inspect'?"), std::string::npos)
+      << r.output;
+  r = RunTtp("grade --jsn x.json " + Sample("run-b/piece.xyz"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("did you mean '--json'?"), std::string::npos)
+      << r.output;
+}
+
+TEST(CliCommand, EnumValuesIgnoreCaseAndCountsMustNotBeNegative) {
+  const fs::path dir = test::TestDir("cli-command");
+  auto r = RunTtp("gcode pre --dialect FANUC -o " + (dir / "pre.nc").string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  r = RunTtp("twin --seed -1 -o " + (dir / "twin").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("must be 0 or more"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "twin"));
+}
+
+TEST(CliCommand, GlobalOptionsAfterTheSubcommand) {
+  const fs::path dir = test::TestDir("cli-command-config");
+  auto r = RunTtp("config --config /no/such.toml");
+  EXPECT_EQ(r.exit_code, 2) << r.output;  // read, and refused
+  r = RunTtp("grade " + Sample("run-b/piece.xyz") + " -q");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output, "");
+}
+
+TEST(CliCommand, JsonToStdoutIsPureJson) {
+  const auto r = test::RunCommand(std::string(TTP_BINARY_DIR) +
+                                  "/app/ttp grade " + Sample("run-b/piece.xyz") +
+                                  " --json - 2>/dev/null");
+  EXPECT_EQ(r.exit_code, 0);
+  const nlohmann::json j = nlohmann::json::parse(r.output);  // throws if not
+  EXPECT_EQ(j["verdict"], "pass");
+}
+
+TEST(CliCommand, HelpShowsDefaults) {
+  const auto r = RunTtp("grade --help");
+  EXPECT_NE(r.output.find("--limit-linear-um FLOAT=5"), std::string::npos)
+      << r.output;
+}
+
+}  // namespace
+}  // namespace ttp
