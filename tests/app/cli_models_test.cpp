@@ -94,6 +94,31 @@ TEST(CliModels, FitPredictContinuesAndCompare) {
   EXPECT_NE(r.output.find("simplest"), std::string::npos);
 }
 
+// `ttp report --log` on a thermal log: the comparison page (no measurement).
+TEST(CliModels, ReportOnThermalLog) {
+  const auto dir = TestDir();
+  const std::string log = Excerpt(dir / "log.csv", 0, 2400, true);
+  const auto html = dir / "r.html";
+  const RunResult r = RunTtp("report --log " + log + " -o " + html.string() +
+                             " --json " + (dir / "r.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(html);
+  const std::string page((std::istreambuf_iterator<char>(in)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_NE(page.find("uPlot"), std::string::npos);
+  EXPECT_NE(page.find("What the best and the simplest get wrong"),
+            std::string::npos);
+  const auto data = ReadJson(dir / "r.json");
+  ASSERT_EQ(data["outputs"].size(), 5u);
+  EXPECT_EQ(data["outputs"][0]["measured"].size(), data["t_h"].size());
+  // A TALC log still needs its measurement.
+  const RunResult talc =
+      RunTtp("report --log " + std::string(TTP_DATA_DIR) +
+             "/samples/run-a/talc.csv -o " + (dir / "x.html").string());
+  EXPECT_EQ(talc.exit_code, 2) << talc.output;
+  EXPECT_NE(talc.output.find("MEASUREMENT"), std::string::npos);
+}
+
 TEST(CliModels, BadInputExitsTwoNamingLineAndColumn) {
   const auto dir = TestDir();
   const auto bad = dir / "bad.csv";
