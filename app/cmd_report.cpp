@@ -18,6 +18,7 @@
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
 #include "ttp/report/report.h"
+#include "ttp/report/thermal_report.h"
 #include "ttp/thermal/check.h"
 #include "ttp/thermal/talc_log.h"
 
@@ -60,7 +61,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("MEASUREMENT", *measurement,
                   "measured piece: point cloud (PLY, PCD, XYZ/CSV), "
                   "inspection JSON, dial-gauge CSV, DMIS output or probe "
-                  "results");
+                  "results; not needed for a thermal log (thermal-log.md)");
   cmd->add_option("--log", *log_path,
                   "TALC log (CSV); without it the page shows the piece and "
                   "its verdict only (e.g. an uncompensated acceptance test)");
@@ -89,6 +90,12 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                  options, limits, figures, no_schedule] {
     limits->figures = inspect::ParseFigureList(*figures);
     limits->Validate();
+    if (!log_path->empty() &&
+        report::LooksLikeThermalLog(ReadTextFile(*log_path))) {
+      CheckOutputPath(*out, {*log_path}, "--output");
+      report::WriteThermalReport(*log_path, *out, *json_out);  // thermal log
+      return;
+    }
     const Config config = global.LoadConfig();
     if (!compare->empty()) {
       if (!measurement->empty() || !log_path->empty())
