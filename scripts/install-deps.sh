@@ -8,6 +8,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libfmt-dev
   libtomlplusplus-dev libgtest-dev
   linuxcnc-uspace
+  slurm-wlm munge parallel
   chromium chromium-driver
   python3-jsonschema
 )

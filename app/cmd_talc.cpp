@@ -1,0 +1,168 @@
+// `ttp talc replay LOG`: a TALC strategy replayed on a log with dense
+// outputs (thesis chapter 6). `ttp talc sweep GRID --log LOG`: the replay
+// over a grid of strategies, in this process or sharded (--plan N DIR,
+// --run-shard K DIR, --merge DIR) for a Slurm job array or GNU parallel.
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "command.h"
+#include "ttp/geometry/error.h"
+#include "ttp/models/time_series.h"
+#include "ttp/talc/replay.h"
+#include "ttp/talc/sweep.h"
+
+namespace ttp::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A thermal log (thermal-log.md) or a TALC log (talc-log.md), by the first
+// header key.
+models::TimeSeries ReadLog(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path.string(), 0, "", "cannot open the log");
+  std::string first;
+  std::getline(in, first);
+  if (first.rfind("# talc-log", 0) == 0)
+    throw InputError(path.string(), 1, "talc-log",
+                     "TALC logs are not read by this build of `ttp talc`; "
+                     "convert it to a thermal log");
+  return models::ReadThermalLog(path);
+}
+
+fs::path SelfPath() {
+  std::error_code ec;
+  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path("ttp") : p;
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  auto* talc = root.add_subcommand(
+      "talc", "TALC strategies replayed on a thermal log, and sweeps of them");
+  talc->require_subcommand(1);
+  {
+    auto* cmd = talc->add_subcommand(
+        "replay",
+        "replay one strategy on a log with dense outputs: E_RMS, P99, PtV and "
+        "Q_Prod per output against no compensation, holding the last "
+        "measurement and a static model");
+    auto log = std::make_shared<std::string>();
+    auto strategy = std::make_shared<std::string>();
+    auto interval = std::make_shared<double>(0.0);
+    auto json_out = std::make_shared<std::string>();
+    cmd->add_option("log", *log, "thermal log or TALC log (CSV)")->required();
+    auto* s_opt = cmd->add_option("--strategy", *strategy,
+                                  "strategy file (TOML or JSON)");
+    auto* i_opt = cmd->add_option("--interval-s", *interval,
+                                  "fixed measurement interval after the "
+                                  "calibration phase (other fields default)")
+                      ->check(CLI::PositiveNumber);
+    s_opt->excludes(i_opt);
+    cmd->add_option("--json", *json_out, "also write the result as JSON");
+    cmd->callback([&global, log, strategy, interval, json_out] {
+      talc::Strategy s;
+      if (!strategy->empty()) {
+        s = talc::ReadStrategy(*strategy);
+      } else if (*interval > 0) {
+        s.interval_s = *interval;
+      } else {
+        throw InputError("talc replay", 0, "--strategy",
+                         "give --strategy FILE or --interval-s N");
+      }
+      const models::TimeSeries series = ReadLog(*log);
+      const talc::ReplayResult r = talc::Replay(series, s);
+      if (!global.quiet || json_out->empty())
+        WriteText("-", talc::ReplayText(r, s));
+      if (!json_out->empty()) WriteJson(*json_out, talc::ReplayToJson(r, s));
+      if (r.status != talc::ReplayStatus::kOk)
+        global.exit_code = kExitJudgedFailure;
+    });
+  }
+  {
+    auto* cmd = talc->add_subcommand(
+        "sweep",
+        "replay a grid of strategies: P99 against Q_Prod (Pareto fronts) and "
+        "the best set per criterion; --plan/--run-shard/--merge shard it for "
+        "Slurm or GNU parallel");
+    auto grid = std::make_shared<std::string>();
+    auto log = std::make_shared<std::string>();
+    auto json_out = std::make_shared<std::string>();
+    auto threads = std::make_shared<int>(0);
+    auto plan = std::make_shared<std::vector<std::string>>();
+    auto run_shard = std::make_shared<std::vector<std::string>>();
+    auto merge = std::make_shared<std::string>();
+    cmd->add_option("grid", *grid, "grid file (TOML or JSON)");
+    cmd->add_option("--log", *log, "thermal log or TALC log (CSV)");
+    cmd->add_option("--json", *json_out, "also write the result as JSON");
+    cmd->add_option("--threads", *threads, "worker threads (0 = one per core)")
+        ->check(CLI::NonNegativeNumber);
+    auto* o_plan = cmd->add_option("--plan", *plan,
+                                   "N DIR: write N shards, a Slurm job-array "
+                                   "script and a GNU parallel command")
+                       ->expected(2);
+    auto* o_run = cmd->add_option("--run-shard", *run_shard,
+                                  "K DIR: run shard K of the plan in DIR")
+                      ->expected(2);
+    auto* o_merge =
+        cmd->add_option("--merge", *merge, "DIR: merge the shard results");
+    o_plan->excludes(o_run)->excludes(o_merge);
+    o_run->excludes(o_merge);
+    cmd->callback([&global, grid, log, json_out, threads, plan, run_shard,
+                   merge] {
+      auto to_int = [](const std::string& v, const char* opt) {
+        try {
+          size_t used = 0;
+          const int k = std::stoi(v, &used);
+          if (used == v.size() && k >= 0) return k;
+        } catch (const std::exception&) {
+        }
+        throw InputError(opt, 0, "", "expected a whole number, got " + v);
+      };
+      auto emit = [&](const nlohmann::json& doc) {
+        if (!global.quiet || json_out->empty())
+          WriteText("-", talc::SweepText(doc));
+        if (!json_out->empty()) WriteJson(*json_out, doc);
+      };
+      if (!run_shard->empty()) {
+        const int k = to_int((*run_shard)[0], "--run-shard");
+        talc::RunShard((*run_shard)[1], k, *threads, ReadLog);
+        if (!global.quiet)
+          WriteText("-", fmt::format("shard {} done: {}/result-{}.json\n", k,
+                                     (*run_shard)[1], k));
+        return;
+      }
+      if (!merge->empty()) {
+        emit(talc::MergeShards(*merge));
+        return;
+      }
+      if (grid->empty())
+        throw InputError("talc sweep", 0, "GRID", "a grid file is required");
+      if (log->empty())
+        throw InputError("talc sweep", 0, "--log", "a log is required");
+      const talc::Grid g = talc::ReadGrid(*grid);
+      if (!plan->empty()) {
+        const int n = to_int((*plan)[0], "--plan");
+        if (n < 1) throw InputError("--plan", 0, "N", "must be >= 1");
+        ReadLog(*log);  // bad input now rather than in every shard
+        const auto p = talc::PlanShards(g, *log, n, (*plan)[1], SelfPath());
+        WriteText("-", fmt::format("{} strategies in {} shards in {}\n"
+                                   "Slurm:         {}\n"
+                                   "GNU parallel:  {}\n"
+                                   "then:          ttp talc sweep --merge {}\n",
+                                   g.size(), n, p.dir.string(), p.slurm_command,
+                                   p.parallel_command, (*plan)[1]));
+        return;
+      }
+      const models::TimeSeries series = ReadLog(*log);
+      emit(talc::RunSweep(series, g, fs::path(*log).filename().string(),
+                          *threads));
+    });
+  }
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(45, Register);
+}  // namespace ttp::app

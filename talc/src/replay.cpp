@@ -1,0 +1,338 @@
+#include "ttp/talc/replay.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "ttp/geometry/error.h"
+#include "ttp/talc/rls.h"
+
+namespace ttp::talc {
+
+Figures ResidualFigures(std::vector<double> r) {
+  Figures f;
+  f.samples = int(r.size());
+  if (r.empty()) return f;
+  double ss = 0.0, lo = r[0], hi = r[0];
+  for (double v : r) {
+    ss += v * v;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  f.rms_um = std::sqrt(ss / double(r.size()));
+  f.ptv_um = hi - lo;
+  for (double& v : r) v = std::abs(v);
+  const double pos = 0.99 * double(r.size() - 1);
+  const size_t k = size_t(std::floor(pos));
+  std::nth_element(r.begin(), r.begin() + long(k), r.end());
+  const double a = r[k];
+  double b = a;
+  if (k + 1 < r.size()) b = *std::min_element(r.begin() + long(k) + 1, r.end());
+  f.p99_um = a + (pos - double(k)) * (b - a);
+  return f;
+}
+
+namespace {
+
+std::vector<int> OutputColumns(const models::TimeSeries& s,
+                               const Strategy& st) {
+  std::vector<int> cols;
+  if (st.outputs.empty()) {
+    for (size_t c = 0; c < s.output_names.size(); ++c) cols.push_back(int(c));
+  } else {
+    for (const auto& name : st.outputs) {
+      int found = -1;
+      for (size_t c = 0; c < s.output_names.size(); ++c)
+        if (s.output_names[c] == name) found = int(c);
+      if (found < 0)
+        throw InputError(s.source, 0, name,
+                         "output named by the strategy is not a column of "
+                         "the log");
+      cols.push_back(found);
+    }
+  }
+  if (cols.empty())
+    throw InputError(s.source, 0, "d_", "the log has no output column");
+  return cols;
+}
+
+// Static baseline: y = c + sum_j b_j (T_j - T_j(0)) over the calibration
+// measurements, tiny ridge so that a short calibration still solves.
+Eigen::MatrixXd FitStatic(const models::TimeSeries& s,
+                          const std::vector<int>& temps,
+                          const std::vector<size_t>& rows,
+                          const std::vector<int>& outs) {
+  const Eigen::Index p = Eigen::Index(temps.size()) + 1;
+  Eigen::MatrixXd a(Eigen::Index(rows.size()) + p, p);
+  Eigen::MatrixXd b(Eigen::Index(rows.size()) + p, Eigen::Index(outs.size()));
+  a.setZero();
+  b.setZero();
+  for (size_t k = 0; k < rows.size(); ++k) {
+    a(Eigen::Index(k), 0) = 1.0;
+    for (size_t j = 0; j < temps.size(); ++j)
+      a(Eigen::Index(k), Eigen::Index(j) + 1) =
+          s.inputs(Eigen::Index(rows[k]), temps[j]) - s.inputs(0, temps[j]);
+    for (size_t o = 0; o < outs.size(); ++o)
+      b(Eigen::Index(k), Eigen::Index(o)) =
+          s.outputs_um(Eigen::Index(rows[k]), outs[o]);
+  }
+  a.bottomRows(p) = 1e-3 * Eigen::MatrixXd::Identity(p, p);
+  return a.householderQr().solve(b);
+}
+
+}  // namespace
+
+ReplayResult Replay(const models::TimeSeries& series, const Strategy& strategy,
+                    const ReplayOptions& options) {
+  return Replay(series, BuildRegressors(series, strategy.regressors), strategy,
+                options);
+}
+
+ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
+                    const Strategy& st, const ReplayOptions& opt) {
+  std::string why;
+  if (!st.IsValid(&why)) throw InputError("strategy", 0, "", why);
+  const std::vector<int> outs = OutputColumns(s, st);
+  const int m = int(outs.size());
+  const size_t n = s.rows();
+  const int p = int(reg.rows.cols());
+  ReplayResult res;
+  res.regressor_names = reg.names;
+  if (n == 0) {
+    res.status = ReplayStatus::kNoEvaluatedSamples;
+    return res;
+  }
+  const double t0 = s.t_s.front();
+  const double cal_end = t0 + st.calibration_s;
+  res.total_s = s.t_s.back() - t0;
+  res.evaluated_from_s = cal_end;
+
+  std::vector<char> gap(n, 0);
+  for (size_t g : s.gap_rows)
+    if (g < n) gap[g] = 1;
+
+  RecursiveLeastSquares rls(p, m, st.ridge);
+  Eigen::MatrixXd theta = Eigen::MatrixXd::Zero(p, m);
+  // Anchored prediction: y_m + (phi_i - phi_m)' theta = phi_i' theta + base.
+  Eigen::VectorXd base = Eigen::VectorXd::Zero(m);
+  Eigen::VectorXd last_y = Eigen::VectorXd::Zero(m);
+  Eigen::VectorXd pred(m), y(m);
+  bool started = false, any_measurement = false;
+  double last_t = -std::numeric_limits<double>::infinity();
+  double last_update_t = t0;
+  int ng_left = 0;
+  std::vector<size_t> cal_rows;
+
+  std::vector<std::vector<double>> r_talc(static_cast<size_t>(m)),
+      r_hold(static_cast<size_t>(m)), r_none(static_cast<size_t>(m));
+  if (opt.keep_predictions)
+    res.predictions_um.resize(Eigen::Index(n), Eigen::Index(m));
+
+  auto all_measured = [&](size_t i) {
+    for (int o = 0; o < m; ++o)
+      if (std::isnan(s.outputs_um(Eigen::Index(i), outs[size_t(o)])))
+        return false;
+    return true;
+  };
+
+  for (size_t i = 0; i < n; ++i) {
+    const double t = s.t_s[i];
+    const auto phi = reg.rows.row(Eigen::Index(i));
+    if (!started && t >= cal_end) {
+      started = true;
+      res.rank_at_start = rls.Rank();
+      theta = rls.Solve();
+      if (any_measurement) {
+        for (int o = 0; o < m; ++o) base(o) = last_y(o);
+        // Re-anchor to the last calibration measurement.
+        base -=
+            (reg.rows.row(Eigen::Index(cal_rows.back())) * theta).transpose();
+      }
+      if (!st.anchored) base.setZero();
+      if (res.rank_at_start < p)
+        res.warnings.push_back(fmt::format(
+            "calibration data determine {} of {} parameters (rank); the "
+            "ridge holds the rest",
+            res.rank_at_start, p));
+    }
+    // The compensation in effect at t, decided before any measurement at t.
+    if (started) {
+      pred = (phi * theta).transpose() + base;
+    } else {
+      pred = last_y;
+    }
+    // Is a measurement due at t?
+    bool due = false;
+    const double since = t - last_t;
+    if (!any_measurement || gap[i]) {
+      due = true;
+    } else if (since >= st.measuring_time_s) {
+      if (!started || t < cal_end) {
+        due = since >= st.calibration_interval_s;
+      } else if (ng_left > 0) {
+        due = since >= st.ng_interval_s;
+      } else if (st.mode == IntervalMode::kFixed) {
+        due = since >= st.interval_s;
+      } else {
+        if (since >= st.max_interval_s) {
+          due = true;
+        } else if (since >= st.min_interval_s) {
+          for (int o = 0; o < m; ++o)
+            if (std::abs(pred(o) - last_y(o)) >= st.threshold_um) due = true;
+        }
+      }
+    }
+    if (due && !all_measured(i)) due = false;  // taken at the next sample
+    if (opt.keep_predictions) res.predictions_um.row(Eigen::Index(i)) = pred;
+    if (t >= cal_end && opt.baselines) {
+      for (int o = 0; o < m; ++o) {
+        const double yo = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
+        if (std::isnan(yo)) continue;
+        r_talc[size_t(o)].push_back(yo - pred(o));
+        r_none[size_t(o)].push_back(yo);
+        r_hold[size_t(o)].push_back(yo - last_y(o));
+      }
+    } else if (t >= cal_end) {
+      for (int o = 0; o < m; ++o) {
+        const double yo = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
+        if (!std::isnan(yo)) r_talc[size_t(o)].push_back(yo - pred(o));
+      }
+    }
+    if (!due) continue;
+
+    // Measurement: the only place an output value is read for the model.
+    for (int o = 0; o < m; ++o)
+      y(o) = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
+    if (started) {
+      bool over = false;
+      for (int o = 0; o < m; ++o)
+        if (std::abs(y(o) - pred(o)) > st.action_limit_um) over = true;
+      if (ng_left > 0)
+        --ng_left;
+      else if (over && st.ng_measurements > 0) {
+        ng_left = st.ng_measurements;
+        ++res.ng_phases;
+      }
+    } else {
+      cal_rows.push_back(i);
+      ++res.calibration_measurements;
+    }
+    const double lambda =
+        st.forgetting_per_h == 1.0
+            ? 1.0
+            : std::pow(st.forgetting_per_h, (t - last_update_t) / 3600.0);
+    rls.Update(phi.transpose(), y, 1.0, lambda);
+    last_update_t = t;
+    if (started) {
+      theta = rls.Solve();
+      base = st.anchored ? Eigen::VectorXd(y - (phi * theta).transpose())
+                         : Eigen::VectorXd::Zero(m);
+    }
+    last_y = y;
+    last_t = t;
+    any_measurement = true;
+    res.measurement_times_s.push_back(t);
+  }
+  res.measurements = int(res.measurement_times_s.size());
+  res.q_prod = res.total_s > 0 ? 1.0 - double(res.measurements) *
+                                           st.measuring_time_s / res.total_s
+                               : 1.0;
+
+  // Static baseline on the calibration measurements.
+  Eigen::MatrixXd b_static;
+  std::vector<int> temps;
+  if (opt.baselines) {
+    for (size_t c = 0; c < s.input_names.size(); ++c)
+      if (s.input_names[c].rfind("T_", 0) == 0) temps.push_back(int(c));
+    b_static = FitStatic(s, temps, cal_rows, outs);
+  }
+  res.outputs.resize(size_t(m));
+  for (int o = 0; o < m; ++o) {
+    OutputReplay& out = res.outputs[size_t(o)];
+    out.name = s.output_names[size_t(outs[size_t(o)])];
+    out.theta = theta.col(o);
+    out.talc = ResidualFigures(std::move(r_talc[size_t(o)]));
+    if (!opt.baselines) continue;
+    out.none = ResidualFigures(std::move(r_none[size_t(o)]));
+    out.hold = ResidualFigures(std::move(r_hold[size_t(o)]));
+    std::vector<double> r_static;
+    for (size_t i = 0; i < n; ++i) {
+      if (s.t_s[i] < cal_end) continue;
+      const double yo = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
+      if (std::isnan(yo)) continue;
+      double v = b_static(0, o);
+      for (size_t j = 0; j < temps.size(); ++j)
+        v += b_static(Eigen::Index(j) + 1, o) *
+             (s.inputs(Eigen::Index(i), temps[j]) - s.inputs(0, temps[j]));
+      r_static.push_back(yo - v);
+    }
+    out.static_model = ResidualFigures(std::move(r_static));
+  }
+  if (res.outputs.front().talc.samples == 0)
+    res.status = ReplayStatus::kNoEvaluatedSamples;
+  return res;
+}
+
+namespace {
+nlohmann::json FiguresJson(const Figures& f) {
+  return {{"rms_um", f.rms_um},
+          {"p99_um", f.p99_um},
+          {"ptv_um", f.ptv_um},
+          {"samples", f.samples}};
+}
+}  // namespace
+
+nlohmann::json ReplayToJson(const ReplayResult& r, const Strategy& s) {
+  nlohmann::json j;
+  j["status"] = r.status == ReplayStatus::kOk ? "ok" : "no evaluated samples";
+  j["strategy"] = StrategyToJson(s);
+  j["regressors"] = r.regressor_names;
+  j["measurements"] = r.measurements;
+  j["calibration_measurements"] = r.calibration_measurements;
+  j["ng_phases"] = r.ng_phases;
+  j["rank_at_start"] = r.rank_at_start;
+  j["total_s"] = r.total_s;
+  j["evaluated_from_s"] = r.evaluated_from_s;
+  j["q_prod_percent"] = 100.0 * r.q_prod;
+  j["measurement_times_s"] = r.measurement_times_s;
+  j["warnings"] = r.warnings;
+  nlohmann::json outs = nlohmann::json::array();
+  for (const auto& o : r.outputs) {
+    outs.push_back(
+        {{"name", o.name},
+         {"talc", FiguresJson(o.talc)},
+         {"none", FiguresJson(o.none)},
+         {"hold", FiguresJson(o.hold)},
+         {"static", FiguresJson(o.static_model)},
+         {"theta", std::vector<double>(o.theta.data(),
+                                       o.theta.data() + o.theta.size())}});
+  }
+  j["outputs"] = outs;
+  return j;
+}
+
+std::string ReplayText(const ReplayResult& r, const Strategy& s) {
+  std::string t = fmt::format(
+      "TALC replay: {} measurements ({} in calibration, {} NG phases), "
+      "Q_Prod {:.2f} %, evaluated from {:.1f} h over {:.1f} h\n",
+      r.measurements, r.calibration_measurements, r.ng_phases, 100.0 * r.q_prod,
+      r.evaluated_from_s / 3600.0, r.total_s / 3600.0);
+  t += fmt::format("model: {} regressors, rank {} at the end of calibration\n",
+                   r.regressor_names.size(), r.rank_at_start);
+  t += fmt::format("{:<12} {:>22} {:>22} {:>22} {:>22}\n", "output",
+                   "TALC rms/P99/PtV", "none", "hold last", "static");
+  auto cell = [](const Figures& f) {
+    return fmt::format("{:6.2f} {:6.2f} {:6.2f}", f.rms_um, f.p99_um, f.ptv_um);
+  };
+  for (const auto& o : r.outputs)
+    t += fmt::format("{:<12} {:>22} {:>22} {:>22} {:>22}\n", o.name,
+                     cell(o.talc), cell(o.none), cell(o.hold),
+                     cell(o.static_model));
+  for (const auto& w : r.warnings) t += "warning: " + w + "\n";
+  return t;
+}
+
+}  // namespace ttp::talc

@@ -1,0 +1,235 @@
+// `ttp talc replay` and `ttp talc sweep` end to end on the real FL thermal
+// data: the replay's figures, bad input, and one sweep run in this process,
+// through GNU parallel and through a real single-node Slurm (job array),
+// all three merged results byte-identical.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "run_ttp.h"
+
+namespace ttp {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kTrain =
+    std::string(TTP_DATA_DIR) + "/reference/fl-thermal/train.csv";
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(CliTalc, ReplayOnTheRealDataBeatsHoldingTheLastMeasurement) {
+  const fs::path json = test::TestDir("talc") / "replay.json";
+  const auto r =
+      test::RunTtp("talc replay " + kTrain + " --interval-s 3600 --json " +
+                   json.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Q_Prod"), std::string::npos) << r.output;
+  const auto j = test::ReadJson(json);
+  ASSERT_EQ(j["outputs"].size(), 5u);
+  EXPECT_EQ(j["strategy"]["interval_s"], 3600.0);
+  for (const auto& o : j["outputs"]) {
+    EXPECT_LT(o["talc"]["p99_um"].get<double>(),
+              0.5 * o["hold"]["p99_um"].get<double>())
+        << o["name"];
+  }
+  const double q = j["q_prod_percent"];
+  EXPECT_GT(q, 80.0);
+  EXPECT_LT(q, 100.0);
+}
+
+TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
+  const fs::path dir = test::TestDir("talc");
+  std::ofstream(dir / "s.toml") << "interval_s = 3600\nforgeting_per_h = 0.9\n";
+  auto r = test::RunTtp("talc replay " + kTrain + " --strategy " +
+                        (dir / "s.toml").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("forgeting_per_h"), std::string::npos) << r.output;
+
+  std::ofstream(dir / "log.csv")
+      << "# thermal-log: 1\n# start: 2024-01-01T00:00:00+00:00\n"
+         "t_s,n_spindle,T_a,d_x\n0,0,20,0\n15,0,x,0.1\n";
+  r = test::RunTtp("talc replay " + (dir / "log.csv").string() +
+                   " --interval-s 60");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("log.csv"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(":5"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("T_a"), std::string::npos) << r.output;
+
+  std::ofstream(dir / "g.toml") << "[grid]\ninterval_s = [3600, 0]\n";
+  r = test::RunTtp("talc sweep " + (dir / "g.toml").string() + " --log " +
+                   kTrain);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("grid.interval_s[1]"), std::string::npos)
+      << r.output;
+  r = test::RunTtp("talc replay " + kTrain);  // neither option
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+}
+
+// A small grid on the real data: 12 strategies.
+fs::path WriteGrid(const fs::path& dir) {
+  std::ofstream(dir / "grid.toml")
+      << "limit_p99_um = 4\n[base]\ncalibration_s = 30600\n"
+         "[grid]\ninterval_s = [1800, 3600, 7200]\n"
+         "forgetting_per_h = [1.0, 0.9]\nspeed_lags_s = [[3600], [1800, 7200]]\n";
+  return dir / "grid.toml";
+}
+
+std::string InProcess(const fs::path& dir) {
+  const fs::path grid = WriteGrid(dir);
+  const auto r = test::RunTtp("talc sweep " + grid.string() + " --log " +
+                              kTrain + " --json " +
+                              (dir / "in-process.json").string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Pareto front"), std::string::npos) << r.output;
+  return Slurp(dir / "in-process.json");
+}
+
+TEST(CliTalc, SweepThroughGnuParallelEqualsTheInProcessRun) {
+  if (test::RunCommand("command -v parallel >/dev/null").exit_code != 0)
+    GTEST_SKIP() << "GNU parallel not installed (scripts/install-deps.sh)";
+  const fs::path dir = test::TestDir("talc");
+  const std::string expected = InProcess(dir);
+  auto r = test::RunTtp("talc sweep " + (dir / "grid.toml").string() +
+                        " --log " + kTrain + " --plan 5 " +
+                        (dir / "plan").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::RunCommand("sh " + (dir / "plan/parallel.sh").string() + " 2>&1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::RunTtp("talc sweep --merge " + (dir / "plan").string() +
+                   " --json " + (dir / "merged.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(Slurp(dir / "merged.json"), expected);
+}
+
+// Runs `sh -c cmd`, true when it exits 0.
+bool Sh(const std::string& cmd) {
+  return test::RunCommand("{ " + cmd + "; } >/dev/null 2>&1").exit_code == 0;
+}
+
+int ReadPid(const fs::path& p) {
+  std::ifstream in(p);
+  int pid = 0;
+  in >> pid;
+  return pid;
+}
+
+// Stops the daemons this test started (by their pid files) however the
+// test ends.
+struct Daemons {
+  std::vector<fs::path> pid_files;
+  ~Daemons() {
+    for (auto it = pid_files.rbegin(); it != pid_files.rend(); ++it) {
+      const int pid = ReadPid(*it);
+      if (pid <= 0) continue;
+      ::kill(pid, SIGTERM);
+      for (int i = 0; i < 50 && ::kill(pid, 0) == 0; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  }
+};
+
+TEST(CliTalc, SweepThroughARealSlurmJobArrayEqualsTheInProcessRun) {
+  for (const char* bin : {"slurmctld", "slurmd", "sbatch", "sinfo", "munged",
+                          "munge", "unmunge"})
+    if (!Sh(std::string("PATH=$PATH:/usr/sbin command -v ") + bin))
+      GTEST_SKIP() << bin << " not installed (scripts/install-deps.sh)";
+  // One Slurm on the machine at a time (its ports are fixed).
+  const int lock = ::open("/tmp/ttp-slurm.lock", O_CREAT | O_RDWR, 0666);
+  ASSERT_GE(lock, 0);
+  ASSERT_EQ(::flock(lock, LOCK_EX), 0);
+  struct Unlock {
+    int fd;
+    ~Unlock() { ::close(fd); }
+  } unlock{lock};
+
+  const fs::path dir = test::TestDir("talc");
+  const std::string expected = InProcess(dir);
+  // slurmd makes Unix sockets in its spool folder, whose paths may not
+  // exceed 108 bytes: the spool lives in a short folder of its own,
+  // removed after the daemons have stopped.
+  char spool_template[] = "/tmp/ttp-slurmd-XXXXXX";
+  ASSERT_NE(::mkdtemp(spool_template), nullptr);
+  struct RemoveSpool {
+    fs::path p;
+    ~RemoveSpool() {
+      std::error_code ec;
+      fs::remove_all(p, ec);
+    }
+  } remove_spool{spool_template};
+  Daemons daemons;
+
+  // munge: reuse a running one, else start it and stop it afterwards.
+  if (!Sh("munge -n | unmunge")) {
+    ASSERT_TRUE(Sh("mkdir -p /run/munge && chown munge:munge /run/munge"));
+    ASSERT_TRUE(Sh("su -s /bin/sh munge -c /usr/sbin/munged"));
+    daemons.pid_files.push_back("/run/munge/munged.pid");
+    ASSERT_TRUE(Sh("munge -n | unmunge"));
+  }
+  const fs::path s = dir / "slurm";
+  for (const char* sub : {"state", "log"}) fs::create_directories(s / sub);
+  const std::string host = test::RunCommand("hostname -s").output;
+  const std::string h = host.substr(0, host.find_first_of("\r\n"));
+  const std::string cpus = std::to_string(
+      std::max(1u, std::thread::hardware_concurrency()));
+  std::ofstream(s / "slurm.conf")
+      << "ClusterName=ttptest\nSlurmctldHost=" << h
+      << "\nAuthType=auth/munge\nCredType=cred/munge\n"
+         "SlurmUser=root\nSlurmdUser=root\n"
+      << "StateSaveLocation=" << (s / "state").string() << "\n"
+      << "SlurmdSpoolDir=" << spool_template << "\n"
+      << "SlurmctldPidFile=" << (s / "slurmctld.pid").string() << "\n"
+      << "SlurmdPidFile=" << (s / "slurmd.pid").string() << "\n"
+      << "SlurmctldLogFile=" << (s / "log/slurmctld.log").string() << "\n"
+      << "SlurmdLogFile=" << (s / "log/slurmd.log").string() << "\n"
+      << "ProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\n"
+         "SelectType=select/cons_tres\nSelectTypeParameters=CR_Core\n"
+         "ReturnToService=2\n"
+      << "NodeName=" << h << " CPUs=" << cpus << " RealMemory=2000\n"
+      << "PartitionName=debug Nodes=" << h << " Default=YES State=UP\n";
+  const std::string env = "SLURM_CONF=" + (s / "slurm.conf").string() + " ";
+  ASSERT_TRUE(Sh(env + "/usr/sbin/slurmctld -f " + (s / "slurm.conf").string()))
+      << Slurp(s / "log/slurmctld.log");
+  daemons.pid_files.push_back(s / "slurmctld.pid");
+  ASSERT_TRUE(Sh(env + "/usr/sbin/slurmd -f " + (s / "slurm.conf").string()))
+      << Slurp(s / "log/slurmd.log");
+  daemons.pid_files.push_back(s / "slurmd.pid");
+  bool idle = false;
+  for (int i = 0; i < 60 && !idle; ++i) {
+    idle = test::RunCommand(env + "sinfo -h -o %t 2>/dev/null").output.find(
+               "idle") != std::string::npos;
+    if (!idle) std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  ASSERT_TRUE(idle) << Slurp(s / "log/slurmctld.log");
+
+  auto r = test::RunTtp("talc sweep " + (dir / "grid.toml").string() +
+                        " --log " + kTrain + " --plan 3 " +
+                        (dir / "plan").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::RunCommand(env + "timeout 90 sbatch --array=0-2 --wait " +
+                       (dir / "plan/talc-sweep.sbatch").string() + " 2>&1");
+  ASSERT_EQ(r.exit_code, 0) << r.output << Slurp(s / "log/slurmctld.log");
+  for (int k = 0; k < 3; ++k)
+    EXPECT_TRUE(fs::exists(dir / "plan" / ("result-" + std::to_string(k) +
+                                           ".json")));
+  r = test::RunTtp("talc sweep --merge " + (dir / "plan").string() +
+                   " --json " + (dir / "merged.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(Slurp(dir / "merged.json"), expected);
+}
+
+}  // namespace
+}  // namespace ttp
