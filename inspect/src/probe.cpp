@@ -70,10 +70,27 @@ Plane FitPlaneKnownSigma(const std::vector<Eigen::Vector3d>& pts,
 
 }  // namespace
 
+bool ProbeReadOptions::IsValid(std::string* error) const {
+  if (!std::isfinite(repeatability_um) || repeatability_um < 0) {
+    if (error)
+      *error = "ProbeReadOptions.repeatability_um: must be a finite number >= 0";
+    return false;
+  }
+  if (frame != ProbeFrame::kAuto && frame != ProbeFrame::kMachine &&
+      frame != ProbeFrame::kProgram) {
+    if (error) *error = "ProbeReadOptions.frame: unknown frame";
+    return false;
+  }
+  return true;
+}
+
 void ProbeReadOptions::Validate() const {
-  if (!std::isfinite(repeatability_um) || repeatability_um < 0)
+  std::string error;
+  if (IsValid(&error)) return;
+  if (error.find("repeatability_um") != std::string::npos)
     throw InputError("--probe-repeatability-um", 0, "repeatability_um",
                      "must be a finite number >= 0");
+  throw InputError("--probe-frame", 0, "frame", "unknown frame");
 }
 
 ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
