@@ -234,6 +234,14 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
       fit::FitOptions fo;
       fo.compute_covariance = false;
       const fit::CircleFit2D circle = fit::FitCircle2D(c2, fo);
+      // A circle that did not converge or that the touches do not
+      // determine gives no origin: refused, not used.
+      if (!circle.summary.Usable())
+        throw InputError(source, 0, DatumCylinderId(part),
+                         std::string("the datum circle's touches give no "
+                                     "circle (") +
+                             fit::FitStatusName(circle.summary.status) + ": " +
+                             circle.summary.message + ")");
       const double top_h = z.dot(pt.centroid);
       shift = -Eigen::Vector3d(circle.centre.x(), circle.centre.y(), top_h);
       // Centre of n points evenly on a circle: var = 2 sigma^2 / n per axis.
