@@ -68,7 +68,7 @@ std::string FeatureId::ToString() const {
     case FeatureKind::kFlank:
       return index < 0 ? "FLANK-Y" : "FLANK+Y";
     case FeatureKind::kCylinder:
-      return CylinderId(index);
+      return CylinderId(index / 1000.0);
     case FeatureKind::kMark:
       return "MARK";
     case FeatureKind::kNotchFloor:
@@ -80,7 +80,7 @@ std::string FeatureId::ToString() const {
 std::optional<FeatureId> FeatureId::Parse(const std::string& text) {
   static const std::regex facet(R"(^(X1|Y1|X2|Y2)-([1-9])$)");
   static const std::regex strip(R"(^Z([1-9])$)");
-  static const std::regex cylinder(R"(^CYL([1-9][0-9]{0,3})$)");
+  static const std::regex cylinder(R"(^CYL([0-9]{1,4}(\.[0-9]{1,3})?)$)");
   std::smatch m;
   if (std::regex_match(text, m, facet)) {
     const std::string s = m[1];
@@ -97,8 +97,10 @@ std::optional<FeatureId> FeatureId::Parse(const std::string& text) {
   if (text == "MARK") return Datum(FeatureKind::kMark);
   if (text == "NOTCH_SMALL") return Datum(FeatureKind::kNotchFloor, 0);
   if (text == "NOTCH_BIG") return Datum(FeatureKind::kNotchFloor, 1);
-  if (std::regex_match(text, m, cylinder))
-    return Datum(FeatureKind::kCylinder, std::stoi(m[1]));
+  if (std::regex_match(text, m, cylinder)) {
+    const long um = std::lround(std::stod(m[1]) * 1000);
+    if (um > 0) return Datum(FeatureKind::kCylinder, static_cast<int>(um));
+  }
   return std::nullopt;
 }
 

@@ -265,7 +265,7 @@ LineFit2D FitLine2D(const Eigen::Matrix2Xd& points, const FitOptions& options) {
   options.Validate();
   RequirePoints("line2d", points.cols(), 2, points.allFinite());
   const auto s = ComputeScatter<2>(points);
-  if (!(s.eigenvalues(1) > 0)) {
+  if (!internal::Spread(s.eigenvalues(1), points.cols(), s.centroid.norm())) {
     throw InputError("fit", 0, "line2d", "all points coincide");
   }
   LineFit2D fit;
@@ -311,7 +311,7 @@ LineFit3D FitLine3D(const Eigen::Matrix3Xd& points, const FitOptions& options) {
   options.Validate();
   RequirePoints("line3d", points.cols(), 2, points.allFinite());
   const auto s = ComputeScatter<3>(points);
-  if (!(s.eigenvalues(2) > 0)) {
+  if (!internal::Spread(s.eigenvalues(2), points.cols(), s.centroid.norm())) {
     throw InputError("fit", 0, "line3d", "all points coincide");
   }
   LineFit3D fit;

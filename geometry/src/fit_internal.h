@@ -46,6 +46,14 @@ void RequirePoints(const char* shape, long count, long minimum,
 // so this means an extent ratio of ~1e-7 (10 nm across 100 mm).
 constexpr double kDegenerateRatio = 1e-14;
 
+// Whether points spread at all: the largest scatter eigenvalue against
+// the rounding of coordinates `distance_mm` from the origin (1e-12 of it
+// per point). Points closer together than that coincide in double.
+inline bool Spread(double largest_eigenvalue, long n, double distance_mm) {
+  const double rounding = 1e-12 * std::max(1.0, distance_mm);
+  return largest_eigenvalue > static_cast<double>(n) * rounding * rounding;
+}
+
 // Two unit vectors completing `w` to a right-handed orthonormal frame.
 void CompleteFrame(const Eigen::Vector3d& w, Eigen::Vector3d* u,
                    Eigen::Vector3d* v);

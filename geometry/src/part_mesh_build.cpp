@@ -22,6 +22,18 @@
 #include "ttp/geometry/part_mesh.h"
 
 namespace ttp {
+bool PartMeshOptions::IsValid(std::string* error) const {
+  const auto fail = [error](const std::string& message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (!(chord_error_mm > 0) || !std::isfinite(chord_error_mm))
+    return fail("PartMeshOptions.chord_error_mm: must be a positive length");
+  if (!(facet_overrun_mm >= 0) || !std::isfinite(facet_overrun_mm))
+    return fail("PartMeshOptions.facet_overrun_mm: must be a length >= 0");
+  return true;
+}
+
 namespace {
 
 using K = CGAL::Epeck;
@@ -155,9 +167,11 @@ void ValidatePart(const PartSpec& p, const PartMeshOptions& o) {
   positive(p.mark_width_mm, "mark_width_mm");
   positive(p.bolt_hole_diameter_mm, "bolt_hole_diameter_mm");
   positive(p.bolt_hole_depth_mm, "bolt_hole_depth_mm");
-  if (!(o.chord_error_mm > 0)) {
-    throw InputError("part mesh options", 0, "chord_error_mm",
-                     "must be positive");
+  std::string error;
+  if (!o.IsValid(&error)) {
+    const size_t colon = error.find(':');
+    throw InputError("part mesh options", 0, error.substr(0, colon),
+                     error.substr(colon + 2));
   }
   if (!(p.face_depth_mm >= 0) || p.face_depth_mm >= p.blank_height_mm) {
     Bad("face_depth_mm", "must be in [0, blank_height_mm)");

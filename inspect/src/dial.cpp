@@ -10,11 +10,24 @@
 
 namespace ttp::inspect {
 
+bool DialOptions::IsValid(std::string* error) const {
+  const char* bad = !(resolution_um >= 0) || !std::isfinite(resolution_um)
+                        ? "resolution_um"
+                    : !(repeatability_um >= 0) || !std::isfinite(repeatability_um)
+                        ? "repeatability_um"
+                        : nullptr;
+  if (bad && error)
+    *error = std::string("DialOptions.") + bad + ": must be a finite value >= 0 in um";
+  return bad == nullptr;
+}
+
 void DialOptions::Validate() const {
-  if (!(resolution_um >= 0) || !std::isfinite(resolution_um))
-    throw InputError("DialOptions", 0, "resolution_um", "must be >= 0");
-  if (!(repeatability_um >= 0) || !std::isfinite(repeatability_um))
-    throw InputError("DialOptions", 0, "repeatability_um", "must be >= 0");
+  std::string error;
+  if (IsValid(&error)) return;
+  // The field as the options are known (resolution_um, repeatability_um).
+  const size_t dot = error.find('.'), colon = error.find(':');
+  throw InputError("DialOptions", 0, error.substr(dot + 1, colon - dot - 1),
+                   "must be >= 0");
 }
 
 FeatureResults ReadDialReadings(const std::string& csv_text,

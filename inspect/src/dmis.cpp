@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "ttp/geometry/csv.h"
@@ -167,11 +168,8 @@ std::string TestFeatureIdForDmisLabel(const std::string& label) {
   if (s.rfind("CYL", 0) == 0) return s;  // a reference cylinder, "CYL199"
   if (s.rfind("STRIP_", 0) == 0) s = "Z" + s.substr(6);
   std::replace(s.begin(), s.end(), '_', '-');
-  FeatureKind kind;
-  Segment segment;
-  int index = 0;
-  if (ParseFeatureId(s, &kind, &segment, &index)) return s;
-  return "";
+  const std::optional<FeatureId> id = FeatureId::Parse(s);
+  return id && id->IsTestFeature() ? id->ToString() : "";
 }
 
 DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "ttp/geometry/error.h"
@@ -135,11 +136,9 @@ nlohmann::json InspectionToJson(const InspectionResult& r) {
   nlohmann::json facets = nlohmann::json::object(),
                  strips = nlohmann::json::object();
   for (const auto& [id, fr] : r.features) {
-    FeatureKind kind;
-    Segment seg;
-    int index;
-    if (!ParseFeatureId(id, &kind, &seg, &index)) continue;
-    if (kind == FeatureKind::kFacet) {
+    const std::optional<FeatureId> fid = FeatureId::Parse(id);
+    if (!fid || !fid->IsTestFeature()) continue;
+    if (fid->kind == FeatureKind::kFacet) {
       facets[id] = {
           {"distance_mm", fr.present ? Num(fr.d_mm) : nlohmann::json(nullptr)},
           {"angle_error_urad",

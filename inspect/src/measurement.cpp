@@ -300,6 +300,18 @@ InspectionResult FromFeatures(const PartSpec& part, FeatureResults features,
 
 }  // namespace
 
+bool MeasurementOptions::IsValid(std::string* error) const {
+  std::string inner;
+  const auto fail = [&](const char* member) {
+    if (error) *error = std::string("MeasurementOptions.") + member + "." + inner;
+    return false;
+  };
+  if (!inspect.IsValid(&inner)) return fail("inspect");
+  if (!dial.IsValid(&inner)) return fail("dial");
+  if (!probe.IsValid(&inner)) return fail("probe");
+  return true;
+}
+
 Measurement LoadMeasurement(const Config& config,
                             const std::filesystem::path& path,
                             const MeasurementOptions& options) {

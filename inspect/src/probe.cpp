@@ -70,10 +70,27 @@ Plane FitPlaneKnownSigma(const std::vector<Eigen::Vector3d>& pts,
 
 }  // namespace
 
+bool ProbeReadOptions::IsValid(std::string* error) const {
+  if (!std::isfinite(repeatability_um) || repeatability_um < 0) {
+    if (error)
+      *error = "ProbeReadOptions.repeatability_um: must be a finite number >= 0";
+    return false;
+  }
+  if (frame != ProbeFrame::kAuto && frame != ProbeFrame::kMachine &&
+      frame != ProbeFrame::kProgram) {
+    if (error) *error = "ProbeReadOptions.frame: unknown frame";
+    return false;
+  }
+  return true;
+}
+
 void ProbeReadOptions::Validate() const {
-  if (!std::isfinite(repeatability_um) || repeatability_um < 0)
+  std::string error;
+  if (IsValid(&error)) return;
+  if (error.find("repeatability_um") != std::string::npos)
     throw InputError("--probe-repeatability-um", 0, "repeatability_um",
                      "must be a finite number >= 0");
+  throw InputError("--probe-frame", 0, "frame", "unknown frame");
 }
 
 ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
@@ -217,6 +234,14 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
       fit::FitOptions fo;
       fo.compute_covariance = false;
       const fit::CircleFit2D circle = fit::FitCircle2D(c2, fo);
+      // A circle that did not converge or that the touches do not
+      // determine gives no origin: refused, not used.
+      if (!circle.summary.Usable())
+        throw InputError(source, 0, DatumCylinderId(part),
+                         std::string("the datum circle's touches give no "
+                                     "circle (") +
+                             fit::FitStatusName(circle.summary.status) + ": " +
+                             circle.summary.message + ")");
       const double top_h = z.dot(pt.centroid);
       shift = -Eigen::Vector3d(circle.centre.x(), circle.centre.y(), top_h);
       // Centre of n points evenly on a circle: var = 2 sigma^2 / n per axis.

@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <optional>
 #include <random>
 
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 
 namespace ttp::inspect {
@@ -23,18 +25,49 @@ struct Rng {
   std::mt19937 gen;
 };
 
+// What a CMM program measures: the test features and the datums (not the
+// notch floors, the bottom or the bolt holes).
 bool Measured(const std::string& id) {
-  FeatureKind kind;
-  Segment s;
-  int j;
-  if (ParseFeatureId(id, &kind, &s, &j)) return true;
-  return id == "TOP" || id == "FLANK+Y" || id == "FLANK-Y" || id == "MARK" ||
-         id.rfind("CYL", 0) == 0;
+  const std::optional<FeatureId> f = FeatureId::Parse(id);
+  return f && f->kind != FeatureKind::kNotchFloor;
 }
 
 }  // namespace
 
+bool SynthOptions::IsValid(std::string* error) const {
+  const auto fail = [error](const char* message) {
+    if (error) *error = message;
+    return false;
+  };
+  if (points < 1) return fail("SynthOptions.points: must be at least 1");
+  if (!(noise_um >= 0) || !std::isfinite(noise_um))
+    return fail("SynthOptions.noise_um: must be a finite value >= 0");
+  if (!(stray_fraction >= 0 && stray_fraction <= 1))
+    return fail("SynthOptions.stray_fraction: must be in [0, 1]");
+  if (!(deviation_d_um >= 0) || !std::isfinite(deviation_d_um))
+    return fail("SynthOptions.deviation_d_um: must be a finite value >= 0");
+  if (!(deviation_angle_urad >= 0) || !std::isfinite(deviation_angle_urad))
+    return fail(
+        "SynthOptions.deviation_angle_urad: must be a finite value >= 0");
+  if (sampling != SynthSampling::kScanner && sampling != SynthSampling::kCmm)
+    return fail("SynthOptions.sampling: unknown sampling");
+  return true;
+}
+
+namespace {
+void RequireValid(const SynthOptions& o) {
+  std::string error;
+  if (o.IsValid(&error)) {
+    return;
+  }
+  const size_t colon = error.find(':');
+  throw InputError("SynthOptions", 0, error.substr(0, colon),
+                   error.substr(colon + 2));
+}
+}  // namespace
+
 FeatureResults RandomDeviations(const PartSpec& part, const SynthOptions& o) {
+  RequireValid(o);
   Rng rng(o.seed * 7919u + 17u);
   FeatureResults out;
   for (const NominalFeature& f : TestFeatures(part)) {
@@ -53,6 +86,7 @@ FeatureResults RandomDeviations(const PartSpec& part, const SynthOptions& o) {
 SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
                            const FeatureResults& deviations,
                            const SynthOptions& o) {
+  RequireValid(o);
   Rng rng(o.seed);
   // Which triangles may carry points.
   std::vector<bool> use_feature(mesh.feature_ids.size());
@@ -91,35 +125,34 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
     plan.emplace_back(&all, o.points);
   } else {
     int facets = 0, strips = 0;
+    std::vector<std::optional<FeatureId>> ids(pools.size());
     for (size_t k = 0; k < pools.size(); ++k) {
-      FeatureKind kind;
-      Segment seg;
-      int j;
-      if (pools[k].tris.empty()) continue;
-      if (ParseFeatureId(mesh.feature_ids[k], &kind, &seg, &j))
-        ++(kind == FeatureKind::kStrip ? strips : facets);
+      ids[k] = FeatureId::Parse(mesh.feature_ids[k]);
+      if (pools[k].tris.empty() || !ids[k] || !ids[k]->IsTestFeature())
+        continue;
+      ++(ids[k]->kind == FeatureKind::kStrip ? strips : facets);
     }
     // Datums: top face 12 %, each flank 4 %, the 199 circle 4 %, the other
     // reference cylinders 2 % each, the mark 2 %.
-    const std::string datum = DatumCylinderId(part);
-    const auto datum_share = [&datum](const std::string& id) {
-      if (id == "TOP") return 0.12;
-      if (id == "FLANK+Y" || id == "FLANK-Y" || id == datum) return 0.04;
-      if (id == "MARK" || id.rfind("CYL", 0) == 0) return 0.02;
+    const std::optional<FeatureId> datum =
+        FeatureId::Parse(DatumCylinderId(part));
+    const auto datum_share = [&datum](const std::optional<FeatureId>& id) {
+      if (!id) return 0.0;
+      if (id->kind == FeatureKind::kTopFace) return 0.12;
+      if (id->kind == FeatureKind::kFlank || id == datum) return 0.04;
+      if (id->kind == FeatureKind::kMark || id->kind == FeatureKind::kCylinder)
+        return 0.02;
       return 0.0;
     };
     int used = 0;
     size_t last = 0;
     for (size_t k = 0; k < pools.size(); ++k) {
-      FeatureKind kind;
-      Segment seg;
-      int j;
       if (pools[k].tris.empty()) continue;
-      const std::string& id = mesh.feature_ids[k];
+      const std::optional<FeatureId>& id = ids[k];
       const int n =
-          !ParseFeatureId(id, &kind, &seg, &j)
+          !id || !id->IsTestFeature()
               ? static_cast<int>(datum_share(id) * o.points)
-          : kind == FeatureKind::kStrip
+          : id->kind == FeatureKind::kStrip
               ? static_cast<int>(0.25 * o.points / std::max(1, strips))
               : static_cast<int>(0.45 * o.points / std::max(1, facets));
       if (n == 0) continue;

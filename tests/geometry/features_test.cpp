@@ -89,8 +89,10 @@ TEST(Features, FeatureIdRoundTripsEveryNominalName) {
   EXPECT_NE(FeatureId::Facet(Segment::kX1, 7), FeatureId::Strip(7));
   EXPECT_TRUE(FeatureId::Facet(Segment::kX1, 2) <
               FeatureId::Facet(Segment::kX1, 9));
-  EXPECT_EQ(FeatureId::Datum(FeatureKind::kCylinder, 199).ToString(),
+  EXPECT_EQ(FeatureId::Datum(FeatureKind::kCylinder, 199000).ToString(),
             DatumCylinderId(part));
+  EXPECT_EQ(FeatureId::Parse("CYL99.5")->index, 99500);
+  EXPECT_EQ(FeatureId::Parse("CYL99.5")->ToString(), "CYL99.5");
 }
 
 TEST(Features, StagesHoldTheRightFeatures) {

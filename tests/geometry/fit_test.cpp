@@ -299,6 +299,38 @@ TEST(FitOptions, ValidateNamesTheField) {
   EXPECT_TRUE(FitOptions().IsValid(&error));
 }
 
+// Near-degenerate inputs far from the origin: points on a line (for a
+// plane, a circle), on one point (for a line). Each is refused (an
+// InputError naming the shape) or comes back not usable; never a result
+// that looks fine.
+TEST(FitDegenerate, NearlyCollinearOrCoincidentFarFromOrigin) {
+  std::mt19937_64 rng(45);
+  std::uniform_real_distribution<double> t(-10, 10);
+  std::normal_distribution<double> jitter(0, 1e-10);
+  const Eigen::Vector3d origin(2e4, -3e4, 1e4), dir = RandomUnit(rng);
+  Eigen::Matrix3Xd line(3, 50), point(3, 50);
+  for (int i = 0; i < 50; ++i) {
+    line.col(i) = origin + t(rng) * dir +
+                  Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng));
+    point.col(i) = origin + Eigen::Vector3d(jitter(rng), 0, 0) * 1e-3;
+  }
+  auto refused = [](auto&& fit) {
+    try {
+      return !fit().summary.Usable();
+    } catch (const InputError&) {
+      return true;
+    }
+  };
+  EXPECT_TRUE(refused([&] { return FitPlane(line); }));
+  EXPECT_TRUE(refused([&] { return FitCircle3D(line); }));
+  EXPECT_TRUE(refused([&] { return FitSphere(line); }));
+  EXPECT_TRUE(refused([&] { return FitCylinder(line); }));
+  EXPECT_TRUE(refused([&] { return FitCone(line); }));
+  const Eigen::Matrix2Xd line2 = line.topRows<2>();
+  EXPECT_TRUE(refused([&] { return FitCircle2D(line2); }));
+  EXPECT_TRUE(refused([&] { return FitLine3D(point); }));
+}
+
 // A sphere through points on a plane far from the origin: its centre runs
 // off along the normal; the status says the points do not determine it.
 TEST(FitSphere, PlaneIsDegenerate) {

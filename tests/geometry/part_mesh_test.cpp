@@ -405,6 +405,19 @@ TEST(PartMesh, FacetAndStripFacesLieOnTheirPlanes) {
   }
 }
 
+TEST(PartMesh, OptionsNameTheInvalidField) {
+  PartMeshOptions o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error));
+  o.chord_error_mm = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_EQ(error.rfind("PartMeshOptions.chord_error_mm:", 0), 0u) << error;
+  o = PartMeshOptions();
+  o.facet_overrun_mm = -1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_EQ(error.rfind("PartMeshOptions.facet_overrun_mm:", 0), 0u) << error;
+}
+
 TEST(PartMesh, SameSpecSameMesh) {
   const PartSpec p;
   const PartMesh a = BuildPartMesh(p, Stage::kFinished);

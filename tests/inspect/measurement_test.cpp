@@ -261,5 +261,26 @@ TEST_F(MeasurementTest, SampleCloudAgreesWithItsTruth) {
   }
 }
 
+// The options of every reader check themselves; the message names the
+// member and the field.
+TEST(MeasurementOptions, IsValidNamesTheMemberAndField) {
+  MeasurementOptions o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error));
+  o.dial.repeatability_um = -1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_EQ(error.rfind("MeasurementOptions.dial.DialOptions.repeatability_um:", 0),
+            0u)
+      << error;
+  o = MeasurementOptions();
+  o.probe.repeatability_um = std::nan("");
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("ProbeReadOptions.repeatability_um"), std::string::npos);
+  o = MeasurementOptions();
+  o.inspect.stray_sigma = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("InspectOptions.stray_sigma"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace ttp::inspect

@@ -5,6 +5,7 @@
 #include <Eigen/LU>
 #include <cmath>
 
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 
 namespace ttp::inspect {
@@ -84,6 +85,20 @@ TEST(SynthTest, PoseStraysAndMissingFeatures) {
   const SynthPiece t =
       SynthesizePiece(part, Finished(), RandomDeviations(part, o), o);
   EXPECT_EQ((s.cloud.xyz_mm - t.cloud.xyz_mm).norm(), 0.0);
+}
+
+TEST(SynthTest, OptionsNameTheInvalidField) {
+  SynthOptions o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error));
+  o.stray_fraction = 5;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_EQ(error.rfind("SynthOptions.stray_fraction:", 0), 0u) << error;
+  EXPECT_THROW(RandomDeviations(PartSpec{}, o), InputError);
+  o = SynthOptions();
+  o.points = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_EQ(error.rfind("SynthOptions.points:", 0), 0u) << error;
 }
 
 }  // namespace

@@ -65,7 +65,7 @@ std::string DatumCylinderId(const PartSpec& part);
 
 // A feature's identity as typed data: a facet (segment, index 1..9), a
 // strip (index 1..9) or a datum (the top face; a flank, index +1 / -1 for
-// FLANK+Y / FLANK-Y; a reference cylinder, index = its diameter in mm; the
+// FLANK+Y / FLANK-Y; a reference cylinder, index = its diameter in um; the
 // mark; a notch floor, index 0 small / 1 big). Code keys and compares features by this; the name of talc-log.md
 // section 5 ("X1-5", "Z3", "TOP", "FLANK+Y", "CYL199", "MARK",
 // "NOTCH_BIG") is its form

@@ -32,6 +32,8 @@ struct PartMeshOptions {
   // A facet pass runs this far past its neighbours' corners (spec: about
   // 1 mm); at a segment end it runs out into the notch.
   double facet_overrun_mm = 1.0;
+  // Ceres style: false with "PartMeshOptions.<field>: <problem>".
+  bool IsValid(std::string* error) const;
 };
 
 struct PartMesh {

@@ -16,6 +16,8 @@ struct DialOptions {
   double resolution_um = 1.0;
   // Standard uncertainty of setting and reading one value (repeatability).
   double repeatability_um = 0.5;
+  // Ceres style: false with "DialOptions.<field>: <problem>".
+  bool IsValid(std::string* error) const;
   // Throws InputError naming the field if a value is negative or not finite.
   void Validate() const;
 };

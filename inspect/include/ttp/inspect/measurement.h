@@ -31,6 +31,10 @@ struct MeasurementOptions {
   InspectOptions inspect;  // cloud inspection rules, instrument
   DialOptions dial;        // gauge resolution and repeatability
   ProbeReadOptions probe;  // probe repeatability, point list
+  // Ceres style: the first invalid member's message, prefixed
+  // "MeasurementOptions.<member>." (the point reader's options check
+  // themselves when read).
+  bool IsValid(std::string* error) const;
 };
 
 struct Measurement {

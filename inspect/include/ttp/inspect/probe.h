@@ -28,6 +28,8 @@ struct ProbeReadOptions {
   // The point list the program was written for (plan's PointsToCsv); empty:
   // the default plan (PlanPoints with default options).
   std::string points_csv_path;
+  // Ceres style: false with "ProbeReadOptions.<field>: <problem>".
+  bool IsValid(std::string* error) const;
   void Validate() const;  // InputError naming the option
 };
 

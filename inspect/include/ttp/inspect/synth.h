@@ -36,6 +36,8 @@ struct SynthOptions {
   double deviation_d_um = 5.0;
   double deviation_angle_urad = 20.0;
   std::vector<std::string> missing;  // features left without points
+  // Ceres style: false with "SynthOptions.<field>: <problem>".
+  bool IsValid(std::string* error) const;
 };
 
 struct SynthPiece {
