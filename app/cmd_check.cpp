@@ -77,7 +77,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                    schedule_json["max_deviation_s"].get<double>()) +
                text;
       }
-      WriteText("-", text);
+      TextOut(*json_out) << text;
     }
     if (!json_out->empty()) {
       nlohmann::json j = thermal::CheckToJson(result);

@@ -51,7 +51,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
           const diagnosis::DiagnosisReport report =
               diagnosis::DiagnoseRun(log, config, measured, options);
           if (!global.quiet || json_out->empty())
-            WriteText("-", diagnosis::DiagnosisText(report));
+            TextOut(*json_out) << diagnosis::DiagnosisText(report);
           if (!json_out->empty())
             WriteJson(*json_out, diagnosis::DiagnosisToJson(report));
         });
@@ -93,7 +93,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
         ->check(CLI::IsMember({"cloud", "ply", "xyz", "json"}));
     cmd->add_option("--stray-fraction", options->stray_fraction,
                     "stray points per cloud point (default 0.002)");
-    cmd->add_option("-o,--out", *out_dir,
+    cmd->add_option("-o,--output", *out_dir,
                     "output directory: talc.csv (the TALC log), the measured "
                     "piece and truth.json (the hidden effect and its "
                     "parameters, the true figures)")

@@ -194,7 +194,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     doc["robust"] = a->robust;
     if (a->robust != "none") doc["loss_scale_mm"] = a->loss_scale_mm;
     doc["units"] = "mm; unit vectors; angles in deg";
-    if (!global.quiet) std::cout << Text(doc);
+    if (!global.quiet) TextOut(a->json) << Text(doc);
     if (!a->json.empty()) WriteJson(a->json, doc);
   });
 }

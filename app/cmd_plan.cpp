@@ -76,7 +76,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
 
   auto* cmm = cmd->add_subcommand(
       "cmm", "CMM point list (CSV) and DMIS program for the same points");
-  cmm->add_option("-o,--output-dir", o->dir, "folder to write into")
+  cmm->add_option("-o,--output", o->dir, "folder to write into")
       ->default_val("plan");
   AddPlanOptions(cmm, *o);
   cmm->callback([&global, o] {
@@ -93,7 +93,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
 
   auto* dial = cmd->add_subcommand(
       "dial", "printable dial-gauge sheet (HTML) and the CSV template");
-  dial->add_option("-o,--output-dir", o->dir, "folder to write into")
+  dial->add_option("-o,--output", o->dir, "folder to write into")
       ->default_val("plan");
   dial->callback([&global, o] {
     const Config config = global.LoadConfig();

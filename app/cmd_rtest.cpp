@@ -37,13 +37,13 @@ void PrintResolution(const RTestArgs& a, const RTestGeometry& base) {
   nlohmann::json j = {{"axis_resolution_um", a.axis_resolution_um},
                       {"d_m", a.d_m},
                       {"angles_deg", {0, 90, 180, 270}}};
-  std::cout << fmt::format(
+  TextOut(a.json_out) << fmt::format(
       "R-test resolution, axis resolution {} um, d = {} m, C at 0/90/180/270 "
       "deg:\n",
       a.axis_resolution_um, a.d_m);
   for (int i = 0; i < 7; ++i) {
-    std::cout << fmt::format("  {:<5} {:>8.4f} {}\n", kErrorNames[i], res[i],
-                             kUnits[i]);
+    TextOut(a.json_out) << fmt::format("  {:<5} {:>8.4f} {}\n", kErrorNames[i],
+                                       res[i], kUnits[i]);
     j["resolution"][kErrorNames[i]] = res[i];
   }
   if (!a.json_out.empty()) WriteJson(a.json_out, j);
@@ -75,23 +75,23 @@ void Evaluate(const RTestArgs& a, const RTestGeometry& g) {
                         {"sphere_distance_mm", g.sphere_distance_mm},
                         {"sphere_height_mm", g.sphere_height_mm},
                         {"cycles", nlohmann::json::array()}};
-  std::cout << fmt::format("{:>6}", "cycle");
+  TextOut(a.json_out) << fmt::format("{:>6}", "cycle");
   for (int i = 0; i < 7; ++i) {
-    std::cout << fmt::format(
+    TextOut(a.json_out) << fmt::format(
         " {:>9}", std::string(kErrorNames[i]) + "[" + kUnits[i] + "]");
   }
-  std::cout << fmt::format(" {:>9}\n", "rms[um]");
+  TextOut(a.json_out) << fmt::format(" {:>9}\n", "rms[um]");
   for (size_t k = 1; k < order.size(); ++k) {
     const RTestSolution s = SolveRTest(g, reference, cycles[order[k]]);
     const auto e = s.errors.ToMicro();
     nlohmann::json row = {{"cycle", order[k]},
                           {"rms_residual_um", s.rms_residual_mm * 1e3}};
-    std::cout << fmt::format("{:>6}", order[k]);
+    TextOut(a.json_out) << fmt::format("{:>6}", order[k]);
     for (int i = 0; i < 7; ++i) {
       row[kErrorNames[i]] = e[i];
-      std::cout << fmt::format(" {:>9.3f}", e[i]);
+      TextOut(a.json_out) << fmt::format(" {:>9.3f}", e[i]);
     }
-    std::cout << fmt::format(" {:>9.3f}\n", s.rms_residual_mm * 1e3);
+    TextOut(a.json_out) << fmt::format(" {:>9.3f}\n", s.rms_residual_mm * 1e3);
     out["cycles"].push_back(row);
   }
   if (!a.json_out.empty()) WriteJson(a.json_out, out);

@@ -358,7 +358,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                   "size of the hidden effect in its unit (default: a clear "
                   "one)");
   cmd->add_option("--seed", args->seed, "seed of the twin run (default 1)");
-  cmd->callback([&global, args] {
+  cmd->callback([&global, args, cmd] {
     RunContext ctx;
     ctx.config = global.LoadConfig();
     ctx.args = *args;
@@ -369,8 +369,10 @@ void Register(CLI::App& root, GlobalOptions& global) {
         throw InputError("--effect", 0, "effect", e.what());
       }
     }
-    if (!(args->size >= 0))
-      throw InputError("--size", 0, "size", "must be >= 0");
+    // 0 is not "a clear size": leave --size out for that.
+    if (cmd->get_option("--size")->count() > 0 && !(args->size > 0))
+      throw InputError("--size", 0, "size",
+                       "must be > 0 (leave --size out for a clear size)");
     ctx.out_dir = args->out_dir;
     fs::create_directories(ctx.out_dir);
     const bool progress = !global.quiet && StdoutIsTerminal();

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "command.h"
+#include "ttp/thermal/check.h"
 #include "ttp/thermal/estimator.h"
 #include "ttp/thermal/simulate.h"
 #include "ttp/thermal/talc_log.h"
@@ -21,7 +22,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->callback([&global, log_path, json_out] {
       const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
       if (!global.quiet || json_out->empty()) {
-        WriteText("-", thermal::LogSummaryText(log));
+        TextOut(*json_out) << thermal::LogSummaryText(log);
       }
       if (!json_out->empty())
         WriteJson(*json_out, thermal::LogSummaryJson(log));
@@ -46,8 +47,22 @@ void Register(CLI::App& root, GlobalOptions& global) {
         ->check(CLI::PositiveNumber);
     cmd->callback([&global, log_path, json_out, compare, interval] {
       const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
-      const thermal::Simulation sim =
-          thermal::SimulatePiece(log, global.LoadConfig());
+      // The simulated figures with the U `ttp check` gives them (the
+      // estimator's leave-one-out error).
+      const Config config = global.LoadConfig();
+      const auto estimator = thermal::MachineErrorEstimator::Fit(log);
+      thermal::Simulation sim =
+          thermal::SimulatePiece(log, config, estimator, {});
+      const std::vector<CycleFigures> u =
+          thermal::SimulatedFigureUncertainty(log, config, estimator, {});
+      for (size_t i = 0; i < sim.figures.size() && i < u.size(); ++i) {
+        CycleFigures& f = sim.figures[i];
+        f.u_x_mm = u[i].u_x_mm;
+        f.u_y_mm = u[i].u_y_mm;
+        f.u_z_mm = u[i].u_z_mm;
+        f.u_b_rad = u[i].u_b_rad;
+        f.u_ttp_mm = u[i].u_ttp_mm;
+      }
       std::string text = thermal::SimulationText(sim);
       nlohmann::json j = thermal::SimulationToJson(sim);
       if (*compare) {
@@ -69,7 +84,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
             {"rms_model_everywhere", dense.rms_arx_everywhere},
             {"rms_line_everywhere", dense.rms_linear_everywhere}};
       }
-      if (!global.quiet || json_out->empty()) WriteText("-", text);
+      if (!global.quiet || json_out->empty()) TextOut(*json_out) << text;
       if (!json_out->empty()) WriteJson(*json_out, j);
     });
   }

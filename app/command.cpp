@@ -75,6 +75,10 @@ CLI::Option* AddJsonOption(CLI::App* cmd, std::string* path,
                          what + " ('-': pure JSON on stdout)");
 }
 
+std::ostream& TextOut(const std::string& json_path) {
+  return JsonToStdout(json_path) ? std::cerr : std::cout;
+}
+
 CLI::Option* AddVerboseFlag(CLI::App* cmd, bool* verbose) {
   return cmd->add_flag("-v,--verbose", *verbose,
                        "details after the summary");

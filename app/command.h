@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <functional>
+#include <ostream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -59,6 +60,9 @@ CLI::Option* AddJsonOption(CLI::App* cmd, std::string* path,
 inline bool JsonToStdout(const std::string& json_path) {
   return json_path == "-";
 }
+// Where a command prints its readable result: stdout, or stderr when
+// `--json -` takes stdout.
+std::ostream& TextOut(const std::string& json_path);
 // -v/--verbose: details after the summary.
 CLI::Option* AddVerboseFlag(CLI::App* cmd, bool* verbose);
 

@@ -72,6 +72,46 @@ TEST(CliCommand, JsonToStdoutIsPureJson) {
   EXPECT_EQ(j["verdict"], "pass");
 }
 
+// `simulate --json` gives the simulated figures the U that `check` uses.
+TEST(CliCommand, SimulateAndCheckShareTheSimulatedU) {
+  const std::string ttp = std::string(TTP_BINARY_DIR) + "/app/ttp ";
+  const std::string log = Sample("run-a/talc.csv");
+  const auto sim =
+      RunCommand(ttp + "simulate --log " + log + " --json - 2>/dev/null");
+  const auto check =
+      RunCommand(ttp + "check --log " + log + " " + Sample("run-a/piece.ply") +
+                 " --json - 2>/dev/null");
+  ASSERT_EQ(sim.exit_code, 0);
+  const nlohmann::json s = nlohmann::json::parse(sim.output);
+  const nlohmann::json c = nlohmann::json::parse(check.output);
+  ASSERT_EQ(s["figures"].size(), c["cycles"].size());
+  for (size_t i = 0; i < c["cycles"].size(); ++i) {
+    for (const char* key : {"E_X", "E_Y", "E_Z", "E_B", "E_TTP"}) {
+      const double u = s["figures"][i]["U"][key].get<double>();
+      EXPECT_GT(u, 0.0) << key;
+      EXPECT_NEAR(u, c["cycles"][i][key]["U_simulated"].get<double>(), 1e-9)
+          << key << " cycle " << i + 1;
+    }
+  }
+}
+
+TEST(CliCommand, RunSizeZeroIsAnError) {
+  const auto r = RunTtp("run --size 0 -o " +
+                        (test::TestDir("cli-run-size") / "out").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("--size"), std::string::npos) << r.output;
+}
+
+TEST(CliCommand, OutputIsDashOOrOutputEverywhere) {
+  const fs::path dir = test::TestDir("cli-command-output");
+  EXPECT_EQ(RunTtp("plan cmm --output " + (dir / "plan").string()).exit_code,
+            0);
+  EXPECT_TRUE(fs::exists(dir / "plan" / "cmm_points.csv"));
+  EXPECT_EQ(
+      RunTtp("twin --seed 2 --output " + (dir / "twin").string()).exit_code, 0);
+  EXPECT_TRUE(fs::exists(dir / "twin" / "talc.csv"));
+}
+
 TEST(CliCommand, HelpShowsDefaults) {
   const auto r = RunTtp("grade --help");
   EXPECT_NE(r.output.find("--limit-linear-um FLOAT=5"), std::string::npos)
