@@ -12,6 +12,8 @@
 #include "ttp/models/compare.h"
 #include "ttp/models/identify.h"
 #include "ttp/models/time_series.h"
+#include "ttp/thermal/talc_log.h"
+#include "ttp/thermal/time_series.h"
 
 namespace ttp::app {
 namespace {
@@ -23,6 +25,18 @@ std::vector<std::string> SplitList(const std::string& s) {
   while (std::getline(in, item, ','))
     if (!item.empty()) out.push_back(item);
   return out;
+}
+
+// A thermal log, or a TALC log (talc-log.md) converted into the same series.
+models::TimeSeries ReadLog(const std::string& path) {
+  const std::string text = ReadTextFile(path);
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line) && !line.empty() && line[0] == '#') {
+    if (line.find("talc-log:") != std::string::npos)
+      return thermal::TalcLogToTimeSeries(thermal::ParseTalcLog(text, path));
+  }
+  return models::ParseThermalLog(text, path);
 }
 
 void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
@@ -76,7 +90,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     auto outputs = std::make_shared<std::string>();
     auto json_out = std::make_shared<std::string>();
     auto o = std::make_shared<models::FitOptions>();
-    cmd->add_option("log", *log, "thermal log (thermal-log.md)")->required();
+    cmd->add_option("log", *log, "thermal log (thermal-log.md) or TALC log")
+        ->required();
     cmd->add_option("-o,--output", *out, "model file (JSON) to write")
         ->required();
     cmd->add_option("--outputs", *outputs,
@@ -87,7 +102,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     AddFitOptions(cmd, o.get());
     cmd->callback([&global, log, out, outputs, json_out, o] {
       CheckFitOptions(*o);
-      const models::TimeSeries ts = models::ReadThermalLog(*log);
+      const models::TimeSeries ts = ReadLog(*log);
       Warn(global, ts.warnings);
       const models::ThermalModel model =
           models::FitThermalModel(ts, SplitList(*outputs), *o);
@@ -136,7 +151,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                          std::string("not JSON: ") + e.what());
       }
       const models::ThermalModel model = models::ModelFromJson(j, *model_path);
-      const models::TimeSeries ts = models::ReadThermalLog(*log);
+      const models::TimeSeries ts = ReadLog(*log);
       const models::Prediction p = models::Predict(model, ts);
       Warn(global, p.warnings);
       WriteFileAtomic(*out, PredictionCsv(p));
@@ -164,7 +179,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     AddFitOptions(cmd, o.get());
     cmd->callback([&global, log, from, json_out, o] {
       CheckFitOptions(*o);
-      const models::TimeSeries ts = models::ReadThermalLog(*log);
+      const models::TimeSeries ts = ReadLog(*log);
       const models::CompareResult r = models::CompareModels(ts, *from, *o);
       if (!global.quiet || json_out->empty())
         WriteText("-", models::CompareText(r));

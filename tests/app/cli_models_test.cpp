@@ -119,6 +119,25 @@ TEST(CliModels, ReportOnThermalLog) {
   EXPECT_NE(talc.output.find("MEASUREMENT"), std::string::npos);
 }
 
+// A TALC log is read as the same time series: R-tests as sparse outputs.
+TEST(CliModels, FitsAndPredictsATalcLog) {
+  const auto dir = TestDir();
+  const std::string talc =
+      std::string(TTP_DATA_DIR) + "/samples/run-a/talc.csv";
+  RunResult r = RunTtp("thermal fit " + talc + " -o " +
+                       (dir / "m.json").string() + " --model lag");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(ReadJson(dir / "m.json")["outputs"].size(), 7u);
+  r = RunTtp("thermal predict --model " + (dir / "m.json").string() + " " +
+             talc + " -o " + (dir / "p.csv").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "p.csv");
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header,
+            "t_s,d_EX0C,d_EY0C,d_EZ0T,d_ER0T,d_EA0C_r,d_EB0C_r,d_EC0C_r");
+}
+
 TEST(CliModels, BadInputExitsTwoNamingLineAndColumn) {
   const auto dir = TestDir();
   const auto bad = dir / "bad.csv";
