@@ -11,6 +11,7 @@
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
 #include "ttp/report/report.h"
+#include "ttp/report/thermal_report.h"
 #include "ttp/thermal/check.h"
 #include "ttp/thermal/talc_log.h"
 
@@ -31,8 +32,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("MEASUREMENT", *measurement,
                   "measured piece: point cloud (PLY, PCD, XYZ/CSV), "
                   "inspection JSON, dial-gauge CSV, DMIS output or probe "
-                  "results")
-      ->required();
+                  "results; not needed for a thermal log (thermal-log.md)");
   cmd->add_option("-o,--output", *out, "HTML file to write");
   cmd->add_option("--json", *json_out,
                   "also write the report data (JSON) the page is made from");
@@ -50,6 +50,12 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                 "(for a log of another program)");
   cmd->callback([&global, log_path, measurement, out, json_out, options,
                  no_schedule] {
+    if (report::LooksLikeThermalLog(ReadTextFile(*log_path))) {
+      report::WriteThermalReport(*log_path, *out, *json_out);  // thermal log
+      return;
+    }
+    if (measurement->empty())
+      throw InputError("", 0, "MEASUREMENT", "required with a TALC log");
     const Config config = global.LoadConfig();
     const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
     // As `ttp diagnose`: a log that did not come from this program is an

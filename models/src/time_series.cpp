@@ -70,7 +70,8 @@ struct Column {
   int slot = -1;  // index among inputs or outputs
 };
 
-// Marks steps longer than kGapPeriods median steps.
+// Marks steps longer than kGapPeriods median steps; `lines` are the file
+// lines of the rows (empty: name the row's t_s instead).
 void FindGaps(TimeSeries& ts, const std::vector<int>& lines) {
   if (ts.rows() < 3) return;
   std::vector<double> steps(ts.rows() - 1);
@@ -86,8 +87,8 @@ void FindGaps(TimeSeries& ts, const std::vector<int>& lines) {
       ts.warnings.push_back(fmt::format(
           "{}:{}: t_s: gap of {:g} s from t_s = {:g} to {:g} ({:.0f} sampling "
           "periods of {:g} s); models restart after it",
-          ts.source, lines[i], steps[i - 1], ts.t_s[i - 1], ts.t_s[i],
-          steps[i - 1] / median, median));
+          ts.source, lines.empty() ? 0 : lines[i], steps[i - 1], ts.t_s[i - 1],
+          ts.t_s[i], steps[i - 1] / median, median));
     }
   }
 }
@@ -263,6 +264,11 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
   }
   FindGaps(ts, lines);
   return ts;
+}
+
+void FindGapRows(TimeSeries& ts) {
+  ts.gap_rows.clear();
+  FindGaps(ts, {});
 }
 
 TimeSeries ReadThermalLog(const std::filesystem::path& path) {

@@ -18,10 +18,10 @@ struct TimeSeries {
   std::string source;                         // file name, for messages
   std::map<std::string, std::string> header;  // `# key: value` lines
   std::vector<double> t_s;                    // strictly increasing
-  std::vector<std::string> input_names;       // n_* and T_* columns, in file order
-  Eigen::MatrixXd inputs;                     // rows: samples; cols: input_names
-  std::vector<std::string> output_names;      // d_* columns, in file order
-  Eigen::MatrixXd outputs_um;                 // NaN where not measured
+  std::vector<std::string> input_names;   // n_* and T_* columns, in file order
+  Eigen::MatrixXd inputs;                 // rows: samples; cols: input_names
+  std::vector<std::string> output_names;  // d_* columns, in file order
+  Eigen::MatrixXd outputs_um;             // NaN where not measured
   // Rows i with t_s[i] - t_s[i-1] larger than ten sampling periods (the
   // median step): a model restarts there instead of bridging the gap.
   std::vector<std::size_t> gap_rows;
@@ -36,5 +36,9 @@ struct TimeSeries {
 // line and column.
 TimeSeries ReadThermalLog(const std::filesystem::path& path);
 TimeSeries ParseThermalLog(std::string_view text, const std::string& source);
+
+// Recomputes gap_rows (and adds a warning per gap) from t_s by the rule
+// above; for series built by other readers.
+void FindGapRows(TimeSeries& ts);
 
 }  // namespace ttp::models

@@ -1,0 +1,178 @@
+// `ttp thermal fit|predict|compare`: thermal error models identified from a
+// thermal log (thermal-log.md), causal prediction from the inputs alone, and
+// every structure side by side on a chronological holdout (docs/THERMAL.md).
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <sstream>
+
+#include "command.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
+#include "ttp/models/compare.h"
+#include "ttp/models/identify.h"
+#include "ttp/models/time_series.h"
+
+namespace ttp::app {
+namespace {
+
+std::vector<std::string> SplitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
+  cmd->add_option("--criterion", o->criterion,
+                  "selection criterion: cv (chronological cross-validation "
+                  "with the MDL factor, default) or mdl (in-sample MDL-like, "
+                  "thesis eq. 4.23)");
+  cmd->add_option("--max-terms", o->max_terms,
+                  "most regressors per output (default 8)");
+  cmd->add_option("--weight-half-life-s", o->weight_half_life_s,
+                  "WLSE: halve a sample's weight per this age (default 0: "
+                  "ordinary least squares)");
+}
+
+void CheckFitOptions(const models::FitOptions& o) {
+  std::string error;
+  if (!o.IsValid(&error)) throw InputError("options", 0, "", error);
+}
+
+void Warn(const GlobalOptions& global, const std::vector<std::string>& w) {
+  if (global.quiet) return;
+  for (const auto& line : w)
+    std::fprintf(stderr, "warning: %s\n", line.c_str());
+}
+
+std::string PredictionCsv(const models::Prediction& p) {
+  std::string s = "t_s";
+  for (const auto& name : p.outputs) s += "," + name;
+  s += "\n";
+  for (Eigen::Index i = 0; i < p.values_um.rows(); ++i) {
+    s += fmt::format("{:g}", p.t_s[i]);
+    for (Eigen::Index k = 0; k < p.values_um.cols(); ++k)
+      s += fmt::format(",{:.4f}", p.values_um(i, k));
+    s += "\n";
+  }
+  return s;
+}
+
+void Register(CLI::App& root, GlobalOptions& global) {
+  auto* group = root.add_subcommand(
+      "thermal",
+      "thermal error models from a thermal log: fit, predict, compare");
+  group->require_subcommand(1);
+  {
+    auto* cmd = group->add_subcommand(
+        "fit",
+        "identify a model per output (structure, inputs, lags, orders "
+        "and ridge chosen by chronological cross-validation)");
+    auto log = std::make_shared<std::string>();
+    auto out = std::make_shared<std::string>();
+    auto outputs = std::make_shared<std::string>();
+    auto json_out = std::make_shared<std::string>();
+    auto o = std::make_shared<models::FitOptions>();
+    cmd->add_option("log", *log, "thermal log (thermal-log.md)")->required();
+    cmd->add_option("-o,--output", *out, "model file (JSON) to write")
+        ->required();
+    cmd->add_option("--outputs", *outputs,
+                    "outputs to model, comma separated (default: every d_)");
+    cmd->add_option("--model", o->model,
+                    "auto (default), static, fir, lag, arx or combined");
+    cmd->add_option("--json", *json_out, "also write a fit summary as JSON");
+    AddFitOptions(cmd, o.get());
+    cmd->callback([&global, log, out, outputs, json_out, o] {
+      CheckFitOptions(*o);
+      const models::TimeSeries ts = models::ReadThermalLog(*log);
+      Warn(global, ts.warnings);
+      const models::ThermalModel model =
+          models::FitThermalModel(ts, SplitList(*outputs), *o);
+      const nlohmann::json j = models::ModelToJson(model);
+      WriteJson(*out, j);
+      std::string text;
+      nlohmann::json summary = {{"log", *log}, {"model_file", *out}};
+      for (const auto& m : model.outputs) {
+        text += fmt::format(
+            "{}: {} with {} regressors, CV RMS {:.3f} um, fit "
+            "RMS {:.3f} um\n",
+            m.output, models::StructureName(m.structure), m.regressors.size(),
+            m.cv_rms_um, m.fit_rms_um);
+        std::vector<std::string> names;
+        for (const auto& r : m.regressors) names.push_back(r.Name());
+        summary["outputs"][m.output] = {
+            {"structure", models::StructureName(m.structure)},
+            {"regressors", names},
+            {"cv_rms_um", m.cv_rms_um},
+            {"fit_rms_um", m.fit_rms_um}};
+      }
+      if (!global.quiet) WriteText("-", text);
+      if (!json_out->empty()) WriteJson(*json_out, summary);
+    });
+  }
+  {
+    auto* cmd = group->add_subcommand(
+        "predict",
+        "causal prediction of every modelled output from the "
+        "inputs alone, at every row of the log");
+    auto model_path = std::make_shared<std::string>();
+    auto log = std::make_shared<std::string>();
+    auto out = std::make_shared<std::string>();
+    cmd->add_option("--model", *model_path, "model file from `thermal fit`")
+        ->required();
+    cmd->add_option("log", *log, "thermal log (outputs, if any, are ignored)")
+        ->required();
+    cmd->add_option("-o,--output", *out, "prediction CSV to write")->required();
+    cmd->callback([&global, model_path, log, out] {
+      const std::string text = ReadTextFile(*model_path);
+      nlohmann::json j;
+      try {
+        j = nlohmann::json::parse(text);
+      } catch (const nlohmann::json::exception& e) {
+        throw InputError(*model_path, 0, "",
+                         std::string("not JSON: ") + e.what());
+      }
+      const models::ThermalModel model = models::ModelFromJson(j, *model_path);
+      const models::TimeSeries ts = models::ReadThermalLog(*log);
+      const models::Prediction p = models::Predict(model, ts);
+      Warn(global, p.warnings);
+      WriteFileAtomic(*out, PredictionCsv(p));
+      if (!global.quiet)
+        std::fprintf(stderr, "%zu rows predicted (%s) -> %s\n", p.t_s.size(),
+                     p.continued ? "continuing the fitted log"
+                                 : "filters from the first row",
+                     out->c_str());
+    });
+  }
+  {
+    auto* cmd = group->add_subcommand(
+        "compare",
+        "every structure side by side on a chronological holdout, "
+        "and what the best and the simplest get wrong");
+    auto log = std::make_shared<std::string>();
+    auto from = std::make_shared<double>(0);
+    auto json_out = std::make_shared<std::string>();
+    auto o = std::make_shared<models::FitOptions>();
+    cmd->add_option("log", *log, "thermal log with outputs")->required();
+    cmd->add_option("--holdout-from", *from,
+                    "fit on t_s below this (s), predict the rest")
+        ->required();
+    cmd->add_option("--json", *json_out, "also write the comparison as JSON");
+    AddFitOptions(cmd, o.get());
+    cmd->callback([&global, log, from, json_out, o] {
+      CheckFitOptions(*o);
+      const models::TimeSeries ts = models::ReadThermalLog(*log);
+      const models::CompareResult r = models::CompareModels(ts, *from, *o);
+      if (!global.quiet || json_out->empty())
+        WriteText("-", models::CompareText(r));
+      if (!json_out->empty()) WriteJson(*json_out, models::CompareToJson(r));
+    });
+  }
+}
+
+}  // namespace
+TTP_REGISTER_COMMANDS(45, Register);
+}  // namespace ttp::app

@@ -1,0 +1,129 @@
+// Identification of thermal error models from a thermal log, one model per
+// output (MISO submodels, thesis 4.1.3). Every structure is linear in its
+// parameters once its regressors are fixed, so each is a (weighted, ridge)
+// least-squares fit on a regressor set chosen by forward selection:
+//   static    inputs as they are (temperatures, n, n^2)
+//   fir       taps of the inputs at 0, dt, 2 dt, ... (thesis eq. 3.35)
+//   lag       first-order lags of n and n^2 (spindle heat through the
+//             structure)
+//   arx       ARX simulated as an output-error model y = B(q)/A(q) u: the
+//             poles of A (one or two, as time constants, exact for any step)
+//             are shared by every input; B by least squares
+//   combined  temperatures, lagged temperatures and lagged n, n^2 together
+// `auto` runs all of them and keeps the lowest chronological cross-validation
+// score. The prediction uses the inputs only (never a measured output).
+#pragma once
+
+#include <Eigen/Core>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "ttp/models/features.h"
+#include "ttp/models/time_series.h"
+
+namespace ttp::models {
+
+enum class Structure { kStatic, kFir, kLag, kArx, kCombined };
+const char* StructureName(Structure s);
+// "static", "fir", "lag", "arx", "combined"; false when unknown.
+bool ParseStructure(const std::string& name, Structure* s);
+std::vector<Structure> AllStructures();
+
+struct FitOptions {
+  std::string model = "auto";  // auto or a structure name
+  // Lag time constants searched (s) and FIR taps (step and count).
+  std::vector<double> taus_s = {900, 1800, 3600, 7200, 14400};
+  double fir_step_s = 1800;
+  int fir_taps = 6;
+  int max_terms = 8;  // regressors per output, intercept not counted
+  // Chronological cross-validation: the fitted span is cut into cv_blocks
+  // blocks of equal time; fold k trains on blocks [0, k) and validates on
+  // block k, for k = cv_first_validation_block .. cv_blocks - 1.
+  int cv_blocks = 8;
+  int cv_first_validation_block = 4;
+  // "pooled": RMS over every validation block; "worst": the largest block
+  // RMS (favours models that hold up on every block).
+  std::string cv_pooling = "pooled";
+  // "all": fold k validates on every block from k to the end (the horizon
+  // of a real prediction: hours ahead); "block": on block k only.
+  std::string cv_horizon = "all";
+  // Ridge factors (relative, on standardised regressors) tried by CV.
+  std::vector<double> ridge = {0, 1e-4, 1e-3, 1e-2, 1e-1};
+  // "cv": CV RMS times the MDL factor (1 + p ln N / N); "mdl": the thesis'
+  // in-sample MDL-like criterion alone (RMS (1 + p ln N / N)), no CV.
+  std::string criterion = "cv";
+  double min_gain = 0.05;  // a new term must improve the score by this share
+  // WLSE: weight 2^(-(t_end - t) / half_life) on each sample (0 = ordinary
+  // least squares; thesis eq. 4.20).
+  double weight_half_life_s = 0;
+
+  bool IsValid(std::string* error) const;
+};
+
+struct OutputModel {
+  std::string output;  // d_* column
+  Structure structure = Structure::kStatic;
+  std::vector<Regressor> regressors;
+  Eigen::VectorXd coef;  // um per regressor unit
+  double intercept_um = 0;
+  Eigen::VectorXd mean, scale;  // standardisation used while fitting
+  double ridge = 0;
+  double cv_score = 0;  // selection score (criterion)
+  double cv_rms_um = std::numeric_limits<double>::quiet_NaN();
+  double fit_rms_um = 0;
+  int n_fit = 0;
+  std::vector<std::string> selection_log;  // one line per forward step
+  nlohmann::json end_state;  // filter state at the end of the fitted log
+};
+
+struct ThermalModel {
+  std::string source;
+  double fit_t_begin_s = 0, fit_t_end_s = 0;  // last fitted row
+  double median_step_s = 0;
+  std::vector<std::string> inputs;  // columns the model needs
+  FitOptions options;
+  std::vector<OutputModel> outputs;
+};
+
+// Fits every output in `outputs` (empty: every d_ column) on the rows with
+// t_s < fit_until_s.
+ThermalModel FitThermalModel(
+    const TimeSeries& ts, const std::vector<std::string>& outputs,
+    const FitOptions& options,
+    double fit_until_s = std::numeric_limits<double>::infinity());
+
+// Fits one output on the given structure (no `auto`).
+OutputModel FitOutput(const TimeSeries& fit, int output, Structure structure,
+                      const FitOptions& options);
+
+// Fixed regressors (no selection; ridge still by CV), e.g. the reference
+// models "static on all temperatures", "lags of n and n^2".
+OutputModel FitFixed(const TimeSeries& fit, int output,
+                     const std::vector<Regressor>& regressors,
+                     Structure structure, const FitOptions& options);
+
+struct Prediction {
+  std::vector<double> t_s;
+  std::vector<std::string> outputs;
+  Eigen::MatrixXd values_um;  // rows x outputs
+  bool continued = false;     // started from the model's end state
+  std::vector<std::string> warnings;
+};
+
+// Causal prediction of every modelled output at every row of `ts` from its
+// inputs alone (outputs in `ts` are ignored). When ts starts after the
+// fitted log's end (within ten sampling periods) the filters continue from
+// the model's end state; otherwise they start from the first row.
+Prediction Predict(const ThermalModel& model, const TimeSeries& ts);
+// One output over a whole series, filters from its first row.
+Eigen::VectorXd PredictOutput(const OutputModel& m, const TimeSeries& ts);
+
+nlohmann::json ModelToJson(const ThermalModel& model);
+ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source);
+
+// Rows with t_s < t_end_s, gaps kept.
+TimeSeries HeadOf(const TimeSeries& ts, double t_end_s);
+
+}  // namespace ttp::models

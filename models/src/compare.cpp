@@ -1,0 +1,441 @@
+#include "ttp/models/compare.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "ttp/geometry/error.h"
+
+namespace ttp::models {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double MedianStep(const TimeSeries& ts) {
+  std::vector<double> s;
+  for (size_t i = 1; i < ts.rows(); ++i) s.push_back(ts.t_s[i] - ts.t_s[i - 1]);
+  if (s.empty()) return 1;
+  std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
+  return s[s.size() / 2];
+}
+
+double Corr(const std::vector<double>& a, const std::vector<double>& b) {
+  const size_t n = std::min(a.size(), b.size());
+  if (n < 3) return 0;
+  double ma = 0, mb = 0;
+  for (size_t i = 0; i < n; ++i) ma += a[i], mb += b[i];
+  ma /= n, mb /= n;
+  double sab = 0, saa = 0, sbb = 0;
+  for (size_t i = 0; i < n; ++i) {
+    sab += (a[i] - ma) * (b[i] - mb);
+    saa += (a[i] - ma) * (a[i] - ma);
+    sbb += (b[i] - mb) * (b[i] - mb);
+  }
+  return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0;
+}
+
+TimeSeries WithoutInput(const TimeSeries& ts, const std::string& name) {
+  TimeSeries out = ts;
+  const int j = ts.InputIndex(name);
+  if (j < 0) return out;
+  out.input_names.erase(out.input_names.begin() + j);
+  Eigen::MatrixXd in(ts.inputs.rows(), ts.inputs.cols() - 1);
+  in << ts.inputs.leftCols(j), ts.inputs.rightCols(ts.inputs.cols() - j - 1);
+  out.inputs = in;
+  return out;
+}
+
+Eigen::VectorXd Predicted(const TimeSeries& ts, double t_end, int j,
+                          Structure s, const FitOptions& o,
+                          OutputModel* model = nullptr) {
+  const OutputModel m = FitOutput(HeadOf(ts, t_end), j, s, o);
+  if (model) *model = m;
+  return PredictOutput(m, ts);
+}
+
+}  // namespace
+
+double Percentile(std::vector<double> v, double x) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const double n = static_cast<double>(v.size());
+  // Thesis eq. 4.30-4.32: k = N X + 1/2 (1-based), clamped to [1, N].
+  const double k = std::clamp(n * x + 0.5, 1.0, n);
+  const size_t lo = static_cast<size_t>(std::floor(k)) - 1;
+  const double frac = k - std::floor(k);
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + frac * (v[hi] - v[lo]);
+}
+
+ResidualStats ComputeStats(const Eigen::VectorXd& measured,
+                           const Eigen::VectorXd& predicted,
+                           double none_rms_um) {
+  ResidualStats s;
+  std::vector<double> abs_r;
+  double sse = 0, lo = 1e300, hi = -1e300;
+  for (Eigen::Index i = 0; i < measured.size(); ++i) {
+    if (!std::isfinite(measured(i))) continue;
+    const double r = measured(i) - predicted(i);
+    sse += r * r;
+    abs_r.push_back(std::abs(r));
+    lo = std::min(lo, r);
+    hi = std::max(hi, r);
+  }
+  s.n = static_cast<int>(abs_r.size());
+  if (s.n == 0) return s;
+  s.rms_um = std::sqrt(sse / s.n);
+  s.p99_um = Percentile(abs_r, 0.99);
+  s.pv_um = hi - lo;
+  s.reduction_pct =
+      none_rms_um > 0 ? 100.0 * (1.0 - s.rms_um / none_rms_um) : 0.0;
+  return s;
+}
+
+Diagnosis Diagnose(const TimeSeries& ts, size_t first, int output,
+                   const Eigen::VectorXd& predicted, const std::string& model) {
+  Diagnosis d;
+  d.model = model;
+  std::vector<double> t, y, p, r;
+  std::vector<size_t> rows;
+  for (size_t i = first; i < ts.rows(); ++i) {
+    const double m = ts.outputs_um(static_cast<Eigen::Index>(i), output);
+    if (!std::isfinite(m)) continue;
+    rows.push_back(i);
+    t.push_back(ts.t_s[i]);
+    y.push_back(m);
+    p.push_back(predicted(static_cast<Eigen::Index>(i)));
+    r.push_back(m - p.back());
+  }
+  if (rows.size() < 10) return d;
+  double sse = 0;
+  for (double v : r) sse += v * v;
+  d.rms_um = std::sqrt(sse / r.size());
+  // Leading temperature: the one most correlated with the measured output.
+  double best = -1;
+  int lead = -1;
+  for (size_t j = 0; j < ts.input_names.size(); ++j) {
+    if (ts.input_names[j].rfind("T_", 0) != 0) continue;
+    std::vector<double> x;
+    for (size_t i : rows)
+      x.push_back(ts.inputs(static_cast<Eigen::Index>(i), j));
+    const double c = std::abs(Corr(x, y));
+    if (c > best) best = c, lead = static_cast<int>(j);
+  }
+  if (lead >= 0) {
+    d.leading_input = ts.input_names[lead];
+    double area = 0, tlo = 1e300, thi = -1e300, rlo = 1e300, rhi = -1e300;
+    for (size_t k = 0; k < rows.size(); ++k) {
+      const double temp = ts.inputs(static_cast<Eigen::Index>(rows[k]), lead);
+      tlo = std::min(tlo, temp), thi = std::max(thi, temp);
+      rlo = std::min(rlo, r[k]), rhi = std::max(rhi, r[k]);
+      if (k > 0) {
+        const double prev =
+            ts.inputs(static_cast<Eigen::Index>(rows[k - 1]), lead);
+        area += 0.5 * (r[k] + r[k - 1]) * (temp - prev);
+      }
+    }
+    d.loop_area_um_k = std::abs(area);
+    const double box = (thi - tlo) * (rhi - rlo);
+    d.loop_ratio = box > 0 ? d.loop_area_um_k / box : 0;
+  }
+  // Lag: shift of the prediction that best matches the measurement.
+  const double step = MedianStep(ts);
+  const int max_shift =
+      static_cast<int>(std::min(7200.0 / step, y.size() / 4.0));
+  const int stride = std::max(1, static_cast<int>(60.0 / step));
+  double best_c = -2;
+  for (int s = -max_shift; s <= max_shift; s += stride) {
+    std::vector<double> a, b;
+    for (size_t k = 0; k < y.size(); ++k) {
+      const long q = static_cast<long>(k) - s;
+      if (q < 0 || q >= static_cast<long>(p.size())) continue;
+      a.push_back(y[k]);
+      b.push_back(p[q]);
+    }
+    const double c = Corr(a, b);
+    if (c > best_c) best_c = c, d.lag_s = s * step;
+  }
+  // Drift: least-squares slope of the residual over time.
+  double mt = 0, mr = 0;
+  for (size_t k = 0; k < t.size(); ++k) mt += t[k], mr += r[k];
+  mt /= t.size(), mr /= r.size();
+  double stt = 0, str = 0;
+  for (size_t k = 0; k < t.size(); ++k)
+    stt += (t[k] - mt) * (t[k] - mt), str += (t[k] - mt) * (r[k] - mr);
+  d.drift_um_per_h = stt > 0 ? str / stt * 3600.0 : 0;
+  // Sensor jumps: a step of an input far outside its own step scatter.
+  double worst = 0;
+  for (size_t j = 0; j < ts.input_names.size(); ++j) {
+    if (ts.input_names[j].rfind("T_", 0) != 0) continue;
+    std::vector<double> diffs;
+    for (size_t i = std::max<size_t>(1, first); i < ts.rows(); ++i)
+      diffs.push_back(std::abs(ts.inputs(i, j) - ts.inputs(i - 1, j)));
+    if (diffs.size() < 10) continue;
+    const double mad = Percentile(diffs, 0.5);
+    for (size_t k = 0; k < diffs.size(); ++k) {
+      const double ratio = diffs[k] / std::max(mad, 1e-3);
+      if (diffs[k] > 0.5 && ratio > 30 && ratio > worst) {
+        worst = ratio;
+        const size_t i = std::max<size_t>(1, first) + k;
+        d.jump_input = ts.input_names[j];
+        d.jump_t_s = ts.t_s[i];
+        d.jump_size = ts.inputs(i, j) - ts.inputs(i - 1, j);
+      }
+    }
+  }
+  const double span_h = (t.back() - t.front()) / 3600.0;
+  if (!d.jump_input.empty()) {
+    d.problem = fmt::format("sensor jump: {} steps by {:+.2f} K at t = {:g} s",
+                            d.jump_input, d.jump_size, d.jump_t_s);
+  } else if (std::abs(d.lag_s) >= 600 || d.loop_ratio >= 0.1) {
+    d.problem = fmt::format(
+        "lag (pseudo-hysteresis): the measurement lags the prediction by "
+        "{:+.0f} s; residual vs {} encloses {:.1f} um K ({:.0f}% of its box)",
+        d.lag_s, d.leading_input, d.loop_area_um_k, 100 * d.loop_ratio);
+  } else if (std::abs(d.drift_um_per_h) * span_h > d.rms_um) {
+    d.problem = fmt::format("slow drift of the residual: {:+.2f} um/h",
+                            d.drift_um_per_h);
+  } else {
+    d.problem = fmt::format(
+        "no dominant systematic error (lag {:+.0f} s, loop {:.0f}%, drift "
+        "{:+.2f} um/h): the residual is mostly what the inputs do not carry",
+        d.lag_s, 100 * d.loop_ratio, d.drift_um_per_h);
+  }
+  return d;
+}
+
+CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
+                            const FitOptions& o) {
+  CompareResult res;
+  res.source = ts.source;
+  res.holdout_from_s = holdout_from_s;
+  res.outputs = ts.output_names;
+  res.t_s = ts.t_s;
+  while (res.first_holdout_row < ts.rows() &&
+         ts.t_s[res.first_holdout_row] < holdout_from_s)
+    ++res.first_holdout_row;
+  const size_t first = res.first_holdout_row;
+  if (first < 10 || ts.rows() - first < 10) {
+    throw InputError(
+        ts.source, 0, "--holdout-from",
+        fmt::format("{:g} s leaves fewer than 10 rows on one side "
+                    "(log spans {:g}..{:g} s)",
+                    holdout_from_s, ts.t_s.front(), ts.t_s.back()));
+  }
+  if (ts.output_names.empty())
+    throw InputError(ts.source, 0, "d_*", "the log has no output column");
+  const TimeSeries fit = HeadOf(ts, holdout_from_s);
+  const Eigen::Index n_rows = static_cast<Eigen::Index>(ts.rows());
+  const int n_out = static_cast<int>(ts.output_names.size());
+  const Eigen::Index nh = n_rows - static_cast<Eigen::Index>(first);
+  res.measured_um = ts.outputs_um;
+  res.best_um.resize(n_rows, n_out);
+  res.simplest_um.resize(n_rows, n_out);
+  res.leading_values.resize(n_rows, n_out);
+  res.warnings = ts.warnings;
+
+  std::vector<std::string> names = {"none", "static_all_T", "lag_speed"};
+  for (Structure s : AllStructures()) names.push_back(StructureName(s));
+  names.push_back("auto");
+  for (const auto& name : names) {
+    CompareEntry e;
+    e.name = name;
+    e.kind = name == "none"                                    ? "baseline"
+             : name == "auto"                                  ? "auto"
+             : (name == "static_all_T" || name == "lag_speed") ? "reference"
+                                                               : "structure";
+    res.entries.push_back(e);
+  }
+  for (int j = 0; j < n_out; ++j) {
+    const Eigen::VectorXd meas = ts.outputs_um.col(j).tail(nh);
+    double none_sq = 0;
+    int none_n = 0;
+    for (Eigen::Index i = 0; i < nh; ++i)
+      if (std::isfinite(meas(i))) none_sq += meas(i) * meas(i), ++none_n;
+    const double none_rms = none_n > 0 ? std::sqrt(none_sq / none_n) : 0;
+    auto record = [&](size_t entry, const Eigen::VectorXd& pred,
+                      const std::string& structure, int terms) {
+      res.entries[entry].stats.push_back(
+          ComputeStats(meas, pred.tail(nh), none_rms));
+      res.entries[entry].structures.push_back(structure);
+      res.entries[entry].terms.push_back(terms);
+    };
+    record(0, Eigen::VectorXd::Zero(n_rows), "none", 0);
+    // The reference simple models: static on every temperature; lags of n
+    // and n^2 with the time constant chosen by CV.
+    std::vector<Regressor> all_t, lag_best;
+    for (const auto& name : ts.input_names)
+      if (name.rfind("T_", 0) == 0) all_t.push_back({name, 1, 0, {}});
+    OutputModel ref_static;
+    if (!all_t.empty()) {
+      ref_static = FitFixed(fit, j, all_t, Structure::kStatic, o);
+      record(1, PredictOutput(ref_static, ts), "static", int(all_t.size()));
+    } else {
+      record(1, Eigen::VectorXd::Zero(n_rows), "none", 0);
+    }
+    OutputModel lag_model;
+    double lag_score = std::numeric_limits<double>::infinity();
+    for (double tau : o.taus_s) {
+      std::vector<Regressor> regs;
+      for (const auto& name : ts.input_names)
+        if (name.rfind("n_", 0) == 0) {
+          regs.push_back({name, 1, 0, {tau}});
+          regs.push_back({name, 2, 0, {tau}});
+        }
+      if (regs.empty()) break;
+      OutputModel m = FitFixed(fit, j, regs, Structure::kLag, o);
+      if (m.cv_score < lag_score) lag_score = m.cv_score, lag_model = m;
+    }
+    record(2,
+           lag_model.regressors.empty() ? Eigen::VectorXd::Zero(n_rows)
+                                        : PredictOutput(lag_model, ts),
+           "lag", int(lag_model.regressors.size()));
+    // Every structure, and auto = the lowest selection score among them.
+    double best_rms = std::numeric_limits<double>::infinity();
+    double auto_score = std::numeric_limits<double>::infinity();
+    Eigen::VectorXd auto_pred, best_pred, static_pred;
+    std::string auto_name, best_name;
+    int auto_terms = 0;
+    size_t entry = 3;
+    for (Structure s : AllStructures()) {
+      OutputModel m = FitOutput(fit, j, s, o);
+      const Eigen::VectorXd pred = PredictOutput(m, ts);
+      record(entry, pred, StructureName(s), int(m.regressors.size()));
+      const double rms = res.entries[entry].stats.back().rms_um;
+      if (rms < best_rms)
+        best_rms = rms, best_pred = pred, best_name = StructureName(s);
+      if (s == Structure::kStatic) static_pred = pred;
+      if (m.cv_score < auto_score) {
+        auto_score = m.cv_score;
+        auto_pred = pred;
+        auto_name = StructureName(s);
+        auto_terms = int(m.regressors.size());
+      }
+      ++entry;
+    }
+    record(entry, auto_pred, auto_name, auto_terms);
+    res.best.push_back(best_name);
+    res.simplest.push_back("static");
+    res.best_um.col(j) = best_pred;
+    res.simplest_um.col(j) = static_pred;
+
+    // What the best and the simplest get wrong, and the measured fix.
+    auto diagnose = [&](const std::string& name, const Eigen::VectorXd& pred) {
+      Diagnosis d = Diagnose(ts, first, j, pred, name);
+      Structure s;
+      ParseStructure(name, &s);
+      FitOptions ext = o;
+      Eigen::VectorXd fixed;
+      if (!d.jump_input.empty()) {
+        d.extension = "leave out " + d.jump_input;
+        const TimeSeries without = WithoutInput(ts, d.jump_input);
+        fixed = Predicted(without, holdout_from_s, j, s, o);
+      } else if (d.problem.rfind("lag", 0) == 0 && s == Structure::kStatic) {
+        d.extension = "first-order lags of the inputs (combined structure)";
+        fixed = Predicted(ts, holdout_from_s, j, Structure::kCombined, o);
+      } else {
+        const double longest =
+            *std::max_element(o.taus_s.begin(), o.taus_s.end());
+        ext.taus_s.push_back(2 * longest);
+        ext.taus_s.push_back(4 * longest);
+        d.extension = fmt::format(
+            "longer time constants ({:g} and {:g} s) for the slow part",
+            2 * longest, 4 * longest);
+        fixed =
+            Predicted(ts, holdout_from_s, j,
+                      s == Structure::kStatic ? Structure::kCombined : s, ext);
+      }
+      d.extended_rms_um = ComputeStats(meas, fixed.tail(nh), none_rms).rms_um;
+      return d;
+    };
+    res.best_diag.push_back(diagnose(best_name, best_pred));
+    res.simplest_diag.push_back(diagnose("static", static_pred));
+    const int lead = ts.InputIndex(res.best_diag.back().leading_input);
+    res.leading_inputs.push_back(res.best_diag.back().leading_input);
+    if (lead >= 0)
+      res.leading_values.col(j) = ts.inputs.col(lead);
+    else
+      res.leading_values.col(j).setConstant(kNaN);
+  }
+  return res;
+}
+
+nlohmann::json CompareToJson(const CompareResult& r) {
+  nlohmann::json j;
+  j["log"] = r.source;
+  j["holdout_from_s"] = r.holdout_from_s;
+  j["outputs"] = r.outputs;
+  nlohmann::json entries = nlohmann::json::array();
+  for (const auto& e : r.entries) {
+    nlohmann::json per = nlohmann::json::object();
+    for (size_t k = 0; k < e.stats.size(); ++k) {
+      const auto& s = e.stats[k];
+      per[r.outputs[k]] = {
+          {"rms_um", s.rms_um}, {"p99_um", s.p99_um},
+          {"pv_um", s.pv_um},   {"reduction_pct", s.reduction_pct},
+          {"n", s.n},           {"structure", e.structures[k]},
+          {"terms", e.terms[k]}};
+    }
+    entries.push_back({{"model", e.name}, {"kind", e.kind}, {"outputs", per}});
+  }
+  j["models"] = entries;
+  auto diag_json = [](const Diagnosis& d) {
+    return nlohmann::json{{"model", d.model},
+                          {"leading_input", d.leading_input},
+                          {"loop_area_um_k", d.loop_area_um_k},
+                          {"loop_ratio", d.loop_ratio},
+                          {"lag_s", d.lag_s},
+                          {"drift_um_per_h", d.drift_um_per_h},
+                          {"jump_input", d.jump_input},
+                          {"jump_t_s", d.jump_t_s},
+                          {"problem", d.problem},
+                          {"extension", d.extension},
+                          {"rms_um", d.rms_um},
+                          {"extended_rms_um", d.extended_rms_um},
+                          {"gain_um", d.rms_um - d.extended_rms_um}};
+  };
+  nlohmann::json diag = nlohmann::json::object();
+  for (size_t k = 0; k < r.outputs.size(); ++k) {
+    diag[r.outputs[k]] = {{"best", diag_json(r.best_diag[k])},
+                          {"simplest", diag_json(r.simplest_diag[k])}};
+  }
+  j["diagnosis"] = diag;
+  j["warnings"] = r.warnings;
+  return j;
+}
+
+std::string CompareText(const CompareResult& r) {
+  std::string s = fmt::format(
+      "{}: fit on t_s < {:g} s, predicted {:g}..{:g} s from the inputs alone\n"
+      "RMS of the residual (um), per output; P99 / peak-to-valley / reduction "
+      "in --json\n",
+      r.source, r.holdout_from_s, r.t_s[r.first_holdout_row], r.t_s.back());
+  s += fmt::format("{:<14}", "model");
+  for (const auto& o : r.outputs) s += fmt::format("{:>10}", o);
+  s += "\n";
+  for (const auto& e : r.entries) {
+    s += fmt::format("{:<14}", e.name);
+    for (const auto& st : e.stats) s += fmt::format("{:>10.2f}", st.rms_um);
+    if (e.name == "auto") {
+      s += "   (";
+      for (size_t k = 0; k < e.structures.size(); ++k)
+        s += (k ? " " : "") + e.structures[k];
+      s += ")";
+    }
+    s += "\n";
+  }
+  for (size_t k = 0; k < r.outputs.size(); ++k) {
+    for (const Diagnosis* d : {&r.best_diag[k], &r.simplest_diag[k]}) {
+      s += fmt::format(
+          "{} {} ({}): {}\n    fix: {} -> RMS {:.2f} -> {:.2f} um ({:+.2f})\n",
+          r.outputs[k], d == &r.best_diag[k] ? "best" : "simplest", d->model,
+          d->problem, d->extension, d->rms_um, d->extended_rms_um,
+          d->extended_rms_um - d->rms_um);
+    }
+  }
+  for (const auto& w : r.warnings) s += "warning: " + w + "\n";
+  return s;
+}
+
+}  // namespace ttp::models
