@@ -13,6 +13,8 @@
 #include "ttp/models/time_series.h"
 #include "ttp/talc/replay.h"
 #include "ttp/talc/sweep.h"
+#include "ttp/thermal/talc_log.h"
+#include "ttp/thermal/time_series.h"
 
 namespace ttp::app {
 namespace {
@@ -27,9 +29,7 @@ models::TimeSeries ReadLog(const fs::path& path) {
   std::string first;
   std::getline(in, first);
   if (first.rfind("# talc-log", 0) == 0)
-    throw InputError(path.string(), 1, "talc-log",
-                     "TALC logs are not read by this build of `ttp talc`; "
-                     "convert it to a thermal log");
+    return thermal::TalcLogToTimeSeries(thermal::ReadTalcLog(path));
   return models::ReadThermalLog(path);
 }
 

@@ -25,6 +25,11 @@ double Seconds(Clock::time_point a) {
 // CPU time of the whole process (all threads): on a shared machine the wall
 // time alone does not show whether threads or shards scale.
 double CpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
+double ThreadCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
 
 // 46 h from the 23 h of real data: the first half followed by itself run
 // backwards in time, so every signal continues without a jump at the join.
@@ -71,29 +76,31 @@ int main(int argc, char** argv) {
       if (r.outputs.empty()) return 3;
     }
     std::sort(times.begin(), times.end());
-    fmt::print("replay 46 h, hourly, with regressors and baselines: median "
-               "{:.1f} ms (budget 50 ms)\n",
-               1e3 * times[times.size() / 2]);
+    fmt::print(
+        "replay 46 h, hourly, with regressors and baselines: median "
+        "{:.1f} ms (budget 50 ms)\n",
+        1e3 * times[times.size() / 2]);
   }
 
   // 2. 2,000 strategies in one process.
-  ttp::talc::Grid grid = ttp::talc::GridFromJson(
-      nlohmann::json::parse(R"({"grid": {
+  ttp::talc::Grid grid =
+      ttp::talc::GridFromJson(nlohmann::json::parse(R"({"grid": {
         "interval_s": [900, 1800, 2700, 3600, 5400, 7200, 9000, 10800, 12600, 14400],
         "forgetting_per_h": [1.0, 0.98, 0.95, 0.9],
         "speed_lags_s": [[], [1800], [3600], [7200], [1800, 7200]],
         "calibration_s": [21600, 30600, 43200, 57600, 72000],
         "ridge": [0.1, 1.0]}})"),
-      "bench");
+                              "bench");
   fmt::print("grid: {} strategies\n", grid.size());
   for (int threads : {1, 2}) {
     if (quick && threads == 1) continue;
     const auto t0 = Clock::now();
     const double c0 = CpuSeconds();
     const auto d = ttp::talc::RunSweep(long_series, grid, "long", threads);
-    fmt::print("sweep {} strategies on 46 h, {} thread(s): {:.2f} s wall, "
-               "{:.2f} s CPU (budget 60 s on 2 cores)\n",
-               d["points"].size(), threads, Seconds(t0), CpuSeconds() - c0);
+    fmt::print(
+        "sweep {} strategies on 46 h, {} thread(s): {:.2f} s wall, "
+        "{:.2f} s CPU (budget 60 s on 2 cores)\n",
+        d["points"].size(), threads, Seconds(t0), CpuSeconds() - c0);
   }
 
   // 3. Sharded: N shards run side by side (one thread each), then merged.
@@ -112,26 +119,34 @@ int main(int argc, char** argv) {
       const auto t0 = Clock::now();
       const double c0 = CpuSeconds();
       std::vector<std::thread> workers;
+      std::vector<double> shard_cpu(size_t(shards), 0.0);
       for (int k = 0; k < shards; ++k)
         workers.emplace_back([&, k] {
           ttp::talc::RunShard(plan_dir, k, 1, [](const auto& p) {
             return ttp::models::ReadThermalLog(p);
           });
+          shard_cpu[size_t(k)] = ThreadCpuSeconds();
         });
       for (auto& w : workers) w.join();
+      // The critical path on N free cores: the slowest shard's CPU time.
+      const double slowest =
+          *std::max_element(shard_cpu.begin(), shard_cpu.end());
       const std::string merged = ttp::talc::MergeShards(plan_dir).dump();
       if (reference.empty()) reference = merged;
-      fmt::print("sharded {} strategies (23 h log), {} shard(s) side by side: "
-                 "{:.2f} s wall, {:.2f} s CPU, merged result {}\n",
-                 small.size(), shards, Seconds(t0), CpuSeconds() - c0,
-                 merged == reference ? "identical" : "DIFFERENT");
+      fmt::print(
+          "sharded {} strategies (23 h log), {} shard(s) side by side: "
+          "{:.2f} s wall, {:.2f} s CPU in all, slowest shard {:.2f} s CPU, "
+          "merged result {}\n",
+          small.size(), shards, Seconds(t0), CpuSeconds() - c0, slowest,
+          merged == reference ? "identical" : "DIFFERENT");
     }
     std::filesystem::remove_all(dir);
   }
 
   // 4. P99 against the interval on the real data (defaults otherwise).
-  fmt::print("\nP99 of |residual| (um) on train.csv after 8.5 h calibration, "
-             "TALC vs holding the last measurement:\n");
+  fmt::print(
+      "\nP99 of |residual| (um) on train.csv after 8.5 h calibration, "
+      "TALC vs holding the last measurement:\n");
   fmt::print("{:>10} {:>8}", "interval", "Q_Prod");
   for (const auto& n : real.output_names) fmt::print(" {:>15}", n);
   fmt::print("\n");

@@ -112,7 +112,7 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
 
   std::vector<char> gap(n, 0);
   for (size_t g : s.gap_rows)
-    if (g < n) gap[g] = 1;
+    if (g > 0 && g < n) gap[g] = 1;
 
   RecursiveLeastSquares rls(p, m, st.ridge);
   Eigen::MatrixXd theta = Eigen::MatrixXd::Zero(p, m);
@@ -169,6 +169,11 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
     const double since = t - last_t;
     if (!any_measurement || gap[i]) {
       due = true;
+      if (gap[i])
+        res.warnings.push_back(fmt::format(
+            "gap of {:g} s before t = {:g} s: measured again there instead "
+            "of predicting across it",
+            t - s.t_s[i - 1], t));
     } else if (since >= st.measuring_time_s) {
       if (!started || t < cal_end) {
         due = since >= st.calibration_interval_s;

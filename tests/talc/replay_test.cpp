@@ -162,6 +162,8 @@ TEST(Replay, AGapForcesAMeasurement) {
   EXPECT_NE(std::find(r.measurement_times_s.begin(),
                       r.measurement_times_s.end(), s.t_s[g]),
             r.measurement_times_s.end());
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("gap"), std::string::npos);
 }
 
 TEST(Replay, TwoNodePlantHourlyBeatsHoldingTheLastMeasurement) {
