@@ -9,6 +9,7 @@ packages=(
   libtomlplusplus-dev libgtest-dev
   linuxcnc-uspace
   chromium chromium-driver
+  clang-14 libclang-rt-14-dev ccache
 )
 missing=()
 for p in "${packages[@]}"; do
