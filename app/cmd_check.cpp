@@ -40,7 +40,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("--json", *json_out, "also write the check as JSON");
   cmd->add_option("--time-tolerance-s", *tolerance,
                   "how far a logged cut may end from its planned time "
-                  "(default 120 s)");
+                  "(default 120 s)")
+      ->check(FiniteRange(0.0, 86400.0));
   cmd->add_flag("--no-schedule-check", *no_schedule,
                 "skip the log <-> program schedule check");
   cmd->callback([&global, log_path, measurement, json_out, tolerance,

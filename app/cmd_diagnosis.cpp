@@ -6,6 +6,7 @@
 #include "planned_cuts.h"
 #include "ttp/diagnosis/diagnose.h"
 #include "ttp/diagnosis/twin.h"
+#include "ttp/geometry/file_io.h"
 #include "ttp/thermal/talc_log.h"
 
 namespace ttp::app {
@@ -32,7 +33,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("--json", *json_out, "also write the diagnosis as JSON");
     cmd->add_option("--evidence", *threshold,
                     "BIC margin over the nominal model needed to name a "
-                    "cause (default 10)");
+                    "cause (default 10)")
+        ->check(FiniteRange(0.0, 1e6));
     auto no_schedule = std::make_shared<bool>(false);
     cmd->add_flag("--no-schedule-check", *no_schedule,
                   "do not check the log's cuts against the program's "
@@ -70,18 +72,23 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "clamping_distortion or c_axis_indexing");
     cmd->add_option("--size", options->size,
                     "effect size: workpiece_expansion gain, tool_wear um/m, "
-                    "clamping_distortion um, c_axis_indexing urad");
-    cmd->add_option("--seed", options->seed, "random seed (default 1)");
+                    "clamping_distortion um, c_axis_indexing urad")
+        ->check(FiniteRange(0.0, 1e4));
+    cmd->add_option("--seed", options->seed, "random seed (default 1)")
+        ->check(CLI::NonNegativeNumber);  // -1 would wrap to 2^64 - 1
     cmd->add_option("--compensation", *compensation,
                     "on (the controller compensates with an imperfect model; "
                     "pred_* columns in the log) or off (default)")
         ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--rtest-interval-s", options->rtest_interval_s,
-                    "time between R-tests (default 300)");
+                    "time between R-tests (default 300)")
+        ->check(FiniteRange(1.0, 86400.0));
     cmd->add_option("--point-noise-um", options->point_noise_um,
-                    "CMM noise per point (default 0.4)");
+                    "CMM noise per point (default 0.4)")
+        ->check(FiniteRange(0.0, 1000.0));
     cmd->add_option("--points", options->cloud_points,
-                    "points in the measured cloud (default 20000)");
+                    "points in the measured cloud (default 20000)")
+        ->check(CLI::Range(100, 10'000'000));
     auto measurement = std::make_shared<std::string>("cloud");
     cmd->add_option(
            "--measurement", *measurement,
@@ -92,7 +99,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
            "--json` format, measured.json)")
         ->check(CLI::IsMember({"cloud", "ply", "xyz", "json"}));
     cmd->add_option("--stray-fraction", options->stray_fraction,
-                    "stray points per cloud point (default 0.002)");
+                    "stray points per cloud point (default 0.002)")
+        ->check(FiniteRange(0.0, 0.5));
     cmd->add_option("-o,--output", *out_dir,
                     "output directory: talc.csv (the TALC log), the measured "
                     "piece and truth.json (the hidden effect and its "
@@ -111,9 +119,18 @@ void Register(CLI::App& root, GlobalOptions& global) {
             throw CLI::ValidationError("--size", "must be > 0 with an effect");
           const Config config = global.LoadConfig();
           const diagnosis::TwinRun run = diagnosis::RunTwin(config, o);
-          const std::string written = diagnosis::WriteTwin(
-              config, run, o, *out_dir,
-              diagnosis::TwinMeasurementFromName(*measurement));
+          // All three files or none (an existing run survives a failure).
+          StagedFolder staged(*out_dir);
+          const std::string written =
+              (std::filesystem::path(*out_dir) /
+               std::filesystem::path(
+                   diagnosis::WriteTwin(
+                       config, run, o, staged.path().string(),
+                       diagnosis::TwinMeasurementFromName(*measurement)))
+                   .filename())
+                  .lexically_normal()
+                  .string();
+          staged.Commit();
           if (!global.quiet)
             WriteText("-", "wrote " +
                                (std::filesystem::path(*out_dir) / "talc.csv")

@@ -189,6 +189,31 @@ void Register(CLI::App& root, GlobalOptions& global) {
       // The fit's own checks (too few points, collinear): name the file.
       throw InputError(a->points, 0, a->shape, e.problem());
     }
+    // Points that do not determine the shape (a cone on 4 points, a
+    // cylinder on a plane) give parameters that are not numbers, or no
+    // uncertainty: bad input, not a result.
+    const auto finite = [](const nlohmann::json& v) {
+      if (v.is_array()) {
+        for (const auto& x : v)
+          if (!x.is_number() || !std::isfinite(x.get<double>())) return false;
+        return true;
+      }
+      return v.is_number() && std::isfinite(v.get<double>());
+    };
+    for (const auto& [k, v] : doc["parameters"].items())
+      if (!finite(v))
+        throw InputError(a->points, 0, a->shape,
+                         "the points do not determine a " + a->shape + " (" +
+                             k + " is not a finite number)");
+    if (doc["standard_uncertainty"].empty())
+      throw InputError(a->points, 0, a->shape,
+                       "the points do not determine a " + a->shape +
+                           " (the fit is rank deficient: no covariance)");
+    for (const auto& [k, v] : doc["standard_uncertainty"].items())
+      if (!finite(v))
+        throw InputError(a->points, 0, a->shape,
+                         "the points do not determine a " + a->shape + " (" +
+                             k + " has no finite uncertainty)");
     doc["shape"] = a->shape;
     doc["source"] = a->points;
     doc["robust"] = a->robust;

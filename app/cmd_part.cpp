@@ -7,6 +7,7 @@
 
 #include "command.h"
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
 #include "ttp/geometry/part_mesh.h"
 
 namespace ttp::app {
@@ -68,8 +69,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
     }
     PartMeshOptions mesh_options;
     mesh_options.chord_error_mm = opts->chord_error_mm;
-    const auto files =
-        WritePartMeshes(config, dir, stages, formats, mesh_options);
+    StagedFolder staged(dir);  // every mesh or none
+    auto files =
+        WritePartMeshes(config, staged.path(), stages, formats, mesh_options);
+    staged.Commit();
+    for (auto& f : files) f = dir / f.lexically_relative(staged.path());
     if (!global.quiet) {
       for (const auto& f : files) std::cout << f.string() << "\n";
       std::cout << fmt::format("{} files written to {}\n", files.size(),

@@ -6,6 +6,7 @@
 
 #include "command.h"
 #include "ttp/gcode/writer.h"
+#include "ttp/geometry/file_io.h"
 #include "ttp/geometry/frames.h"
 #include "ttp/plan/plan.h"
 
@@ -60,9 +61,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
     const auto points = plan::PlanPoints(config.part, o->plan);
     const std::string text = gcode::WriteProgram(
         plan::BuildProbeProgram(config, points, o->probe), dialect, config);
-    WriteText(o->output, text);
+    OutputBatch outputs;  // the program and its point list, or neither
+    outputs.Add(o->output, text);
     if (!o->points_csv.empty())
-      WriteText(o->points_csv, plan::PointsToCsv(points));
+      outputs.Add(o->points_csv, plan::PointsToCsv(points));
+    outputs.Commit();
     // The controller reports the trigger position in the active work
     // offset (G54: W's origin at C = 0), not in the machine frame M of
     // measurements.md; `ttp inspect` reads either (--probe-frame).
@@ -85,8 +88,10 @@ void Register(CLI::App& root, GlobalOptions& global) {
     fs::create_directories(o->dir);
     const fs::path csv = fs::path(o->dir) / "cmm_points.csv";
     const fs::path dmis = fs::path(o->dir) / "cmm_program.dmi";
-    WriteText(csv.string(), plan::PointsToCsv(points));
-    WriteText(dmis.string(), plan::PointsToDmis(points, config.part));
+    OutputBatch outputs;
+    outputs.Add(csv, plan::PointsToCsv(points));
+    outputs.Add(dmis, plan::PointsToDmis(points, config.part));
+    outputs.Commit();
     std::cout << fmt::format("{} points\n{}\n{}\n", points.size(), csv.string(),
                              dmis.string());
   });
@@ -100,8 +105,10 @@ void Register(CLI::App& root, GlobalOptions& global) {
     fs::create_directories(o->dir);
     const fs::path html = fs::path(o->dir) / "dial_sheet.html";
     const fs::path csv = fs::path(o->dir) / "dial_readings.csv";
-    WriteText(html.string(), plan::DialSheetHtml(config.part));
-    WriteText(csv.string(), plan::DialTemplateCsv(config.part));
+    OutputBatch outputs;
+    outputs.Add(html, plan::DialSheetHtml(config.part));
+    outputs.Add(csv, plan::DialTemplateCsv(config.part));
+    outputs.Commit();
     std::cout << html.string() << "\n" << csv.string() << "\n";
   });
 }

@@ -10,6 +10,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/limits.h"
 #include "ttp/geometry/rtest.h"
 
 namespace ttp::app {
@@ -59,6 +60,11 @@ void Evaluate(const RTestArgs& a, const RTestGeometry& g) {
     const double cycle = t.Number(row, c_cycle);
     if (cycle != std::floor(cycle)) {
       throw InputError(a.spheres, row.line, "cycle", "must be an integer");
+    }
+    if (std::abs(cycle) > static_cast<double>(limits::kMaxCycleId)) {
+      throw InputError(a.spheres, row.line, "cycle",
+                       t.Text(row, c_cycle) + " is beyond the limit of " +
+                           std::to_string(limits::kMaxCycleId));
     }
     const long id = static_cast<long>(cycle);
     if (!cycles.count(id)) order.push_back(id);

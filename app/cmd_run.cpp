@@ -72,7 +72,8 @@ double ClearSize(diagnosis::Cause cause) {
 struct RunContext {
   Config config;
   RunArgs args;
-  fs::path out_dir;
+  fs::path out_dir;    // where the stages write (a staging folder)
+  fs::path shown_dir;  // the output folder, as files are named in outputs
   // Outputs in the order written: path and what it holds.
   std::vector<std::pair<fs::path, std::string>> written;
   // Lines for the closing summary.
@@ -239,6 +240,8 @@ void TwinStage(RunContext& ctx) {
 void InspectStage(RunContext& ctx) {
   ctx.measurement =
       inspect::LoadMeasurement(ctx.config, ctx.out_dir / "twin/piece.ply");
+  ctx.measurement.source = ctx.measurement.result.source =
+      (ctx.shown_dir / "twin/piece.ply").string();
   ctx.WriteJsonFile(
       "inspection.json", inspect::MeasurementToJson(ctx.measurement),
       "inspection of the twin's cloud: E_X..E_TTP with U (k = 2)");
@@ -258,7 +261,7 @@ void InspectStage(RunContext& ctx) {
 
 void CheckStage(RunContext& ctx) {
   ctx.log = thermal::ParseTalcLog(ctx.twin.log_text,
-                                  (ctx.out_dir / "twin/talc.csv").string());
+                                  (ctx.shown_dir / "twin/talc.csv").string());
   const thermal::ScheduleCheck schedule =
       thermal::CheckLogAgainstSchedule(ctx.log, PlannedCuts(ctx.config));
   ctx.estimator = thermal::MachineErrorEstimator::Fit(ctx.log);
@@ -301,7 +304,7 @@ void ReportStage(RunContext& ctx) {
   ctx.written.emplace_back(ctx.out_dir / "report.json",
                            "the data the report is made from");
   ctx.summary.push_back(
-      "report: " + (ctx.out_dir / "report.html").lexically_normal().string());
+      "report: " + (ctx.shown_dir / "report.html").lexically_normal().string());
 }
 
 void DiagnoseStage(RunContext& ctx) {
@@ -357,7 +360,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("--size", args->size,
                   "size of the hidden effect in its unit (default: a clear "
                   "one)");
-  cmd->add_option("--seed", args->seed, "seed of the twin run (default 1)");
+  cmd->add_option("--seed", args->seed, "seed of the twin run (default 1)")
+      ->check(CLI::NonNegativeNumber);  // -1 would wrap to 2^64 - 1
   cmd->callback([&global, args, cmd] {
     RunContext ctx;
     ctx.config = global.LoadConfig();
@@ -373,8 +377,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
     if (cmd->get_option("--size")->count() > 0 && !(args->size > 0))
       throw InputError("--size", 0, "size",
                        "must be > 0 (leave --size out for a clear size)");
-    ctx.out_dir = args->out_dir;
-    fs::create_directories(ctx.out_dir);
+    // Every stage writes into a staging folder; its files move into the
+    // output folder only when all stages are done (all or none).
+    StagedFolder staged(args->out_dir);
+    ctx.out_dir = staged.path();
+    ctx.shown_dir = args->out_dir;
     const bool progress = !global.quiet && StdoutIsTerminal();
     const auto& stages = Stages();
     for (size_t i = 0; i < stages.size(); ++i) {
@@ -391,6 +398,10 @@ void Register(CLI::App& root, GlobalOptions& global) {
         std::cout << fmt::format(" done ({:.2f} s)\n", s);
       }
     }
+    staged.Commit();
+    ctx.out_dir = args->out_dir;
+    for (auto& [path, what] : ctx.written)
+      path = ctx.out_dir / path.lexically_relative(staged.path());
     if (ctx.judged_failure) global.exit_code = kExitJudgedFailure;
     if (global.quiet) return;
     // What was decided first (the verdict leads), then where it is.

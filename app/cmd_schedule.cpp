@@ -4,6 +4,7 @@
 
 #include "command.h"
 #include "ttp/cam/schedule.h"
+#include "ttp/geometry/file_io.h"
 
 namespace ttp::app {
 namespace {
@@ -19,8 +20,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("--json", *json, "also write the schedule as JSON here");
   cmd->callback([&global, csv, json] {
     const cam::Schedule schedule = cam::BuildSchedule(global.LoadConfig());
-    if (!csv->empty()) cam::WriteScheduleCsv(*csv, schedule);
-    if (!json->empty()) cam::WriteScheduleJson(*json, schedule);
+    OutputBatch outputs;  // both files or neither
+    if (!csv->empty()) outputs.Add(*csv, cam::ScheduleToCsv(schedule));
+    if (!json->empty())
+      outputs.Add(*json, cam::ScheduleToJson(schedule).dump(2) + "\n");
+    outputs.Commit();
     std::cout << cam::FormatScheduleTable(schedule);
   });
 }

@@ -1,7 +1,7 @@
 // Subcommand registry of the `ttp` program. Each cmd_<area>.cpp registers
 // its subcommands with a static TTP_REGISTER_COMMANDS(fn); main() builds the
 // CLI from the registry, runs the chosen callback and maps errors to exit
-// codes: 0 ok, 1 a judged failure, 2 bad input or usage.
+// codes: 0 ok, 1 a judged failure, 2 bad input or usage, 3 a bug in ttp.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -20,6 +20,7 @@ namespace ttp::app {
 constexpr int kExitOk = 0;
 constexpr int kExitJudgedFailure = 1;
 constexpr int kExitBadInput = 2;
+constexpr int kExitInternalError = 3;  // a bug in ttp, never the input's fault
 
 struct GlobalOptions {
   std::string config_path;  // --config FILE (TOML/JSON), empty = defaults
@@ -81,6 +82,22 @@ std::string ClosestMatch(const std::string& word,
 // "did you mean" for a command line CLI11 refused: an unknown subcommand
 // or option of the chosen subcommand. Empty when it has no suggestion.
 std::string DidYouMean(const CLI::App& root, int argc, const char* const* argv);
+
+// A CLI11 check: a finite number in [min, max] (CLI::Range lets NaN pass).
+inline CLI::Validator FiniteRange(double min, double max) {
+  return CLI::Validator(
+      [min, max](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (text.empty() || *end != '\0' || !(v >= min && v <= max))
+          return "'" + text + "' is not a number in [" +
+                 CLI::detail::to_string(min) + ", " +
+                 CLI::detail::to_string(max) + "]";
+        return std::string();
+      },
+      "NUMBER in [" + CLI::detail::to_string(min) + ", " +
+          CLI::detail::to_string(max) + "]");
+}
 
 // True when stdout is a terminal (progress displays only then).
 bool StdoutIsTerminal();

@@ -8,7 +8,8 @@ int main(int argc, char** argv) {
   using namespace ttp::app;
   CLI::App root{
       "ttp - thermal test pieces: G-code, inspection, TALC log checks and "
-      "diagnosis.\nExit codes: 0 ok, 1 judged failure, 2 bad input."};
+      "diagnosis.\nExit codes: 0 ok, 1 judged failure, 2 bad input or usage, "
+      "3 internal error (a bug in ttp)."};
   root.require_subcommand(1);
   // Global options are also accepted after the subcommand
   // (`ttp grade --config machine.toml piece.ply`), and defaults show in
@@ -32,9 +33,26 @@ int main(int argc, char** argv) {
   } catch (const ttp::InputError& e) {
     std::cerr << "ttp: error: " << e.what() << "\n";
     return kExitBadInput;
-  } catch (const std::exception& e) {
+  } catch (const ttp::OutputError& e) {
+    // An output that cannot be written (full disk, no permission, a path
+    // the output policy refuses): the user's environment, not a bug.
     std::cerr << "ttp: error: " << e.what() << "\n";
     return kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "ttp: internal error (a bug in ttp, not your input): out "
+                 "of memory (std::bad_alloc); every input size has a checked "
+                 "limit, so this one escaped it\n";
+    return kExitInternalError;
+  } catch (const std::exception& e) {
+    // InputError covers every fault of the input; anything else escaping a
+    // command (std::out_of_range, a library's exception) is a bug of ttp.
+    std::cerr << "ttp: internal error (a bug in ttp, not your input): "
+              << e.what() << "\n";
+    return kExitInternalError;
+  } catch (...) {
+    std::cerr << "ttp: internal error (a bug in ttp, not your input): "
+                 "unknown exception\n";
+    return kExitInternalError;
   }
   return global.exit_code;
 }

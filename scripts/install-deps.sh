@@ -11,6 +11,7 @@ packages=(
   slurm-wlm munge parallel
   chromium chromium-driver
   python3-jsonschema
+  clang-14 libclang-rt-14-dev ccache
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -1,8 +1,49 @@
 #!/usr/bin/env bash
-# The README's second command: install, build, run every test.
+# The README's second command: install, build, run every test; then the
+# whole suite again under AddressSanitizer and UndefinedBehaviorSanitizer,
+# then every fuzz target for a bounded time (docs/ARCHITECTURE.md, "CI").
+#   TTP_TEST_STAGES  which stages to run (default "release sanitize fuzz")
+#   FUZZ_SECONDS     seconds per fuzz target (default 25; 11 targets)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+stages="${TTP_TEST_STAGES:-release sanitize fuzz}"
+jobs="$(nproc)"
+stage_start=$SECONDS
+stage_done() {
+  echo "== stage $1: $((SECONDS - stage_start)) s"
+  stage_start=$SECONDS
+}
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
 bash scripts/install-deps.sh
-bash scripts/build.sh
-cd build
-ctest --output-on-failure -j"$(nproc)" --timeout 900
+
+if [[ " $stages " == *" release "* ]]; then
+  bash scripts/build.sh
+  (cd build && ctest --output-on-failure -j"$jobs" --timeout 900)
+  stage_done release
+fi
+
+# Sanitizer stage: every test built with -fsanitize=address,undefined
+# (-fno-sanitize-recover=undefined: the first undefined behaviour fails
+# the test). Left out: the tests that only drive external programs whose
+# code is not ours and not instrumented (Rs274Test: the rs274 interpreter's
+# canon output; BrowserTest: Chromium drawing the report); everything of
+# ttp that those paths run is covered by the other tests.
+if [[ " $stages " == *" sanitize "* ]]; then
+  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DTTP_SANITIZE=address,undefined -DTTP_BUILD_BENCH=OFF \
+    "${launcher[@]}" >/dev/null
+  cmake --build build-asan -j"$jobs"
+  (cd build-asan &&
+    ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    ctest --output-on-failure -j"$jobs" --timeout 1800 \
+      -E '^(Rs274Test|BrowserTest)\.')
+  stage_done sanitize
+fi
+
+if [[ " $stages " == *" fuzz "* ]]; then
+  bash scripts/fuzz.sh
+  stage_done fuzz
+fi

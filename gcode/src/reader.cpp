@@ -15,6 +15,7 @@
 #include "ttp/gcode/writer.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::gcode {
 namespace {
@@ -162,8 +163,16 @@ class Lexer {
       ++end;
     w.raw = Trim(text.substr(start, end - start));
     if (digits == 0 || end != i) Fail(w.raw, "bad number");
-    w.value = std::stod(number);
+    // Limits (docs/ARCHITECTURE.md): no control takes more digits, and
+    // beyond them doubles lose the 0.1 um the programs are written in.
+    if (digits > 15) Fail(w.raw, "more than 15 digits in a number");
+    w.value = std::strtod(number.c_str(), nullptr);
     if (!std::isfinite(w.value)) Fail(w.raw, "bad number");
+    if (std::string("XYZABCUVWIJKR").find(w.letter) != std::string::npos &&
+        std::abs(w.value) > limits::kMaxProgramCoordinate)
+      Fail(w.raw, "coordinate beyond the limit of " +
+                      std::to_string(
+                          static_cast<long>(limits::kMaxProgramCoordinate)));
     return w;
   }
 
@@ -481,6 +490,11 @@ class Interpreter {
       seconds = pw->value;
     }
     if (seconds < 0) Fail(x ? x->raw : pw->raw, "dwell must be >= 0");
+    if (seconds > limits::kMaxDwellS)
+      Fail(x ? x->raw : pw->raw,
+           "dwell of " + std::to_string(seconds) +
+               " s is beyond the limit of " +
+               std::to_string(static_cast<long>(limits::kMaxDwellS)) + " s");
     builder_.Dwell(seconds);
   }
 
@@ -598,12 +612,22 @@ std::vector<CanonStatement> ReadProgram(const std::string& text,
   std::stringstream ss(text);
   std::string line;
   int line_number = 0;
+  int blocks = 0;
   while (std::getline(ss, line)) {
     ++line_number;
+    if (line_number > limits::kMaxProgramLines)
+      throw InputError(source, line_number, "",
+                       "more than " + std::to_string(limits::kMaxProgramLines) +
+                           " lines is beyond the limit");
     const auto block = lexer.Lex(line, line_number);
     if (!block) continue;
+    ++blocks;
     if (!interpreter.Run(*block)) break;
   }
+  // Nothing to read, check, simulate or run: the same answer (bad input)
+  // from every command that reads programs.
+  if (blocks == 0)
+    throw InputError(source, 0, "", "the program is empty (no blocks)");
   auto statements = interpreter.Take();
   ApplyTimeModel(statements, config.machine);
   return statements;

@@ -1,58 +1,333 @@
 #include "ttp/geometry/file_io.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <iostream>
+#include <mutex>
 #include <sstream>
 #include <system_error>
 
 #include "ttp/geometry/error.h"
 
 namespace ttp {
+namespace fs = std::filesystem;
+namespace {
 
-std::string ReadTextFile(const std::filesystem::path& path) {
+// Inputs read and files written by this process (the output policy).
+struct NotedFiles {
+  std::mutex mutex;
+  std::vector<fs::path> inputs;
+  std::vector<fs::path> written;
+};
+NotedFiles& Noted() {
+  static NotedFiles noted;
+  return noted;
+}
+
+bool SameFile(const fs::path& a, const fs::path& b) {
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
+  const bool same = fs::equivalent(a, b, ec);
+  return !ec && same;
+}
+
+// Throws OutputError if `path` (an existing file) is a noted input.
+void RefuseInput(const fs::path& path) {
+  NotedFiles& n = Noted();
+  std::lock_guard<std::mutex> lock(n.mutex);
+  for (const fs::path& in : n.inputs) {
+    if (SameFile(in, path)) {
+      throw OutputError("will not write " + path.string() +
+                        ": it is an input of this command (" + in.string() +
+                        "); name another output file");
+    }
+  }
+}
+
+void NoteWritten(const fs::path& path) {
+  NotedFiles& n = Noted();
+  std::lock_guard<std::mutex> lock(n.mutex);
+  n.written.push_back(path);
+}
+
+std::string ErrnoText() { return std::strerror(errno); }
+
+// What writing to `path` means under the output policy.
+struct Target {
+  fs::path path;        // where to write: a symbolic link resolved
+  bool direct = false;  // a device or FIFO: write into it, no rename
+};
+
+Target ResolveTarget(const fs::path& path) {
+  if (path.empty()) throw OutputError("empty output file name");
+  std::error_code ec;
+  Target t{path, false};
+  const fs::file_status link = fs::symlink_status(path, ec);
+  if (fs::is_symlink(link)) {
+    const fs::path resolved = fs::weakly_canonical(path, ec);
+    const fs::file_status st = fs::status(path, ec);
+    if (ec || !fs::exists(st)) {
+      // A dangling link: its target may be anywhere; writing there
+      // would create a file the user cannot see from the name.
+      throw OutputError("will not write " + path.string() +
+                        ": a symbolic link to a missing file");
+    }
+    t.path = resolved;
+  }
+  const fs::file_status st = fs::status(t.path, ec);
+  if (fs::is_directory(st)) {
+    throw OutputError("cannot write " + path.string() +
+                      ": it is a folder, not a file");
+  }
+  if (fs::is_character_file(st) || fs::is_block_file(st) || fs::is_fifo(st)) {
+    t.direct = true;
+  } else if (fs::exists(st) && !fs::is_regular_file(st)) {
+    throw OutputError("will not write " + path.string() +
+                      ": not a regular file, device or FIFO");
+  }
+  if (fs::exists(st)) RefuseInput(t.path);
+  return t;
+}
+
+void WriteDirect(const Target& t, const std::string& content) {
+  const int fd = ::open(t.path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0)
+    throw OutputError("cannot open " + t.path.string() + ": " + ErrnoText());
+  size_t done = 0;
+  while (done < content.size()) {
+    const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      const std::string why = ErrnoText();
+      ::close(fd);
+      throw OutputError("write failed: " + t.path.string() + ": " + why);
+    }
+    done += static_cast<size_t>(w);
+  }
+  if (::close(fd) != 0)
+    throw OutputError("write failed: " + t.path.string() + ": " + ErrnoText());
+}
+
+// Writes a temporary file beside `target` and returns its path. The
+// temporary keeps the mode of an existing target.
+fs::path WriteTemporary(const fs::path& target, const std::string& content) {
+  const fs::path parent =
+      target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::error_code ec;
+  fs::create_directories(parent, ec);
+  std::string name = parent / ("." + target.filename().string() + ".tmpXXXXXX");
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) {
+    throw OutputError("cannot write into " + parent.string() + ": " +
+                      ErrnoText());
+  }
+  const fs::path tmp = name;
+  struct stat old {};
+  if (::stat(target.c_str(), &old) == 0) {
+    ::fchmod(fd, old.st_mode & 07777);
+  } else {
+    const mode_t mask = ::umask(0);  // mkstemp made it 0600
+    ::umask(mask);
+    ::fchmod(fd, 0666 & ~mask);
+  }
+  size_t done = 0;
+  while (done < content.size()) {
+    const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      const std::string why = ErrnoText();
+      ::close(fd);
+      fs::remove(tmp, ec);
+      throw OutputError("write failed: " + target.string() + ": " + why);
+    }
+    done += static_cast<size_t>(w);
+  }
+  if (::close(fd) != 0) {
+    const std::string why = ErrnoText();
+    fs::remove(tmp, ec);
+    throw OutputError("write failed: " + target.string() + ": " + why);
+  }
+  return tmp;
+}
+
+void RenameInto(const fs::path& tmp, const fs::path& target) {
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw OutputError("cannot rename into " + target.string() + ": " +
+                      ec.message());
+  }
+  NoteWritten(target);
+}
+
+}  // namespace
+
+void NoteInput(const fs::path& path) {
+  NotedFiles& n = Noted();
+  std::lock_guard<std::mutex> lock(n.mutex);
+  for (const fs::path& w : n.written)
+    if (SameFile(w, path)) return;  // our own output read back
+  n.inputs.push_back(path);
+}
+
+void ClearNotedFiles() {
+  NotedFiles& n = Noted();
+  std::lock_guard<std::mutex> lock(n.mutex);
+  n.inputs.clear();
+  n.written.clear();
+}
+
+std::string ReadTextFile(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
     throw InputError(path.string(), 0, "", "file does not exist");
   }
-  if (std::filesystem::is_directory(path, ec)) {
+  if (fs::is_directory(path, ec)) {
     throw InputError(path.string(), 0, "", "is a folder, not a file");
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "", "cannot be opened");
+  NoteInput(path);
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();
 }
 
-void WriteFileAtomic(const std::filesystem::path& path,
-                     const std::string& content) {
-  namespace fs = std::filesystem;
-  const fs::path parent =
-      path.has_parent_path() ? path.parent_path() : fs::path(".");
+void WriteFileAtomic(const fs::path& path, const std::string& content) {
+  const Target t = ResolveTarget(path);
+  if (t.direct) {
+    WriteDirect(t, content);
+    return;
+  }
+  RenameInto(WriteTemporary(t.path, content), t.path);
+}
+
+void OutputBatch::Add(const fs::path& path, std::string content) {
+  files_.emplace_back(path, std::move(content));
+}
+
+void OutputBatch::Commit() {
+  // Check every target before anything is written.
+  std::vector<Target> targets;
+  for (const auto& [path, content] : files_) {
+    if (path == "-") {
+      targets.push_back({path, true});
+      continue;
+    }
+    targets.push_back(ResolveTarget(path));
+    for (size_t k = 0; k + 1 < targets.size(); ++k) {
+      if (targets[k].path == targets.back().path ||
+          SameFile(targets[k].path, targets.back().path))
+        throw OutputError("two outputs of one command are the same file: " +
+                          path.string());
+    }
+  }
+  std::vector<fs::path> temporaries(files_.size());
+  try {
+    for (size_t k = 0; k < files_.size(); ++k) {
+      if (!targets[k].direct)
+        temporaries[k] = WriteTemporary(targets[k].path, files_[k].second);
+    }
+  } catch (...) {
+    std::error_code ec;
+    for (const fs::path& tmp : temporaries)
+      if (!tmp.empty()) fs::remove(tmp, ec);
+    throw;
+  }
+  for (size_t k = 0; k < files_.size(); ++k) {
+    if (!targets[k].direct) RenameInto(temporaries[k], targets[k].path);
+  }
+  for (size_t k = 0; k < files_.size(); ++k) {
+    if (files_[k].first == "-") {
+      std::cout << files_[k].second << std::flush;
+    } else if (targets[k].direct) {
+      WriteDirect(targets[k], files_[k].second);
+    }
+  }
+  files_.clear();
+}
+
+StagedFolder::StagedFolder(const fs::path& target) : target_(target) {
   std::error_code ec;
+  if (fs::exists(target_, ec) && !fs::is_directory(target_, ec))
+    throw OutputError("cannot write into the folder " + target_.string() +
+                      ": a file of that name exists");
+  const fs::path abs = fs::absolute(target_, ec).lexically_normal();
+  const fs::path parent =
+      abs.has_filename() ? abs.parent_path() : abs.parent_path().parent_path();
+  const std::string base = abs.has_filename()
+                               ? abs.filename().string()
+                               : abs.parent_path().filename().string();
   fs::create_directories(parent, ec);
-  const fs::path tmp = parent / ("." + path.filename().string() + ".tmp" +
-                                 std::to_string(static_cast<long>(::getpid())));
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      throw std::runtime_error("cannot write " + tmp.string());
-    }
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.flush();
-    if (!out) {
-      out.close();
-      fs::remove(tmp, ec);
-      throw std::runtime_error("write failed: " + path.string());
+  std::string name = parent / ("." + base + ".staging.XXXXXX");
+  if (::mkdtemp(name.data()) == nullptr)
+    throw OutputError("cannot create a folder in " + parent.string() + ": " +
+                      ErrnoText());
+  staging_ = name;
+}
+
+StagedFolder::~StagedFolder() {
+  std::error_code ec;
+  fs::remove_all(staging_, ec);
+}
+
+namespace {
+
+// Checks every file of `from` against the output policy at its place in
+// `to` (no input overwritten, no folder where a file goes).
+void CheckMerge(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(from)) {
+    const fs::path dest = to / entry.path().filename();
+    if (entry.is_directory()) {
+      if (fs::exists(dest, ec) && !fs::is_directory(dest, ec))
+        throw OutputError("cannot write the folder " + dest.string() +
+                          ": a file of that name exists");
+      if (fs::is_directory(dest, ec)) CheckMerge(entry.path(), dest);
+    } else if (fs::exists(dest, ec)) {
+      const Target t = ResolveTarget(dest);
+      if (t.direct)
+        throw OutputError("will not write " + dest.string() +
+                          ": a device or FIFO inside an output folder");
     }
   }
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw std::runtime_error("cannot rename into " + path.string());
+}
+
+// Moves every file of `from` into `to` (renames: `from` and `to` are on one
+// file system), merging folders that exist in both.
+void Merge(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::create_directories(to, ec);
+  for (const auto& entry : fs::directory_iterator(from)) {
+    const fs::path dest = to / entry.path().filename();
+    if (entry.is_directory() && fs::is_directory(dest, ec)) {
+      Merge(entry.path(), dest);
+      continue;
+    }
+    fs::path real = dest;
+    if (fs::is_symlink(fs::symlink_status(dest, ec)))
+      real = fs::weakly_canonical(dest, ec);
+    fs::rename(entry.path(), real, ec);
+    if (ec)
+      throw OutputError("cannot rename into " + dest.string() + ": " +
+                        ec.message());
+    NoteWritten(real);
   }
+}
+
+}  // namespace
+
+void StagedFolder::Commit() {
+  CheckMerge(staging_, target_);
+  Merge(staging_, target_);
+  std::error_code ec;
+  fs::remove_all(staging_, ec);
 }
 
 }  // namespace ttp

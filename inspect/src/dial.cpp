@@ -7,6 +7,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::inspect {
 
@@ -43,6 +44,10 @@ FeatureResults ReadDialReadings(const std::string& csv_text,
        options.repeatability_um * options.repeatability_um) *
       1e-6;
 
+  if (table.rows.empty())
+    throw InputError(source, 0, "reading_um",
+                     "no readings (the file holds its header only): not a "
+                     "measurement");
   FeatureResults results;
   std::map<std::string, int> seen_on_line;
   const std::vector<NominalFeature> nominal = TestFeatures(part);
@@ -60,6 +65,12 @@ FeatureResults ReadDialReadings(const std::string& csv_text,
                        id + " is read twice (first on line " +
                            std::to_string(pos->second) + ")");
     const double reading_um = table.Number(row, reading_col);
+    if (std::abs(reading_um) > limits::kMaxReadingUm)
+      throw InputError(
+          source, row.line, "reading_um",
+          table.Text(row, reading_col) + " um is beyond the limit of " +
+              std::to_string(static_cast<int>(limits::kMaxReadingUm)) +
+              " um (a thermal deviation, not a size)");
     const NominalFeature& f = *it->second;
     const bool reference = f.index == part.reference_index;
     if (reference && reading_um != 0.0)

@@ -11,6 +11,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/limits.h"
 #include "ttp/inspect/plane_result.h"
 
 namespace ttp::inspect {
@@ -66,6 +67,11 @@ double Number(const std::string& word, const std::string& source, int line,
   if (used != word.size() || word.empty() || !std::isfinite(v))
     throw InputError(source, line, what,
                      "'" + word + "' is not a finite number");
+  if (std::abs(v) > limits::kMaxCoordinateMm)
+    throw InputError(source, line, what,
+                     "'" + word + "' is beyond the limit of " +
+                         std::to_string(limits::kMaxCoordinateMm) +
+                         " (a coordinate or vector component)");
   return v;
 }
 
@@ -236,6 +242,7 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     }
   }
 
+  std::vector<std::string> reversed;
   for (const NominalFeature& nominal : TestFeatures(part)) {
     auto it = by_id.find(nominal.id);
     if (it == by_id.end()) continue;
@@ -244,7 +251,26 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
       throw InputError(dmis.source, f.line, "FA(" + f.label + ")",
                        nominal.id + " must be a PLANE, not " + f.type);
     PlaneInW plane{to_w * f.point_mm, to_w.linear() * f.direction};
+    // CMM software reports a plane's normal either way round: the same
+    // plane. Taken outward, and said so.
+    if (plane.normal.dot(nominal.normal) < 0) reversed.push_back(f.label);
     FeatureResult r = FeatureResultFromPlane(nominal, plane, top_z_mm);
+    // A feature far from its nominal place is not this piece measured in
+    // these units and this frame: refused, never turned into figures.
+    const double nominal_d = nominal.kind == FeatureKind::kStrip
+                                 ? -part.strip_floor_z_mm
+                                 : nominal.size_mm;
+    if (!(std::abs(r.d_mm - nominal_d) <= limits::kMaxFeatureDeviationMm) ||
+        !(std::abs(r.angle_rad) <= limits::kMaxFeatureAngleRad))
+      throw InputError(
+          dmis.source, f.line, "FA(" + f.label + ")",
+          nominal.id + " lies " + std::to_string(r.d_mm - nominal_d) +
+              " mm and " + std::to_string(r.angle_rad) +
+              " rad from its nominal place (limits " +
+              std::to_string(limits::kMaxFeatureDeviationMm) + " mm, " +
+              std::to_string(limits::kMaxFeatureAngleRad) +
+              " rad): the units (UNITS/) or the frame do not fit the "
+              "piece's size");
     // MPE = 1.2 um + L/400 (L in mm) bounds each point; as a uniform bound
     // its standard uncertainty is MPE/sqrt(3). The angle over the feature's
     // extent L_f: two independent ends.
@@ -255,6 +281,15 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     r.var_angle_rad2 = 2.0 * u_mm * u_mm / (extent_mm * extent_mm);
     r.points = 0;
     out.results[nominal.id] = r;
+  }
+  if (!reversed.empty()) {
+    std::string list;
+    for (size_t k = 0; k < reversed.size() && k < 5; ++k)
+      list += (k ? ", " : "") + reversed[k];
+    if (reversed.size() > 5) list += ", ...";
+    out.warnings.push_back(std::to_string(reversed.size()) +
+                           " plane normals reported pointing into the piece (" +
+                           list + "): taken as the outward normal");
   }
   return out;
 }

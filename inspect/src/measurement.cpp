@@ -1,5 +1,7 @@
 #include "ttp/inspect/measurement.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -10,6 +12,8 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
+#include "ttp/geometry/limits.h"
 #include "ttp/inspect/dial.h"
 #include "ttp/inspect/dmis.h"
 #include "ttp/inspect/probe.h"
@@ -22,6 +26,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 std::string ReadAll(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "", "cannot open the file");
+  NoteInput(path);  // never written over by this command's outputs
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
@@ -116,6 +121,29 @@ double NumberOrNaN(const nlohmann::json& obj, const char* key,
   return obj.at(key).get<double>();
 }
 
+// A value read from the JSON checked against its limit (NaN = not given
+// passes): 1e308 is finite, but no measured piece of this size has it.
+double Within(double v, double limit, const std::string& source,
+              const std::string& field, const char* unit) {
+  if (std::isfinite(v) && std::abs(v) <= limit) return v;
+  if (std::isnan(v)) return v;
+  throw InputError(source, 0, field,
+                   fmt::format("{:g} {} is beyond the limit of {:g} {} (not a "
+                               "measurement of this piece)",
+                               v, unit, limit, unit));
+}
+
+// An expanded uncertainty: >= 0 when given.
+double Uncertainty(double u, const std::string& source,
+                   const std::string& field) {
+  if (std::isnan(u)) return u;
+  if (!(u >= 0))
+    throw InputError(
+        source, 0, field,
+        fmt::format("{:g} is negative: an uncertainty is >= 0", u));
+  return Within(u, limits::kMaxFigureMicro, source, field, "um or urad");
+}
+
 // Variance (mm^2 or rad^2) from an expanded uncertainty U (k = 2) in um or
 // urad; 0 when the document gives none.
 double VarFromU(double u_micro) {
@@ -132,8 +160,10 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
   const nlohmann::json& obj = doc.at(block);
   if (!obj.is_object())
     throw InputError(source, 0, block, "must be an object keyed by feature id");
-  std::map<std::string, bool> known;
-  for (const NominalFeature& f : TestFeatures(part)) known[f.id] = true;
+  std::map<std::string, double> known;  // id -> nominal d
+  for (const NominalFeature& f : TestFeatures(part))
+    known[f.id] =
+        f.kind == FeatureKind::kStrip ? -part.strip_floor_z_mm : f.size_mm;
   for (const auto& [id, v] : obj.items()) {
     const std::string where = std::string(block) + "." + id;
     if (!known.count(id))
@@ -146,19 +176,33 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
       continue;
     }
     fr.present = true;
+    Within(d - known[id], limits::kMaxFeatureDeviationMm, source,
+           where + "." + d_key + " - nominal", "mm");
     fr.d_mm = d;
-    const double a = NumberOrNaN(v, a_key, source, where);
+    const double a = Within(NumberOrNaN(v, a_key, source, where),
+                            limits::kMaxFeatureAngleRad * 1e6, source,
+                            where + "." + a_key, "urad");
     fr.angle_rad = a * 1e-6;  // NaN stays NaN: that figure is missing
     // U in um (k = 2) -> variance in mm^2.
-    fr.var_d_mm2 = VarFromU(NumberOrNaN(v, ud_key, source, where)) * 1e6;
-    fr.var_angle_rad2 = std::isfinite(a)
-                            ? VarFromU(NumberOrNaN(v, ua_key, source, where))
-                            : kNaN;
-    const double tilt = NumberOrNaN(v, "tilt_urad", source, where);
+    fr.var_d_mm2 = VarFromU(Uncertainty(NumberOrNaN(v, ud_key, source, where),
+                                        source, where + "." + ud_key)) *
+                   1e6;
+    fr.var_angle_rad2 =
+        std::isfinite(a)
+            ? VarFromU(Uncertainty(NumberOrNaN(v, ua_key, source, where),
+                                   source, where + "." + ua_key))
+            : kNaN;
+    const double tilt = Within(NumberOrNaN(v, "tilt_urad", source, where),
+                               limits::kMaxFeatureAngleRad * 1e6, source,
+                               where + ".tilt_urad", "urad");
     fr.tilt_rad = std::isfinite(tilt) ? tilt * 1e-6 : 0.0;
-    const double pts = NumberOrNaN(v, "points", source, where);
-    fr.points = std::isfinite(pts) ? static_cast<int>(pts) : 0;
-    const double rms = NumberOrNaN(v, "rms_um", source, where);
+    const double pts = Within(NumberOrNaN(v, "points", source, where),
+                              static_cast<double>(limits::kMaxCloudPoints),
+                              source, where + ".points", "points");
+    fr.points = std::isfinite(pts) && pts > 0 ? static_cast<int>(pts) : 0;
+    const double rms =
+        Within(NumberOrNaN(v, "rms_um", source, where), limits::kMaxFigureMicro,
+               source, where + ".rms_um", "um");
     fr.rms_mm = std::isfinite(rms) ? rms * 1e-3 : 0.0;
     r->features[id] = fr;
   }
@@ -180,7 +224,11 @@ std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
       throw InputError(source, 0, where + ".cycle",
                        "missing or not an integer");
     CycleFigures cf;
-    cf.cycle = f["cycle"].get<int>();
+    const double cycle = f["cycle"].get<double>();
+    if (!(cycle >= 1 && cycle <= cycles))
+      throw InputError(source, 0, where + ".cycle",
+                       "outside 1.." + std::to_string(cycles));
+    cf.cycle = static_cast<int>(cycle);
     if (cf.cycle < 1 || cf.cycle > cycles)
       throw InputError(source, 0, where + ".cycle",
                        "outside 1.." + std::to_string(cycles));
@@ -188,8 +236,11 @@ std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
                                  ? f["U"]
                                  : nlohmann::json::object();
     auto get = [&](const char* key, double scale, double* v, double* uv) {
-      *v = NumberOrNaN(f, key, source, where) * scale;
-      const double uu = NumberOrNaN(u, key, source, where + ".U");
+      *v = Within(NumberOrNaN(f, key, source, where), limits::kMaxFigureMicro,
+                  source, where + "." + key, "um or um/m") *
+           scale;
+      const double uu = Uncertainty(NumberOrNaN(u, key, source, where + ".U"),
+                                    source, where + ".U." + key);
       *uv = std::isfinite(uu) ? uu * scale / 2.0 : 0.0;
     };
     get("E_X", 1e-3, &cf.e_x_mm, &cf.u_x_mm);
@@ -221,7 +272,9 @@ std::map<std::string, double> FacetAnglesFromJson(const nlohmann::json& doc,
       throw InputError(source, 0, where, "is not a facet of the piece");
     if (!v.is_number() || !std::isfinite(v.get<double>()))
       throw InputError(source, 0, where, "is not a finite number");
-    out[id] = v.get<double>() * 1e-6;
+    out[id] = Within(v.get<double>(), limits::kMaxFeatureAngleRad * 1e6, source,
+                     where, "urad") *
+              1e-6;
   }
   return out;
 }
@@ -232,7 +285,8 @@ InspectionResult FromInspectionJson(const PartSpec& part,
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
+    // parse_error, and out_of_range.406 for a number beyond double.
     throw InputError(source, 0, "", std::string("not valid JSON: ") + e.what());
   }
   if (!doc.is_object())

@@ -1,6 +1,9 @@
 #include "ttp/inspect/point_io.h"
 
 #include <fcntl.h>
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/console/print.h>
+#include <pcl/io/pcd_io.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -15,6 +18,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::inspect {
 namespace {
@@ -121,6 +125,19 @@ void CheckFinite(const std::string& source, int line, const std::string& what,
   }
 }
 
+// Coordinates beyond kMaxCoordinateMm (after scaling) are not a measured
+// piece (1e300 would overflow every sum of squares downstream).
+void CheckMagnitude(const std::string& source, const std::string& where,
+                    const double* p, double scale) {
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(p[a] * scale) > limits::kMaxCoordinateMm)
+      throw InputError(source, 0, where,
+                       "coordinate " + std::to_string(p[a]) +
+                           " is beyond the limit of " +
+                           std::to_string(limits::kMaxCoordinateMm) + " mm");
+  }
+}
+
 void FinishCloud(PointCloud* cloud, Eigen::Matrix3Xd&& xyz,
                  const std::vector<double>& nrm, double scale) {
   const Eigen::Index n = xyz.cols();
@@ -184,6 +201,11 @@ PointCloud ReadText(std::string_view data, const std::string& source,
     // NIST .ds data sets); it is checked at the end.
     if (nums.size() == 1 && xyz.empty() && columns < 0 && count < 0 &&
         nums[0] >= 0 && nums[0] == std::floor(nums[0])) {
+      if (nums[0] > static_cast<double>(limits::kMaxCloudPoints))
+        throw InputError(source, line_no, "point count",
+                         "beyond the limit of " +
+                             std::to_string(limits::kMaxCloudPoints) +
+                             " points");
       count = static_cast<long>(nums[0]);
       count_line = line_no;
       continue;
@@ -203,6 +225,16 @@ PointCloud ReadText(std::string_view data, const std::string& source,
                            std::to_string(columns));
     }
     CheckFinite(source, line_no, "x y z", nums.data(), columns);
+    if (std::abs(nums[0] * scale) > limits::kMaxCoordinateMm ||
+        std::abs(nums[1] * scale) > limits::kMaxCoordinateMm ||
+        std::abs(nums[2] * scale) > limits::kMaxCoordinateMm)
+      throw InputError(source, line_no, "x y z",
+                       "a coordinate is beyond the limit of " +
+                           std::to_string(limits::kMaxCoordinateMm) + " mm");
+    if (static_cast<long long>(xyz.size() / 3) >= limits::kMaxCloudPoints)
+      throw InputError(source, line_no, "",
+                       "more than " + std::to_string(limits::kMaxCloudPoints) +
+                           " points is beyond the limit");
     xyz.insert(xyz.end(), nums.begin(), nums.begin() + 3);
     if (columns == 6) nrm.insert(nrm.end(), nums.begin() + 3, nums.end());
   }
@@ -216,6 +248,20 @@ PointCloud ReadText(std::string_view data, const std::string& source,
 }
 
 // ---------------------------------------------------------------- binary
+long long HeaderInteger(const std::string& word, const std::string& source,
+                        int line, const std::string& key, long long max) {
+  long long v = 0;
+  const auto [ptr, ec] =
+      std::from_chars(word.data(), word.data() + word.size(), v);
+  if (ec != std::errc() || ptr != word.data() + word.size() || v < 0)
+    throw InputError(source, line, key,
+                     "'" + word + "' is not a whole number >= 0");
+  if (v > max)
+    throw InputError(source, line, key,
+                     word + " is beyond the limit of " + std::to_string(max));
+  return v;
+}
+
 int TypeSize(const std::string& t) {
   if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
   if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
@@ -298,12 +344,8 @@ PointCloud ReadPly(std::string_view data, const std::string& source,
       }
       Element e;
       e.name = w[1];
-      try {
-        e.count = std::stoll(w[2]);
-      } catch (...) {
-        throw InputError(source, line_no, "element",
-                         "count '" + w[2] + "' is not a number");
-      }
+      e.count = HeaderInteger(w[2], source, line_no, "element " + e.name,
+                              limits::kMaxCloudPoints);
       elements.push_back(e);
     } else if (w[0] == "property") {
       if (elements.empty()) {
@@ -321,6 +363,11 @@ PointCloud ReadPly(std::string_view data, const std::string& source,
       }
       e.props.push_back({w[2], w[1], e.stride});
       e.stride += TypeSize(w[1]);
+      if (e.props.size() > static_cast<size_t>(limits::kMaxCloudFields))
+        throw InputError(source, line_no, "element " + e.name,
+                         "more than " +
+                             std::to_string(limits::kMaxCloudFields) +
+                             " properties is beyond the limit");
     } else if (w[0] == "end_header") {
       ended = true;
       break;
@@ -389,6 +436,12 @@ PointCloud ReadPly(std::string_view data, const std::string& source,
                        "truncated: header declares " + std::to_string(n) +
                            " vertices, data holds " + std::to_string(have));
     }
+    const bool last = vertex == &elements.back();
+    if (last && data.size() > start + stride * n)
+      cloud.warnings.push_back(
+          std::to_string(data.size() - start - stride * n) +
+          " bytes after the " + std::to_string(n) +
+          " declared vertices were ignored (is the vertex count right?)");
     const char* base = data.data() + start;
     const bool all_double =
         vertex->props[ix[0]].type == "double" &&
@@ -449,151 +502,318 @@ PointCloud ReadPly(std::string_view data, const std::string& source,
         for (int a = 0; a < 3; ++a) nrm[3 * i + a] = nums[in[a]];
       }
     }
+    if (vertex == &elements.back()) {
+      long long extra = 0;
+      const int first_extra = line_no + 1;
+      while (NextLine(data, &pos, &line))
+        if (!Trim(line).empty()) ++extra;
+      if (extra > 0)
+        cloud.warnings.push_back(
+            std::to_string(extra) + " lines from line " +
+            std::to_string(first_extra) + " after the " + std::to_string(n) +
+            " declared vertices were ignored (is the vertex count right?)");
+    }
   }
+  for (long long i = 0; i < n; ++i)
+    CheckMagnitude(source, "vertex " + std::to_string(i), xyz + 3 * i, scale);
   FinishCloud(&cloud, std::move(xyz_m), nrm, scale);
   return cloud;
 }
 
 // ---------------------------------------------------------------- PCD
-PointCloud ReadPcd(std::string_view data, const std::string& source,
-                   double scale) {
-  PointCloud cloud;
-  cloud.source = source;
+// The header is checked here (every limit before PCL allocates anything:
+// PCL sizes its buffer from FIELDS x COUNT x SIZE x POINTS), then PCL's
+// PCDReader reads it (ascii, binary, binary_compressed; organised clouds)
+// into a PCLPointCloud2, whose x y z (and normals) are read field by field
+// in their own type: double stays double.
+
+// A read-only istream over memory (PCL reads its header from a stream and
+// asks where the body starts with tellg).
+class MemoryBuffer : public std::streambuf {
+ public:
+  MemoryBuffer(const char* begin, const char* end) {
+    char* b = const_cast<char*>(begin);
+    setg(b, b, const_cast<char*>(end));
+  }
+
+ protected:
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir,
+                   std::ios_base::openmode which) override {
+    if (!(which & std::ios_base::in)) return pos_type(off_type(-1));
+    char* target = dir == std::ios_base::beg   ? eback() + off
+                   : dir == std::ios_base::cur ? gptr() + off
+                                               : egptr() + off;
+    if (target < eback() || target > egptr()) return pos_type(off_type(-1));
+    setg(eback(), target, egptr());
+    return pos_type(target - eback());
+  }
+  pos_type seekpos(pos_type pos, std::ios_base::openmode which) override {
+    return seekoff(off_type(pos), std::ios_base::beg, which);
+  }
+};
+
+// PCL reports its errors on the console; ttp reports its own (InputError),
+// so PCL is kept quiet while it reads.
+class QuietPcl {
+ public:
+  QuietPcl() : level_(pcl::console::getVerbosityLevel()) {
+    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  }
+  ~QuietPcl() { pcl::console::setVerbosityLevel(level_); }
+
+ private:
+  pcl::console::VERBOSITY_LEVEL level_;
+};
+
+// The header checks; returns the body offset.
+struct PcdHeader {
+  long long points = 0, width = 0, height = 1, stride = 0;
+  std::string data_kind;
+  size_t body = 0;
+};
+
+PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
+  PcdHeader h;
   size_t pos = 0;
   std::string line;
   int line_no = 0;
   std::vector<std::string> fields, sizes, types, counts;
-  long long points = -1, width = -1, height = 1;
-  std::string data_kind;
+  long long points = -1;
+  int fields_line = 0;
   while (NextLine(data, &pos, &line)) {
     ++line_no;
     auto w = Words(line);
     if (w.empty() || w[0][0] == '#') continue;
     const std::string key = w[0];
     w.erase(w.begin());
+    if (w.size() > static_cast<size_t>(limits::kMaxCloudFields))
+      throw InputError(source, line_no, key,
+                       std::to_string(w.size()) +
+                           " entries, beyond the limit "
+                           "of " +
+                           std::to_string(limits::kMaxCloudFields) + " fields");
     if (key == "VERSION" || key == "VIEWPOINT") continue;
-    if (key == "FIELDS")
+    if (key == "FIELDS") {
       fields = w;
-    else if (key == "SIZE")
+      fields_line = line_no;
+    } else if (key == "SIZE") {
       sizes = w;
-    else if (key == "TYPE")
+    } else if (key == "TYPE") {
       types = w;
-    else if (key == "COUNT")
+    } else if (key == "COUNT") {
       counts = w;
-    else if (key == "WIDTH" && w.size() == 1)
-      width = std::atoll(w[0].c_str());
-    else if (key == "HEIGHT" && w.size() == 1)
-      height = std::atoll(w[0].c_str());
-    else if (key == "POINTS" && w.size() == 1)
-      points = std::atoll(w[0].c_str());
-    else if (key == "DATA" && w.size() == 1) {
-      data_kind = w[0];
+    } else if (key == "WIDTH" && w.size() == 1) {
+      h.width =
+          HeaderInteger(w[0], source, line_no, key, limits::kMaxCloudPoints);
+    } else if (key == "HEIGHT" && w.size() == 1) {
+      h.height =
+          HeaderInteger(w[0], source, line_no, key, limits::kMaxCloudPoints);
+    } else if (key == "POINTS" && w.size() == 1) {
+      points =
+          HeaderInteger(w[0], source, line_no, key, limits::kMaxCloudPoints);
+    } else if (key == "DATA" && w.size() == 1) {
+      h.data_kind = w[0];
       break;
     } else {
       throw InputError(source, line_no, key,
                        "unknown or malformed PCD header line");
     }
   }
-  if (data_kind.empty())
+  h.body = pos;
+  if (h.data_kind.empty())
     throw InputError(source, line_no, "DATA", "missing (truncated header?)");
+  if (h.data_kind != "ascii" && h.data_kind != "binary" &&
+      h.data_kind != "binary_compressed")
+    throw InputError(source, line_no, "DATA",
+                     "unsupported PCD data '" + h.data_kind +
+                         "' (ascii, binary or binary_compressed)");
   if (fields.empty() || sizes.size() != fields.size() ||
-      types.size() != fields.size()) {
-    throw InputError(source, 0, "FIELDS/SIZE/TYPE",
+      types.size() != fields.size() ||
+      (!counts.empty() && counts.size() != fields.size())) {
+    throw InputError(source, fields_line, "FIELDS/SIZE/TYPE/COUNT",
                      "missing or of different lengths");
   }
-  if (counts.empty()) counts.assign(fields.size(), "1");
-  if (points < 0) points = width * height;
-  std::vector<Property> props;
-  int stride = 0;
   for (size_t i = 0; i < fields.size(); ++i) {
-    const int size = std::atoi(sizes[i].c_str());
-    const int count = std::atoi(counts[i].c_str());
-    std::string t;
-    if (types[i] == "F")
-      t = size == 8 ? "double" : size == 4 ? "float" : "";
-    else if (types[i] == "I")
-      t = size == 1 ? "int8" : size == 2 ? "int16" : size == 4 ? "int32" : "";
-    else if (types[i] == "U")
-      t = size == 1   ? "uint8"
-          : size == 2 ? "uint16"
-          : size == 4 ? "uint32"
-                      : "";
-    if (t.empty() || count < 1) {
+    const long long size =
+        HeaderInteger(sizes[i], source, 0, "SIZE of " + fields[i], 8);
+    const long long count =
+        counts.empty()
+            ? 1
+            : HeaderInteger(counts[i], source, 0, "COUNT of " + fields[i],
+                            limits::kMaxFieldCount);
+    const bool size_ok = size == 1 || size == 2 || size == 4 || size == 8;
+    const bool type_ok = types[i] == "F" || types[i] == "I" || types[i] == "U";
+    if (!size_ok || !type_ok || count < 1 || (types[i] == "F" && size < 4))
       throw InputError(source, 0, "field " + fields[i],
-                       "unsupported TYPE/SIZE/COUNT");
-    }
-    for (int c = 0; c < count; ++c) {
-      props.push_back({c == 0 ? fields[i] : fields[i] + "_" + std::to_string(c),
-                       t, stride});
-      stride += size;
-    }
+                       "unsupported TYPE/SIZE/COUNT " + types[i] + "/" +
+                           sizes[i] + "/" + std::to_string(count));
+    h.stride += size * count;
+    if (h.stride > limits::kMaxRecordBytes)
+      throw InputError(source, 0, "SIZE/COUNT",
+                       "a point record of more than " +
+                           std::to_string(limits::kMaxRecordBytes) +
+                           " bytes is beyond the limit");
   }
-  int ix[3], in[3];
-  FindXyz(props, ix, in, "normal_x", "normal_y", "normal_z");
-  for (int a = 0; a < 3; ++a) {
-    if (ix[a] < 0)
-      throw InputError(source, 0, "FIELDS",
-                       std::string("no field ") + "xyz"[a]);
-  }
-  const bool normals = in[0] >= 0 && in[1] >= 0 && in[2] >= 0;
+  if (points < 0) points = h.width * h.height;
+  if (h.width * h.height != points)
+    throw InputError(source, 0, "POINTS",
+                     std::to_string(points) + " points but WIDTH x HEIGHT = " +
+                         std::to_string(h.width * h.height));
+  if (points > limits::kMaxCloudPoints)
+    throw InputError(source, 0, "POINTS",
+                     std::to_string(points) + " points, beyond the limit of " +
+                         std::to_string(limits::kMaxCloudPoints));
   if (points <= 0)
     throw InputError(source, 0, "POINTS", "the cloud has no points");
-  Eigen::Matrix3Xd xyz_m(3, points);
-  AdviseHugePages(xyz_m.data(), sizeof(double) * 3 * points);
-  double* xyz = xyz_m.data();
-  std::vector<double> nrm(normals ? 3 * points : 0);
-  if (data_kind == "binary") {
-    if (data.size() < pos + static_cast<size_t>(stride) * points) {
-      const long long have =
-          (data.size() - std::min(pos, data.size())) / stride;
-      throw InputError(source, 0, "point " + std::to_string(have),
-                       "truncated: header declares " + std::to_string(points) +
-                           " points, data holds " + std::to_string(have));
-    }
-    for (long long i = 0; i < points; ++i) {
-      const char* rec = data.data() + pos + i * stride;
-      for (int a = 0; a < 3; ++a) {
-        xyz[3 * i + a] =
-            ReadScalar(rec + props[ix[a]].offset, props[ix[a]].type);
-        if (normals)
-          nrm[3 * i + a] =
-              ReadScalar(rec + props[in[a]].offset, props[in[a]].type);
-      }
-      if (!std::isfinite(xyz[3 * i]) || !std::isfinite(xyz[3 * i + 1]) ||
-          !std::isfinite(xyz[3 * i + 2])) {
-        throw InputError(source, 0, "point " + std::to_string(i),
-                         "coordinate is not a finite number (NaN or inf)");
-      }
-    }
-  } else if (data_kind == "ascii") {
-    std::vector<double> nums;
-    std::string bad;
-    for (long long i = 0; i < points; ++i) {
-      if (!NextLine(data, &pos, &line)) {
-        throw InputError(source, line_no + 1, "point " + std::to_string(i),
-                         "truncated: header declares " +
-                             std::to_string(points) + " points, file holds " +
-                             std::to_string(i));
-      }
-      ++line_no;
-      if (!ParseNumbers(line.data(), line.data() + line.size(), &nums, &bad) ||
-          nums.size() != props.size()) {
-        throw InputError(
-            source, line_no, "point " + std::to_string(i),
-            "expected " + std::to_string(props.size()) + " numbers");
-      }
-      for (int a = 0; a < 3; ++a) {
-        xyz[3 * i + a] = nums[ix[a]];
-        if (normals) nrm[3 * i + a] = nums[in[a]];
-      }
-      CheckFinite(source, line_no, "point " + std::to_string(i), &xyz[3 * i],
-                  3);
-    }
-  } else {
-    throw InputError(
-        source, 0, "DATA",
-        "unsupported PCD data '" + data_kind + "' (ascii or binary)");
+  h.points = points;
+  const size_t have = data.size() - std::min(h.body, data.size());
+  if (h.data_kind == "binary" &&
+      have < static_cast<size_t>(h.stride) * static_cast<size_t>(points)) {
+    throw InputError(source, 0, "point " + std::to_string(have / h.stride),
+                     "truncated: header declares " + std::to_string(points) +
+                         " points, data holds " +
+                         std::to_string(have / h.stride));
   }
+  if (h.data_kind == "binary_compressed") {
+    uint32_t sizes_of[2] = {0, 0};  // compressed, uncompressed
+    if (have < 8)
+      throw InputError(source, 0, "DATA", "compressed data truncated");
+    std::memcpy(sizes_of, data.data() + h.body, 8);
+    if (sizes_of[0] > have - 8)
+      throw InputError(
+          source, 0, "DATA",
+          "compressed data truncated: " + std::to_string(sizes_of[0]) +
+              " bytes declared, " + std::to_string(have - 8) + " present");
+    if (static_cast<long long>(sizes_of[1]) != h.stride * points)
+      throw InputError(source, 0, "DATA",
+                       "uncompressed size " + std::to_string(sizes_of[1]) +
+                           " does not match the header (" +
+                           std::to_string(h.stride * points) + " bytes)");
+  }
+  return h;
+}
+
+double FieldValue(const uint8_t* p, uint8_t datatype) {
+  auto get = [p](auto v) {
+    std::memcpy(&v, p, sizeof v);
+    return static_cast<double>(v);
+  };
+  switch (datatype) {
+    case pcl::PCLPointField::FLOAT64:
+      return get(double{});
+    case pcl::PCLPointField::FLOAT32:
+      return get(float{});
+    case pcl::PCLPointField::INT8:
+      return get(int8_t{});
+    case pcl::PCLPointField::UINT8:
+      return get(uint8_t{});
+    case pcl::PCLPointField::INT16:
+      return get(int16_t{});
+    case pcl::PCLPointField::UINT16:
+      return get(uint16_t{});
+    case pcl::PCLPointField::INT32:
+      return get(int32_t{});
+    case pcl::PCLPointField::UINT32:
+      return get(uint32_t{});
+    case pcl::PCLPointField::INT64:
+      return get(int64_t{});
+    case pcl::PCLPointField::UINT64:
+      return get(uint64_t{});
+    default:
+      return std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+PointCloud ReadPcd(std::string_view data, const std::string& source,
+                   double scale) {
+  const PcdHeader h = CheckPcdHeader(data, source);
+  pcl::PCLPointCloud2 pc;
+  {
+    const QuietPcl quiet;
+    pcl::PCDReader reader;
+    Eigen::Vector4f origin;
+    Eigen::Quaternionf orientation;
+    int version = 0, data_type = 0;
+    unsigned int data_idx = 0;
+    MemoryBuffer header_buffer(data.data(), data.data() + h.body);
+    std::istream header_stream(&header_buffer);
+    if (reader.readHeader(header_stream, pc, origin, orientation, version,
+                          data_type, data_idx) != 0)
+      throw InputError(source, 0, "header", "PCL cannot read the PCD header");
+    int rc = 0;
+    if (data_type == 0) {
+      MemoryBuffer body(data.data() + h.body, data.data() + data.size());
+      std::istream body_stream(&body);
+      rc = reader.readBodyASCII(body_stream, pc, version);
+    } else {
+      rc = reader.readBodyBinary(
+          reinterpret_cast<const unsigned char*>(data.data()), pc, version,
+          data_type == 2, static_cast<unsigned int>(h.body));
+    }
+    if (rc != 0)
+      throw InputError(source, 0, "DATA",
+                       "PCL cannot read the point data (truncated or "
+                       "malformed " +
+                           h.data_kind + " body)");
+  }
+  const auto field = [&](const char* name) -> const pcl::PCLPointField* {
+    for (const auto& f : pc.fields)
+      if (f.name == name) return &f;
+    return nullptr;
+  };
+  const pcl::PCLPointField* fx[3] = {field("x"), field("y"), field("z")};
+  const pcl::PCLPointField* fn[3] = {field("normal_x"), field("normal_y"),
+                                     field("normal_z")};
+  for (int a = 0; a < 3; ++a)
+    if (fx[a] == nullptr)
+      throw InputError(source, 0, "FIELDS",
+                       std::string("no field ") + "xyz"[a]);
+  const bool normals = fn[0] && fn[1] && fn[2];
+  const size_t n = static_cast<size_t>(pc.width) * pc.height;
+  if (pc.data.size() < n * pc.point_step || n != static_cast<size_t>(h.points))
+    throw InputError(source, 0, "DATA", "point data shorter than declared");
+  PointCloud cloud;
+  cloud.source = source;
+  Eigen::Matrix3Xd xyz_m(3, static_cast<Eigen::Index>(n));
+  std::vector<double> nrm;
+  if (normals) nrm.reserve(3 * n);
+  size_t kept = 0, empty = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t* rec = pc.data.data() + i * pc.point_step;
+    double p[3], q[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+      p[a] = FieldValue(rec + fx[a]->offset, fx[a]->datatype);
+      if (normals) q[a] = FieldValue(rec + fn[a]->offset, fn[a]->datatype);
+    }
+    // PCL marks a point without a return (organised clouds) with NaN.
+    if (std::isnan(p[0]) && std::isnan(p[1]) && std::isnan(p[2])) {
+      ++empty;
+      continue;
+    }
+    const std::string where =
+        pc.height > 1 ? "point " + std::to_string(i) + " (row " +
+                            std::to_string(i / pc.width) + ", column " +
+                            std::to_string(i % pc.width) + ")"
+                      : "point " + std::to_string(i);
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(p[a]))
+        throw InputError(source, 0, where,
+                         "coordinate is not a finite number (NaN or inf)");
+      if (std::abs(p[a]) > limits::kMaxCoordinateMm / scale)
+        throw InputError(source, 0, where,
+                         "coordinate " + std::to_string(p[a]) +
+                             " is beyond the limit of " +
+                             std::to_string(limits::kMaxCoordinateMm) + " mm");
+      xyz_m(a, static_cast<Eigen::Index>(kept)) = p[a];
+    }
+    if (normals) nrm.insert(nrm.end(), q, q + 3);
+    ++kept;
+  }
+  if (empty > 0)
+    cloud.warnings.push_back(std::to_string(empty) + " of " +
+                             std::to_string(n) +
+                             " points are NaN (no return) and were skipped");
+  xyz_m.conservativeResize(3, static_cast<Eigen::Index>(kept));
   FinishCloud(&cloud, std::move(xyz_m), nrm, scale);
   return cloud;
 }
@@ -671,11 +891,16 @@ const char* CloudFormatExtension(CloudFormat f) {
 
 PointCloud ReadPointCloud(const std::filesystem::path& path,
                           const ReadOptions& options) {
-  const std::string source = path.string();
   const MappedFile file(path);
-  const std::string_view data = file.view();
+  NoteInput(path);  // never written over by this command's outputs
+  return ParsePointCloud(file.view(), path.string(), options);
+}
+
+PointCloud ParsePointCloud(std::string_view data, const std::string& source,
+                           const ReadOptions& options) {
   const double scale = MillimetresPer(options.units);
-  const std::string ext = Lower(path.extension().string());
+  const std::string ext =
+      Lower(std::filesystem::path(source).extension().string());
   if (data.empty()) throw InputError(source, 0, "", "the file is empty");
   // Content first: a header says what the file is whatever its name.
   if (data.compare(0, 3, "ply") == 0 &&
@@ -683,6 +908,8 @@ PointCloud ReadPointCloud(const std::filesystem::path& path,
     return ReadPly(data, source, scale);
   }
   const size_t first = data.find_first_not_of(" \t\r\n");
+  if (first == std::string_view::npos)
+    throw InputError(source, 0, "", "the file holds only blank space");
   const std::string head(data.substr(first, 64));
   if (head.rfind("# .PCD", 0) == 0 || head.rfind("VERSION", 0) == 0 ||
       head.rfind("FIELDS", 0) == 0) {

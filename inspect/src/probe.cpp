@@ -2,7 +2,9 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <cerrno>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "ttp/geometry/csv.h"
@@ -120,8 +122,10 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   for (const CsvRow& row : table.rows) {
     const std::string& id_text = table.Text(row, c_id);
     char* end = nullptr;
+    errno = 0;
     const long id = std::strtol(id_text.c_str(), &end, 10);
-    if (id_text.empty() || *end != '\0')
+    if (id_text.empty() || *end != '\0' || errno == ERANGE || id < 0 ||
+        id > std::numeric_limits<int>::max())
       throw InputError(source, row.line, "point_id",
                        "'" + id_text + "' is not a point number");
     auto it = by_id.find(static_cast<int>(id));
@@ -137,6 +141,10 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
     const Eigen::Vector3d xyz(table.Number(row, c_x), table.Number(row, c_y),
                               table.Number(row, c_z));
     const double c_deg = table.Number(row, c_c);
+    if (std::abs(c_deg) > 3600.0)
+      throw InputError(
+          source, row.line, "c_deg",
+          table.Text(row, c_c) + " deg is beyond the limit of +-3600 deg");
     const plan::PlannedPoint& pp = *it->second;
     // Stylus centre -> W; the surface is one stylus radius further along
     // the approach (-outward normal). Returns the offsets from the plan.

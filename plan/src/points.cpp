@@ -5,6 +5,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/limits.h"
 #include "ttp/plan/plan.h"
 
 namespace ttp::plan {
@@ -20,20 +21,28 @@ std::vector<double> Spread(double lo, double hi, int n) {
   return v;
 }
 
-void Positive(int value, const char* field) {
+// A count in 1..limit (the limit keeps a plan from allocating without
+// bound: 1e5 x 1e5 facet points would be tens of gigabytes).
+void Positive(int value, const char* field, int limit = 1000) {
   if (value < 1)
     throw InputError("PlanOptions", 0, field,
                      fmt::format("must be >= 1, got {}", value));
+  if (value > limit)
+    throw InputError("PlanOptions", 0, field,
+                     fmt::format("{} is beyond the limit of {}", value, limit));
 }
 
 }  // namespace
 
 void PlanOptions::Validate() const {
-  Positive(facet_columns, "facet_columns");
-  Positive(facet_rows, "facet_rows");
-  Positive(strip_points_per_side, "strip_points_per_side");
-  Positive(flank_points, "flank_points");
-  Positive(top_points_per_segment, "top_points_per_segment");
+  Positive(facet_columns, "facet_columns", limits::kMaxFacetColumns);
+  Positive(facet_rows, "facet_rows", limits::kMaxFacetRows);
+  Positive(strip_points_per_side, "strip_points_per_side",
+           limits::kMaxStripPoints);
+  Positive(flank_points, "flank_points", limits::kMaxStripPoints);
+  Positive(top_points_per_segment, "top_points_per_segment",
+           limits::kMaxStripPoints);
+  Positive(cylinder_points, "cylinder_points", limits::kMaxStripPoints);
   if (cylinder_points < 3)
     throw InputError("PlanOptions", 0, "cylinder_points",
                      "a circle needs at least 3 points");

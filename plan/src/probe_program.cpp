@@ -4,6 +4,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/frames.h"
+#include "ttp/geometry/limits.h"
 #include "ttp/plan/plan.h"
 
 namespace ttp::plan {
@@ -18,9 +19,20 @@ void Check(bool ok, const char* field, const std::string& problem) {
 }  // namespace
 
 void ProbeOptions::Validate() const {
-  Check(clearance_mm > 0, "clearance_mm", "must be > 0");
-  Check(overtravel_mm > 0, "overtravel_mm", "must be > 0");
-  Check(safe_z_mm > 0, "safe_z_mm", "must be above the top face (> 0)");
+  Check(clearance_mm > 0 && clearance_mm <= 100, "clearance_mm",
+        fmt::format("{:g} mm is not in (0, 100] mm", clearance_mm));
+  // The probing move ends overtravel_mm beyond the nominal surface: on the
+  // strips and the top face that is downwards, towards the table. A probe
+  // overtravels a few millimetres at most before its stylus breaks.
+  Check(overtravel_mm > 0 && overtravel_mm <= limits::kMaxOvertravelMm,
+        "overtravel_mm",
+        fmt::format("{:g} mm is not in (0, {:g}] mm (further would drive the "
+                    "stylus through the piece towards the table)",
+                    overtravel_mm, limits::kMaxOvertravelMm));
+  Check(safe_z_mm > 0 && safe_z_mm <= 1000, "safe_z_mm",
+        fmt::format("{:g} mm is not above the top face (> 0) and within "
+                    "1000 mm",
+                    safe_z_mm));
 }
 
 gcode::Program BuildProbeProgram(const Config& config,

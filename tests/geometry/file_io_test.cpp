@@ -35,5 +35,116 @@ TEST(FileIo, ErrorsNameThePath) {
             "a.csv:3: t_s: not a number");
 }
 
+std::string Slurp(const std::filesystem::path& p) { return ReadTextFile(p); }
+
+TEST(FileIo, NeverWritesOverAnInputWhateverItsName) {
+  namespace fs = std::filesystem;
+  ClearNotedFiles();
+  const fs::path dir = test::TestDir("fileio");
+  WriteFileAtomic(dir / "in.csv", "input\n");
+  ClearNotedFiles();  // as if another program had written it
+  EXPECT_EQ(ReadTextFile(dir / "in.csv"), "input\n");
+  fs::create_hard_link(dir / "in.csv", dir / "hard.csv");
+  fs::create_symlink(dir / "in.csv", dir / "soft.csv");
+  for (const char* name : {"in.csv", "hard.csv", "soft.csv"}) {
+    EXPECT_THROW(WriteFileAtomic(dir / name, "x"), OutputError) << name;
+  }
+  EXPECT_EQ(ReadTextFile(dir / "in.csv"), "input\n");
+  // A file this process wrote and then read back is its own output.
+  WriteFileAtomic(dir / "mine.csv", "1");
+  ReadTextFile(dir / "mine.csv");
+  EXPECT_NO_THROW(WriteFileAtomic(dir / "mine.csv", "2"));
+  ClearNotedFiles();
+}
+
+TEST(FileIo, LinksAreWrittenThroughAndModesKept) {
+  namespace fs = std::filesystem;
+  ClearNotedFiles();
+  const fs::path dir = test::TestDir("fileio");
+  WriteFileAtomic(dir / "target.txt", "old");
+  fs::permissions(dir / "target.txt", fs::perms::owner_read |
+                                          fs::perms::owner_write |
+                                          fs::perms::group_read);
+  fs::create_symlink("target.txt", dir / "link.txt");
+  WriteFileAtomic(dir / "link.txt", "new");
+  EXPECT_TRUE(fs::is_symlink(dir / "link.txt"));
+  EXPECT_EQ(Slurp(dir / "target.txt"), "new");
+  EXPECT_EQ(
+      fs::status(dir / "target.txt").permissions() & fs::perms::all,
+      fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+  fs::create_symlink(dir / "missing" / "x", dir / "dangling.txt");
+  EXPECT_THROW(WriteFileAtomic(dir / "dangling.txt", "x"), OutputError);
+  fs::create_directories(dir / "folder");
+  EXPECT_THROW(WriteFileAtomic(dir / "folder", "x"), OutputError);
+  // A device is written into, not replaced.
+  WriteFileAtomic("/dev/null", "discarded");
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  ClearNotedFiles();
+}
+
+TEST(FileIo, BatchWritesAllOrNone) {
+  namespace fs = std::filesystem;
+  ClearNotedFiles();
+  const fs::path dir = test::TestDir("fileio");
+  WriteFileAtomic(dir / "a.txt", "old a");
+  fs::create_directories(dir / "b.txt");  // the second output cannot be
+  OutputBatch batch;
+  batch.Add(dir / "a.txt", "new a");
+  batch.Add(dir / "b.txt", "new b");
+  EXPECT_THROW(batch.Commit(), OutputError);
+  EXPECT_EQ(Slurp(dir / "a.txt"), "old a");
+  fs::remove(dir / "b.txt");
+  OutputBatch ok;
+  ok.Add(dir / "a.txt", "new a");
+  ok.Add(dir / "sub" / "b.txt", "new b");
+  ok.Commit();
+  EXPECT_EQ(Slurp(dir / "a.txt"), "new a");
+  EXPECT_EQ(Slurp(dir / "sub" / "b.txt"), "new b");
+  OutputBatch twice;
+  twice.Add(dir / "a.txt", "1");
+  twice.Add(dir / "." / "a.txt", "2");
+  EXPECT_THROW(twice.Commit(), OutputError);
+  int files = 0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos);
+    ++files;
+  }
+  EXPECT_EQ(files, 2);  // a.txt and sub/
+  ClearNotedFiles();
+}
+
+TEST(FileIo, StagedFolderMovesInOnlyOnCommit) {
+  namespace fs = std::filesystem;
+  ClearNotedFiles();
+  const fs::path dir = test::TestDir("fileio");
+  const fs::path out = dir / "out";
+  WriteFileAtomic(out / "keep.txt", "user's");
+  WriteFileAtomic(out / "a.txt", "old");
+  {
+    StagedFolder staged(out);
+    WriteFileAtomic(staged.path() / "a.txt", "new");
+    WriteFileAtomic(staged.path() / "sub" / "b.txt", "b");
+    // No commit: an exception on the way.
+  }
+  EXPECT_EQ(Slurp(out / "a.txt"), "old");
+  EXPECT_FALSE(fs::exists(out / "sub"));
+  {
+    StagedFolder staged(out);
+    WriteFileAtomic(staged.path() / "a.txt", "new");
+    WriteFileAtomic(staged.path() / "sub" / "b.txt", "b");
+    staged.Commit();
+  }
+  EXPECT_EQ(Slurp(out / "a.txt"), "new");
+  EXPECT_EQ(Slurp(out / "sub" / "b.txt"), "b");
+  EXPECT_EQ(Slurp(out / "keep.txt"), "user's");
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    EXPECT_EQ(e.path().filename().string().find("staging"), std::string::npos);
+    ++entries;
+  }
+  EXPECT_EQ(entries, 1);
+  ClearNotedFiles();
+}
+
 }  // namespace
 }  // namespace ttp

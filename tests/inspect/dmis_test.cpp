@@ -134,20 +134,62 @@ TEST(DmisTest, RecoversDeviationsInAnyPoseFromTheDatums) {
 
 TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
   const PartSpec part;
-  const DmisImport got = DmisToFeatureResults(
-      ParseDmisOutput("FA(X1_1)=FEAT/PLANE,CART,97.301,0,-6,1,0,0\n", "a"),
-      part);
-  EXPECT_FALSE(got.aligned_from_datums);
-  ASSERT_EQ(got.warnings.size(), 1u);
-  // X1-1's nominal normal is not +X: its angle error is the difference.
   const NominalFeature x11 = [&] {
     for (const auto& f : TestFeatures(part))
       if (f.id == "X1-1") return f;
     return NominalFeature{};
   }();
-  const double phi = std::atan2(x11.normal.y(), x11.normal.x());
-  EXPECT_NEAR(got.results.at("X1-1").angle_rad, -phi, 1e-12);
-  EXPECT_NEAR(got.results.at("X1-1").d_mm, 97.301, 1e-12);
+  // X1-1 reported 1 um outside and turned by 20 urad about Z, in W.
+  const Eigen::Vector3d n =
+      Eigen::AngleAxisd(20e-6, Eigen::Vector3d::UnitZ()) * x11.normal;
+  const Eigen::Vector3d p = (x11.size_mm + 0.001) * n;
+  const DmisImport got = DmisToFeatureResults(
+      ParseDmisOutput(fmt::format("FA(X1_1)=FEAT/PLANE,CART,{:.12f},{:.12f},"
+                                  "-6,{:.15f},{:.15f},0\n",
+                                  p.x(), p.y(), n.x(), n.y()),
+                      "a"),
+      part);
+  EXPECT_FALSE(got.aligned_from_datums);
+  ASSERT_EQ(got.warnings.size(), 1u);
+  EXPECT_NEAR(got.results.at("X1-1").angle_rad, 20e-6, 1e-12);
+  EXPECT_NEAR(got.results.at("X1-1").d_mm, x11.size_mm + 0.001, 1e-9);
+}
+
+// Units that do not fit the piece's size, a plane normal reported into the
+// piece, readings of 1e300.
+TEST(DmisTest, RefusesWhatCannotBeThisPiece) {
+  const PartSpec part;
+  // 97.301 in inches is 2471 mm: not this piece.
+  try {
+    DmisToFeatureResults(
+        ParseDmisOutput("UNITS/INCH,ANGDEC\nFA(X1_5)=FEAT/PLANE,CART,48.6505,"
+                        "84.2660,-6,0.5,0.8660254037844386,0\n",
+                        "inch.dmo"),
+        part);
+    ADD_FAILURE() << "inches on millimetre values accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 2);
+    EXPECT_EQ(e.field(), "FA(X1_5)");
+  }
+  // A normal into the piece: the same plane, taken outward, said aloud.
+  const std::string out_text =
+      "FA(X1_5)=FEAT/PLANE,CART,48.6505,84.2660,-6,0.5,0.8660254037844386,0\n";
+  const std::string in_text =
+      "FA(X1_5)=FEAT/PLANE,CART,48.6505,84.2660,-6,-0.5,-0.8660254037844386,"
+      "0\n";
+  const DmisImport a =
+      DmisToFeatureResults(ParseDmisOutput(out_text, "o"), part);
+  const DmisImport b =
+      DmisToFeatureResults(ParseDmisOutput(in_text, "i"), part);
+  EXPECT_EQ(a.results.at("X1-5").d_mm, b.results.at("X1-5").d_mm);
+  EXPECT_EQ(a.results.at("X1-5").angle_rad, b.results.at("X1-5").angle_rad);
+  EXPECT_EQ(b.warnings.size(), a.warnings.size() + 1);
+  EXPECT_THROW(
+      ParseDmisOutput("FA(X1_5)=FEAT/PLANE,CART,1e300,0,-6,1,0,0\n", "h"),
+      InputError);
+  EXPECT_THROW(
+      ParseDmisOutput("FA(X1_5)=FEAT/PLANE,CART,1e400,0,-6,1,0,0\n", "h"),
+      InputError);
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/io/pcd_io.h>
 
 #include <cstring>
 #include <filesystem>
@@ -11,6 +13,7 @@
 #include "test_dir.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/limits.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/inspect/synth.h"
 
@@ -136,6 +139,89 @@ TEST_F(PointIoTest, BadFilesNameTheProblem) {
   // Unknown format: binary junk without a known header.
   EXPECT_NE(ErrorOf(Write("blob.bin", std::string("\x01\x02\x03\xff", 4)))
                 .find("unknown point cloud format"),
+            std::string::npos);
+}
+
+// PCL's own writer (an independent implementation of the format) in every
+// mode it has, coordinates as FLOAT64, organised with NaN "no return"
+// points: the reader gives back exactly the doubles written.
+TEST_F(PointIoTest, ReadsEveryPcdThatPclWrites) {
+  const SynthPiece s = SmallPiece();
+  const Eigen::Index n = s.cloud.size();
+  const uint32_t width = 100;
+  const uint32_t height = static_cast<uint32_t>((n + width - 1) / width) + 1;
+  pcl::PCLPointCloud2 pc;
+  pc.width = width;
+  pc.height = height;  // organised; the last row(s) padded with NaN
+  const char* names[4] = {"x", "y", "z", "intensity"};
+  for (int a = 0; a < 4; ++a) {
+    pcl::PCLPointField f;
+    f.name = names[a];
+    f.offset = 8 * a;
+    f.datatype = pcl::PCLPointField::FLOAT64;
+    f.count = 1;
+    pc.fields.push_back(f);
+  }
+  pc.point_step = 32;
+  pc.row_step = pc.point_step * width;
+  pc.is_dense = false;
+  pc.data.assign(static_cast<size_t>(pc.row_step) * height, 0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (size_t i = 0; i < static_cast<size_t>(width) * height; ++i) {
+    double rec[4] = {nan, nan, nan, 1.0};
+    if (static_cast<Eigen::Index>(i) < n)
+      for (int a = 0; a < 3; ++a) rec[a] = s.cloud.xyz_mm(a, i);
+    std::memcpy(pc.data.data() + i * 32, rec, 32);
+  }
+  const size_t padded = static_cast<size_t>(width) * height - n;
+  pcl::PCDWriter writer;
+  for (const char* mode : {"ascii", "binary", "binary_compressed"}) {
+    const fs::path p = dir_ / (std::string("pcl-") + mode + ".pcd");
+    int rc = 0;
+    if (std::string(mode) == "ascii")
+      rc = writer.writeASCII(p.string(), pc, Eigen::Vector4f::Zero(),
+                             Eigen::Quaternionf::Identity(), 17);
+    else if (std::string(mode) == "binary")
+      rc = writer.writeBinary(p.string(), pc);
+    else
+      rc = writer.writeBinaryCompressed(p.string(), pc);
+    ASSERT_EQ(rc, 0) << mode;
+    const PointCloud back = ReadPointCloud(p);
+    ASSERT_EQ(back.size(), n) << mode;
+    EXPECT_EQ((back.xyz_mm - s.cloud.xyz_mm).cwiseAbs().maxCoeff(), 0.0)
+        << mode;
+    ASSERT_EQ(back.warnings.size(), 1u) << mode;
+    EXPECT_NE(back.warnings[0].find(std::to_string(padded) + " of"),
+              std::string::npos)
+        << back.warnings[0];
+  }
+}
+
+// Limits are checked from the header, before anything is allocated for
+// the data: a COUNT of 1e9 or POINTS beyond the limit are refused at once.
+TEST_F(PointIoTest, LimitsBeforeAllocation) {
+  const std::string head =
+      "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\n";
+  EXPECT_NE(ErrorOf(Write("count.pcd",
+                          head + "COUNT 1000000000 1 1\nWIDTH 2\nHEIGHT 1\n"
+                                 "POINTS 2\nDATA binary\n"))
+                .find("COUNT of x"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("points.pcd", head + "COUNT 1 1 1\nWIDTH 4000000000\n"
+                                               "HEIGHT 1\nPOINTS 4000000000\n"
+                                               "DATA binary\n"))
+                .find("limit"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("ply.ply",
+                          "ply\nformat binary_little_endian 1.0\nelement "
+                          "vertex 99999999999999999999\nproperty double x\n"
+                          "end_header\n"))
+                .find("ply.ply:3"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("n.xyz", "1e300 0 0\n0 1 0\n0 0 1\n")).find("limit"),
+            std::string::npos);
+  // Blank space only: no points (and no exception other than InputError).
+  EXPECT_NE(ErrorOf(Write("blank.xyz", " \n\t\n")).find("blank"),
             std::string::npos);
 }
 

@@ -205,10 +205,11 @@ TEST(TalcLog, RejectsBadCutAndRTestRows) {
 TEST(TalcLog, RejectsBadHeaderValues) {
   std::string head = kHead;
   head.replace(head.find("off"), 3, "maybe");
-  ExpectRejected(head + kColumns + kRows, 1, "compensation");
+  // Each error names the line of its key.
+  ExpectRejected(head + kColumns + kRows, 4, "compensation");
   head = kHead;
   head.replace(head.find("2026-03-02T06:00:00+01:00"), 25, "yesterday");
-  ExpectRejected(head + kColumns + kRows, 1, "start");
+  ExpectRejected(head + kColumns + kRows, 3, "start");
   head = kHead;
   head.replace(head.find("talc-log: 1"), 11, "talc-log: 2");
   ExpectRejected(head + kColumns + kRows, 1, "talc-log");
@@ -238,6 +239,36 @@ TEST(TalcLog, SummaryNamesWhatItFound) {
   EXPECT_EQ(j["cuts"], 1);
   EXPECT_EQ(j["compensation"], "off");
   EXPECT_NE(LogSummaryText(log).find("X1-5"), std::string::npos);
+}
+
+// Header values that cannot be, and values far beyond any machine's, are
+// refused naming the line and the key; real edge cases are read.
+TEST(TalcLog, RejectsImpossibleHeaderValuesAndHugeReadings) {
+  const auto with_start = [](const std::string& start) {
+    return "# talc-log: 1\n# machine: test\n# start: " + start +
+           "\n# compensation: off\n" + kColumns + kRows;
+  };
+  ExpectRejected(with_start("2026-02-30T06:00:00+01:00"), 3, "start");
+  ExpectRejected(with_start("2026-13-01T06:00:00+01:00"), 3, "start");
+  ExpectRejected(with_start("2026-03-02T24:00:00+01:00"), 3, "start");
+  ExpectRejected(with_start("2026-03-02T06:00:00+25:00"), 3, "start");
+  ExpectRejected(with_start("2026-03-02T06:00:00-13:00"), 3, "start");
+  for (const char* ok :
+       {"2024-02-29T06:00:00+01:00", "2026-03-02T06:00:00+14:00",
+        "2026-03-02T06:00:00-12:00", "2026-03-02T23:59:60Z",
+        "2026-03-02T06:00+0530"})
+    EXPECT_NO_THROW(ParseTalcLog(with_start(ok), "ok.csv")) << ok;
+  ExpectRejected(kHead + "# compensation: on\n" + kColumns + kRows, 5,
+                 "compensation");
+  ExpectRejected("# sphere_distance_mm: 1e-300\n" + kHead + kColumns + kRows, 1,
+                 "sphere_distance_mm");
+  std::string huge = kRows;
+  huge.replace(huge.find("1,2,3"), 1, "1e300");
+  ExpectRejected(kHead + kColumns + huge, 11, "EX0C");
+  ExpectRejected(kHead + kColumns + kRows + "1e12,sample,20,0,,,,,,,,,0,\n", 12,
+                 "t_s");
+  ExpectRejected(kHead + kColumns + kRows + "9e6,sample,20,0,,,,,,,,,0,\n", 12,
+                 "t_s");
 }
 
 }  // namespace

@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstdlib>
+#include <map>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -13,6 +15,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::thermal {
 
@@ -92,6 +95,66 @@ bool HasAll(const LogRow& row, int first_column) {
   return true;
 }
 
+// Values far beyond any machine's: refused with the limit named (1e300
+// would pass as finite and overflow every figure computed from it).
+void CheckMagnitude(int column, double v, const std::string& source, int line) {
+  double limit = 0;
+  const char* unit = "";
+  if (column >= kEX0C && column < kPredEX0C + 7) {
+    limit = limits::kMaxRTestValueMicro;
+    unit = "um or um/m";
+  } else if (column == kTEnv || column == kTWs || column == kTMwf ||
+             column == kDTCool) {
+    limit = limits::kMaxTemperatureC;
+    unit = "degC or K";
+  } else if (column == kDurS) {
+    limit = limits::kMaxLogSpanS;
+    unit = "s";
+  } else if (column == kCDeg) {
+    limit = 1e6;
+    unit = "deg";
+  } else {
+    limit = 1e9;  // speeds and flows
+  }
+  if (std::abs(v) > limit) {
+    throw InputError(
+        source, line, kNumericColumnNames[column],
+        fmt::format("{:g} is beyond the limit of {:g} {}", v, limit, unit));
+  }
+}
+
+bool IsLeapYear(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
+
+// The fields of an ISO 8601 time already matched by its pattern: a real
+// calendar day, a time of day and a UTC offset within -12:00..+14:00.
+std::string CheckIsoTime(const std::string& t) {
+  const int year = std::stoi(t.substr(0, 4));
+  const int month = std::stoi(t.substr(5, 2));
+  const int day = std::stoi(t.substr(8, 2));
+  const int hour = std::stoi(t.substr(11, 2));
+  const int minute = std::stoi(t.substr(14, 2));
+  static const int kDays[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  if (month < 1 || month > 12)
+    return fmt::format("month {} does not exist", month);
+  const int days = kDays[month - 1] + (month == 2 && IsLeapYear(year));
+  if (day < 1 || day > days)
+    return fmt::format("day {} does not exist in {:04d}-{:02d}", day, year,
+                       month);
+  if (hour > 23 || minute > 59) return "not a time of day";
+  if (t.size() > 17 && t[16] == ':' && std::stoi(t.substr(17, 2)) > 60)
+    return "not a time of day";
+  const size_t z = t.find_first_of("Z+-", 16);
+  if (z != std::string::npos && t[z] != 'Z') {
+    const std::string off = t.substr(z + 1);
+    const int oh = std::stoi(off.substr(0, 2));
+    const int om = std::stoi(off.substr(off.size() - 2));
+    if (om > 59 || oh > 14 || (t[z] == '-' && oh > 12) ||
+        (oh == 14 && om > 0) || (oh == 12 && t[z] == '-' && om > 0))
+      return "UTC offset " + t.substr(z) + " does not exist (-12:00..+14:00)";
+  }
+  return "";
+}
+
 }  // namespace
 
 int TalcLog::CountEvent(LogEvent e) const {
@@ -116,6 +179,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
   double last_t = -std::numeric_limits<double>::infinity();
   int last_line = 0;
   std::unordered_set<std::string> lines_at_last_t;  // exact-duplicate check
+  std::map<std::string, int> header_lines;  // key -> line of `# key: value`
   static const std::regex key_value(R"(^#\s*([A-Za-z0-9_.-]+)\s*:\s*(.*)$)");
   static const std::regex iso8601(
       R"(^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})$)");
@@ -133,7 +197,14 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
       }
       std::smatch m;
       if (std::regex_match(raw, m, key_value)) {
-        log.header[m[1]] = Trim(m[2]);
+        const std::string key = m[1];
+        if (auto [it, fresh] = header_lines.emplace(key, line_no); !fresh) {
+          throw InputError(source, line_no, key,
+                           fmt::format("header key given twice (first on "
+                                       "line {})",
+                                       it->second));
+        }
+        log.header[key] = Trim(m[2]);
       }
       continue;
     }
@@ -196,11 +267,31 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
       throw InputError(source, line_no, "t_s", "t_s is required in every row");
     }
     row.t_s = ParseNumber(cells[t_index], source, line_no, "t_s");
+    if (std::abs(row.t_s) > limits::kMaxLogTimeS) {
+      throw InputError(source, line_no, "t_s",
+                       fmt::format("{} s is beyond the limit of {:g} s",
+                                   cells[t_index], limits::kMaxLogTimeS));
+    }
+    if (!log.rows.empty() &&
+        row.t_s - log.rows.front().t_s > limits::kMaxLogSpanS) {
+      throw InputError(
+          source, line_no, "t_s",
+          fmt::format("the log would span {:g} s from its first row (line "
+                      "{}), beyond the limit of {:g} s ({:g} days)",
+                      row.t_s - log.rows.front().t_s, log.rows.front().line,
+                      limits::kMaxLogSpanS, limits::kMaxLogSpanS / 86400));
+    }
+    if (static_cast<std::int64_t>(log.rows.size()) >= limits::kMaxLogRows) {
+      throw InputError(source, line_no, "row",
+                       fmt::format("more than {} rows is beyond the limit",
+                                   limits::kMaxLogRows));
+    }
     for (int c = 0; c < kNumericColumnCount; ++c) {
       const int i = numeric_index[c];
       if (i >= 0 && !cells[i].empty()) {
         row.values[c] =
             ParseNumber(cells[i], source, line_no, kNumericColumnNames[c]);
+        CheckMagnitude(c, row.values[c], source, line_no);
       }
     }
     if (phase_index >= 0) row.phase = cells[phase_index];
@@ -338,34 +429,56 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
   if (!header_seen) {
     throw InputError(source, key_line, "header", "no header row");
   }
+  const auto key_line_of = [&](const char* key) {
+    auto it = header_lines.find(key);
+    return it == header_lines.end() ? 1 : it->second;
+  };
   if (log.header["talc-log"] != "1") {
     throw InputError(
-        source, 1, "talc-log",
+        source, key_line_of("talc-log"), "talc-log",
         fmt::format("format version '{}' is not 1", log.header["talc-log"]));
   }
   log.start = log.header["start"];
   if (!std::regex_match(log.start, iso8601)) {
     throw InputError(
-        source, 1, "start",
+        source, key_line_of("start"), "start",
         fmt::format("'{}' is not an ISO 8601 time with offset", log.start));
+  }
+  if (const std::string why = CheckIsoTime(log.start); !why.empty()) {
+    throw InputError(source, key_line_of("start"), "start",
+                     fmt::format("'{}': {}", log.start, why));
   }
   const std::string comp = log.header["compensation"];
   if (comp != "on" && comp != "off") {
-    throw InputError(source, 1, "compensation",
+    throw InputError(source, key_line_of("compensation"), "compensation",
                      fmt::format("'{}' is not on or off", comp));
   }
   log.compensation = comp == "on";
   if (log.header.count("machine")) log.machine = log.header["machine"];
   if (log.header.count("sphere_distance_mm")) {
+    const int line = key_line_of("sphere_distance_mm");
     log.sphere_distance_mm = ParseNumber(log.header["sphere_distance_mm"],
-                                         source, 1, "sphere_distance_mm");
-    if (log.sphere_distance_mm <= 0) {
-      throw InputError(source, 1, "sphere_distance_mm", "must be positive");
+                                         source, line, "sphere_distance_mm");
+    if (!(log.sphere_distance_mm >= limits::kMinSphereDistanceMm &&
+          log.sphere_distance_mm <= limits::kMaxSphereDistanceMm)) {
+      throw InputError(
+          source, line, "sphere_distance_mm",
+          fmt::format("{:g} mm is outside {:g}..{:g} mm (the R-test spheres' "
+                      "distance)",
+                      log.sphere_distance_mm, limits::kMinSphereDistanceMm,
+                      limits::kMaxSphereDistanceMm));
     }
   }
   if (log.header.count("sphere_height_mm")) {
+    const int line = key_line_of("sphere_height_mm");
     log.sphere_height_mm = ParseNumber(log.header["sphere_height_mm"], source,
-                                       1, "sphere_height_mm");
+                                       line, "sphere_height_mm");
+    if (std::abs(*log.sphere_height_mm) > limits::kMaxSphereDistanceMm) {
+      throw InputError(
+          source, line, "sphere_height_mm",
+          fmt::format("{:g} mm is beyond the limit of {:g} mm",
+                      *log.sphere_height_mm, limits::kMaxSphereDistanceMm));
+    }
   }
   return log;
 }

@@ -1,13 +1,15 @@
-// Point clouds of a measured piece: reading PCD (ascii/binary), PLY (ascii /
-// binary little endian, float or double properties) and text (.xyz, .txt,
-// .csv) into double precision millimetres, and writing them back.
-// Coordinates stay double end to end: CMM exports carry doubles and the
+// Point clouds of a measured piece: reading PCD through PCL's PCDReader
+// (ascii, binary, binary_compressed, organised clouds whose NaN points are
+// skipped), PLY (ascii / binary little endian, float or double properties) and
+// text (.xyz, .txt, .csv) into double precision millimetres, and writing them
+// back. Coordinates stay double end to end: CMM exports carry doubles and the
 // figures are sub-micrometre differences on a 200 mm piece.
 #pragma once
 
 #include <Eigen/Core>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace ttp::inspect {
@@ -50,9 +52,17 @@ const char* CloudFormatExtension(CloudFormat format);  // ".pcd", ...
 // Reads a cloud; the format comes from the content (a "ply" or PCD header),
 // else from the extension (.xyz/.txt/.csv text). Throws InputError naming
 // the file, the line (text) or element (binary) and the problem: unknown
-// format, bad header, truncated data, NaN/inf, empty cloud.
+// format, bad header, truncated data, NaN/inf, empty cloud, a limit of
+// ttp/geometry/limits.h exceeded (points, fields, COUNT, record size,
+// coordinates; checked before anything is allocated). Data after the
+// declared vertices of a PLY is a warning.
 PointCloud ReadPointCloud(const std::filesystem::path& path,
                           const ReadOptions& options = {});
+
+// The same from bytes in memory; `source` names the data in errors and its
+// extension stands for the file's.
+PointCloud ParsePointCloud(std::string_view data, const std::string& source,
+                           const ReadOptions& options = {});
 
 // Asks the kernel to back a large, not yet touched buffer (a cloud's
 // coordinates) with huge pages: a million-point cloud otherwise costs

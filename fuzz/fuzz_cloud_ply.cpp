@@ -1,0 +1,10 @@
+// PLY point clouds (ascii, binary little endian).
+#include "fuzz_common.h"
+#include "ttp/inspect/point_io.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  return ttp::fuzz::Run([&] {
+    ttp::inspect::ParsePointCloud({reinterpret_cast<const char*>(data), size},
+                                  "fuzz.ply");
+  });
+}
