@@ -24,6 +24,7 @@ struct VerifyCliOptions {
   std::string json_path;
   std::string after_path;
   double pitch_mm = 1.0;
+  bool verbose = false;
 };
 
 void Register(CLI::App& root, GlobalOptions& global) {
@@ -51,6 +52,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("--pitch", opts->pitch_mm,
                   "spacing of the probe rays and the Z-dexel grid, mm "
                   "(default 1; surfaces are exact whatever the spacing)");
+  cmd->add_flag("-v,--verbose", opts->verbose,
+                "every check with its numbers, not only the summary");
   cmd->callback([&global, opts] {
     const Config config = global.LoadConfig();
     if (!(opts->pitch_mm > 0.05 && opts->pitch_mm <= 10))
@@ -71,8 +74,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
       if (!opts->json_path.empty())
         WriteJson(opts->json_path, verify::ProgramsVerificationToJson(v));
       if (opts->json_path != "-") {
-        std::cout << verify::FormatReportTable(v.pre) << "\n"
-                  << verify::FormatReportTable(v.cycle)
+        std::cout << verify::FormatReportTable(v.pre, opts->verbose) << "\n"
+                  << verify::FormatReportTable(v.cycle, opts->verbose)
                   << fmt::format(
                          "\nboth programs: {}; largest surface deviation "
                          "{:.4f} um\n",
@@ -108,7 +111,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
         statements, config, options, opts->program_path);
     if (!opts->json_path.empty())
       WriteJson(opts->json_path, verify::ReportToJson(report));
-    if (opts->json_path != "-") std::cout << verify::FormatReportTable(report);
+    if (opts->json_path != "-")
+      std::cout << verify::FormatReportTable(report, opts->verbose);
     if (!report.AllPassed()) global.exit_code = kExitJudgedFailure;
   });
 }

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "toolpath.h"
+#include "ttp/cam/cutting_data.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/gcode/writer.h"
 #include "ttp/geometry/error.h"
@@ -23,28 +24,46 @@ constexpr double kStepoverFraction = 0.75;
 
 double BlankRadius(const Config& c) { return c.part.blank_diameter_mm / 2; }
 
-// Above safe Z by the longest tool, so neither the gauge line before G43
-// nor the tool tip after it comes near the piece.
-double ToolChangeZ(const Config& c) {
-  const ProcessSpec& p = c.process;
-  double longest = 0;
-  for (const ToolSpec* t : p.CuttingTools())
-    longest = std::max(longest, t->length_mm);
-  return p.safe_z_w_mm + longest;
+// Tool change at the machine's tool-change position: spindle and coolant
+// off, G49 G53 up to the tool-change height, then across (never over the
+// piece with a tool below it), M6, G43 H with a Z word down to safe Z at
+// the tool-change XY, spindle and coolant on again.
+void ChangeTool(PathWriter& path, const Config& c, const ToolSpec& tool,
+                bool coolant) {
+  const MachineProfile& m = c.machine;
+  const double origin_z = WorkpieceOriginHeightMm(c);
+  path.Add(gcode::SpindleOff{});
+  if (coolant) path.Add(gcode::Coolant{false});
+  gcode::Axes up;
+  up.z_mm = m.tool_change_position_m_mm[2];
+  path.MachineRapid(up, origin_z);
+  gcode::Axes across;
+  across.x_mm = m.tool_change_position_m_mm[0];
+  across.y_mm = m.tool_change_position_m_mm[1];
+  path.MachineRapid(across, origin_z);
+  path.Add(gcode::ToolChange{tool.number, tool.name});
+  path.LengthOffset(tool.number, c.process.safe_z_w_mm);
+  path.Add(gcode::SpindleOn{tool.spindle_rpm, true});
+  if (coolant) path.Add(gcode::Coolant{true});
 }
 
-// Goes to the tool-change height, changes tool, applies the G43 shift the
-// reader (and rs274) apply, and returns to safe Z. Returns the new length.
-double ChangeTool(PathWriter& path, const Config& c, const ToolSpec& tool,
-                  double active_length_mm) {
-  path.RapidZ(ToolChangeZ(c));
-  path.Add(gcode::SpindleOff{});
-  path.Add(gcode::ToolChange{tool.number, tool.name});
-  Eigen::Vector3d p = path.position();
-  p.z() -= tool.length_mm - active_length_mm;
-  path.Assume(p, path.c_deg());
-  path.RapidZ(c.process.safe_z_w_mm);
-  return tool.length_mm;
+// Start of every program: B to 0 and clamped, C clamped, away to the
+// tool-change height without a tool-length offset.
+void ProgramStart(PathWriter& path, const Config& c) {
+  gcode::Axes up;
+  up.z_mm = c.machine.tool_change_position_m_mm[2];
+  path.MachineRapid(up, WorkpieceOriginHeightMm(c));
+  path.Add(gcode::BZeroClamp{});
+  path.ClampC(true);
+  // XY rapids are plain G0 only above the piece by the clearance.
+  path.SetClearance(c.process.clearance_mm, c.machine.positioning_feed_mm_min);
+}
+
+// C feed (deg/min) that gives the tool's feed (mm/min) at radius r_mm: the
+// table surface passes the cutter at the cutting feed.
+double RotaryFeedDegMin(const Config& c, const ToolSpec& tool, double r_mm) {
+  const double deg_min = tool.feed_mm_min / std::max(r_mm, 1e-3) * kRadToDeg;
+  return std::min(deg_min, c.machine.c_index_deg_s * 60.0);
 }
 
 // Checks every commanded position against the machine's travel (tool tip
@@ -83,14 +102,13 @@ void FaceAndTurn(PathWriter& path, const Config& c) {
   const ToolSpec& tool = c.process.roughing;
   const double r = tool.diameter_mm / 2;
   const double route = BlankRadius(c) + r + c.process.clearance_mm;
-  const double c_feed_deg_min = c.process.turning_c_rpm * 360.0;
   // Climb: the table surface must meet the tool's teeth head on, so the
   // piece turns against the machine's positive sense.
   const double revolution_deg = -360.0 * c.machine.c_sense;
 
   path.Add(gcode::Comment{"step 1: face the top, turn the profile by C"});
   path.RapidXY(Eigen::Vector2d(route, 0));
-  path.RapidC(0);
+  path.IndexC(0);
   path.RapidZ(0);
   // Rings from the outside in; the last one covers the axis.
   const double step = kStepoverFraction * tool.diameter_mm;
@@ -98,12 +116,15 @@ void FaceAndTurn(PathWriter& path, const Config& c) {
   int ring_count = 0;
   do {
     ring = std::max(0.0, ring - step);
+    path.ClampC(true);  // radial in-feed with C standing
     path.FeedXY(Eigen::Vector2d(ring, 0), tool.feed_mm_min);
-    path.FeedC(ring_count % 2 == 0 ? revolution_deg : 0.0, c_feed_deg_min);
+    path.ClampC(false);
+    path.FeedC(ring_count % 2 == 0 ? revolution_deg : -revolution_deg,
+               RotaryFeedDegMin(c, tool, ring + r));
     ++ring_count;
   } while (ring > r);
+  path.ClampC(true);
   path.FeedXY(Eigen::Vector2d(route, 0), tool.feed_mm_min);
-  path.RapidC(0);
 
   // Rim first (its band is above every cylinder), then the cylinders from
   // the bottom up. An end mill cuts everything above its tip to the same
@@ -136,18 +157,22 @@ void FaceAndTurn(PathWriter& path, const Config& c) {
   }
   for (const Band& band : bands) {
     path.RapidZ(band.tip_z_mm);
+    path.ClampC(true);
     path.FeedXY(Eigen::Vector2d(band.radius_mm + r, 0), tool.feed_mm_min);
-    path.FeedC(revolution_deg, c_feed_deg_min);
+    path.ClampC(false);
+    path.FeedC(revolution_deg, RotaryFeedDegMin(c, tool, band.radius_mm));
+    path.ClampC(true);
     path.FeedXY(Eigen::Vector2d(route, 0), tool.feed_mm_min);
-    path.RapidC(0);
   }
   path.RapidZ(c.process.safe_z_w_mm);
+  path.IndexC(0);
 }
 
 void EngraveMark(PathWriter& path, const Config& c) {
   const PartSpec& part = c.part;
   const ToolSpec& tool = c.process.engraver;
   path.Add(gcode::Comment{"step 2: engrave the mark"});
+  path.IndexC(0);
   const double phi = part.mark_phi_deg * kDegToRad;
   const Eigen::Vector2d dir(std::cos(phi), std::sin(phi));
   path.RapidXY(part.mark_r_start_mm * dir);
@@ -211,7 +236,7 @@ void PreFacets(PathWriter& path, const Config& c) {
   for (Segment s : kSegments) {
     for (int j = 1; j <= part.facets_per_segment; ++j) {
       const double phi = FacetPhiDeg(part, s, j) * kDegToRad;
-      path.RapidC(TableAngleFor(phi, 0.0, c.machine.c_sense) * kRadToDeg);
+      path.IndexC(TableAngleFor(phi, 0.0, c.machine.c_sense) * kRadToDeg);
       path.RapidAround(Eigen::Vector2d(x, y), keep, route);
       path.FeedXY(Eigen::Vector2d(x, -y), tool.feed_mm_min);
     }
@@ -249,34 +274,31 @@ TestCycleLayout ComputeTestCycleLayout(const Config& c) {
 
 gcode::Program BuildPreMachiningProgram(const Config& c) {
   ValidateConfig(c, kSource);
+  CheckCuttingData(c, kSource);
   gcode::Program program;
   program.name = "pre";
   program.number = c.machine.program_number + 1;
   program.title = "ttp pre-machining of the thermal test piece";
   PathWriter path(&program.statements);
   path.Add(gcode::Comment{"steps 1-5 of test-piece.md section 3, NC hold"});
-  path.RapidZ(ToolChangeZ(c));  // no tool yet: away from the piece
-  double length = ChangeTool(path, c, c.process.roughing, 0.0);
-  path.Add(gcode::SpindleOn{c.process.roughing.spindle_rpm, true});
-  if (c.process.coolant_in_pre) path.Add(gcode::Coolant{true});
+  ProgramStart(path, c);
+  const bool coolant = c.process.coolant_in_pre;
+  ChangeTool(path, c, c.process.roughing, coolant);
   FaceAndTurn(path, c);
 
-  length = ChangeTool(path, c, c.process.engraver, length);
-  path.Add(gcode::SpindleOn{c.process.engraver.spindle_rpm, true});
+  ChangeTool(path, c, c.process.engraver, coolant);
   EngraveMark(path, c);
 
-  length = ChangeTool(path, c, c.process.notch, length);
-  path.Add(gcode::SpindleOn{c.process.notch.spindle_rpm, true});
+  ChangeTool(path, c, c.process.notch, coolant);
   SmallNotch(path, c);
 
-  length = ChangeTool(path, c, c.process.roughing, length);
-  path.Add(gcode::SpindleOn{c.process.roughing.spindle_rpm, true});
+  ChangeTool(path, c, c.process.roughing, coolant);
   BigNotch(path, c);
   PreFacets(path, c);
 
   path.Add(gcode::SpindleOff{});
-  if (c.process.coolant_in_pre) path.Add(gcode::Coolant{false});
-  path.RapidC(0);
+  if (coolant) path.Add(gcode::Coolant{false});
+  path.IndexC(0);
   if (c.process.nc_hold_after_pre_min > 0) {
     path.Add(gcode::Comment{"NC hold: let the machine settle"});
     path.Add(gcode::Dwell{c.process.nc_hold_after_pre_min * 60.0});
@@ -302,13 +324,9 @@ void TestCycle(PathWriter& path, const Config& c, int cycle) {
   const Eigen::Vector2d waiting(c.machine.waiting_position_w_mm[0],
                                 c.machine.waiting_position_w_mm[1]);
   const auto report = [&](const std::string& feature) {
-    path.Add(gcode::Report{"cut", feature, path.c_deg()});
+    path.Add(gcode::Report{"cut", feature, path.c_deg_normalised()});
   };
-  const auto index_table = [&](double c_deg) {
-    path.Add(gcode::TableClamp{false});
-    path.RapidC(c_deg);
-    path.Add(gcode::TableClamp{true});
-  };
+  const auto index_table = [&](double c_deg) { path.IndexC(c_deg); };
 
   path.Add(gcode::Comment{CycleCommentText(cycle)});
   path.Add(gcode::SpindleOn{tool.spindle_rpm, true});
@@ -342,8 +360,7 @@ void TestCycle(PathWriter& path, const Config& c, int cycle) {
   path.FeedXY(Eigen::Vector2d(-yf, -xf), feed);
   report(FacetId(Segment::kY2, j));
 
-  path.Add(gcode::TableClamp{false});
-  path.RapidC(0.0);
+  path.IndexC(0.0);
   path.RapidAround(waiting, keep, route);
   path.Add(gcode::SpindleOff{});
   if (c.process.coolant_in_test) path.Add(gcode::Coolant{false});
@@ -369,6 +386,7 @@ void CheckTestCycleConfig(const Config& c) {
 
 gcode::Program BuildTestCycleProgram(const Config& c) {
   ValidateConfig(c, kSource);
+  CheckCuttingData(c, kSource);
   CheckTestCycleConfig(c);
   const PartSpec& part = c.part;
   const ProcessSpec& pr = c.process;
@@ -378,11 +396,13 @@ gcode::Program BuildTestCycleProgram(const Config& c) {
   program.title = "ttp thermal test cycle";
   PathWriter path(&program.statements);
   path.Add(gcode::Comment{"test cycle of test-piece.md section 3"});
-  path.RapidZ(ToolChangeZ(c));  // no tool yet: away from the piece
-  ChangeTool(path, c, pr.finishing, 0.0);
+  ProgramStart(path, c);
+  ChangeTool(path, c, pr.finishing, pr.coolant_in_test);
+  path.Add(gcode::SpindleOff{});  // each cycle starts the spindle
+  if (pr.coolant_in_test) path.Add(gcode::Coolant{false});
   path.RapidXY(Eigen::Vector2d(c.machine.waiting_position_w_mm[0],
                                c.machine.waiting_position_w_mm[1]));
-  path.RapidC(0);
+  path.IndexC(0);
   path.Add(gcode::Comment{"Z is set here and not moved until the end"});
   path.RapidZ(ComputeTestCycleLayout(c).cut_z_mm);
 
@@ -396,18 +416,22 @@ gcode::Program BuildTestCycleProgram(const Config& c) {
     if (k == cycles) break;
     if (k < pr.warmup_cycles) {
       path.Add(gcode::Comment{"warm-up: C at maximum speed"});
+      path.ClampC(false);
       path.Add(gcode::CSpin{c.machine.c_max_rpm});
       dwell_statements.push_back(program.statements.size());
       path.Add(gcode::Dwell{kPlaceholderS});
       path.Add(gcode::CSpin{0});
+      // Back in positioning mode the table's angle is not known: absolute.
+      path.RapidCAbsolute(0);
     } else {
       path.Add(gcode::Comment{"cool-down: NC hold, C at 0"});
-      path.Add(gcode::TableClamp{true});
+      path.ClampC(true);
       dwell_statements.push_back(program.statements.size());
       path.Add(gcode::Dwell{kPlaceholderS});
     }
   }
   path.RapidZ(pr.safe_z_w_mm);
+  path.ClampC(true);
   path.Add(gcode::ProgramEnd{});
   CheckTravel(program, c);
 

@@ -67,10 +67,30 @@ gcode::Axes XYZ(const Eigen::Vector3d& p) {
 }
 }  // namespace
 
-void PathWriter::Rapid(const Eigen::Vector3d& to) {
+void PathWriter::StraightRapid(const Eigen::Vector3d& to) {
   if ((to - position_mm_).norm() < 1e-12) return;  // already there
   out_->push_back(gcode::Rapid{XYZ(to)});
   position_mm_ = to;
+}
+void PathWriter::Rapid(const Eigen::Vector3d& to) {
+  if ((to - position_mm_).norm() < 1e-12) return;
+  const bool xy = (to.head<2>() - position_mm_.head<2>()).norm() > 1e-12;
+  const bool z = std::abs(to.z() - position_mm_.z()) > 1e-12;
+  if (xy && z) {
+    if (to.z() > position_mm_.z()) {
+      Rapid(Eigen::Vector3d(position_mm_.x(), position_mm_.y(), to.z()));
+      Rapid(to);
+    } else {
+      Rapid(Eigen::Vector3d(to.x(), to.y(), position_mm_.z()));
+      Rapid(to);
+    }
+    return;
+  }
+  if (xy && position_mm_.z() < clearance_z_mm_ - 1e-9) {
+    Feed(to, positioning_feed_mm_min_);
+    return;
+  }
+  StraightRapid(to);
 }
 void PathWriter::RapidXY(const Eigen::Vector2d& to) {
   Rapid(Eigen::Vector3d(to.x(), to.y(), position_mm_.z()));
@@ -79,10 +99,52 @@ void PathWriter::RapidZ(double z_mm) {
   Rapid(Eigen::Vector3d(position_mm_.x(), position_mm_.y(), z_mm));
 }
 void PathWriter::RapidC(double c_deg) {
+  const double delta = std::remainder(c_deg - c_deg_, 360.0);
+  if (std::abs(delta) < 1e-9) return;
+  gcode::Axes a;
+  a.c_deg = delta;
+  out_->push_back(gcode::Rapid{a, true});
+  c_deg_ += delta;
+}
+void PathWriter::RapidCAbsolute(double c_deg) {
   gcode::Axes a;
   a.c_deg = c_deg;
   out_->push_back(gcode::Rapid{a});
   c_deg_ = c_deg;
+}
+void PathWriter::ClampC(bool clamp) {
+  if (clamp == c_clamped_) return;
+  out_->push_back(gcode::TableClamp{clamp});
+  c_clamped_ = clamp;
+}
+void PathWriter::IndexC(double c_deg) {
+  if (std::abs(std::remainder(c_deg - c_deg_, 360.0)) > 1e-9) {
+    ClampC(false);
+    RapidC(c_deg);
+  }
+  ClampC(true);
+}
+double PathWriter::c_deg_normalised() const {
+  double c = std::fmod(c_deg_, 360.0);
+  if (c < 0) c += 360.0;
+  if (c >= 360.0 - 5e-4) c = 0;  // what the writer prints as 360.000
+  return c;
+}
+void PathWriter::MachineRapid(const gcode::Axes& to, double origin_z_mm) {
+  const Eigen::Vector3d target(
+      to.x_mm.value_or(position_mm_.x()), to.y_mm.value_or(position_mm_.y()),
+      to.z_mm ? *to.z_mm - origin_z_mm : position_mm_.z());
+  if ((target - position_mm_).norm() < 1e-12 && !length_offset_on_) return;
+  length_offset_on_ = false;
+  out_->push_back(gcode::MachineRapid{to});
+  if (to.x_mm) position_mm_.x() = *to.x_mm;
+  if (to.y_mm) position_mm_.y() = *to.y_mm;
+  if (to.z_mm) position_mm_.z() = *to.z_mm - origin_z_mm;
+}
+void PathWriter::LengthOffset(int tool, double z_mm) {
+  out_->push_back(gcode::LengthOffset{tool, z_mm});
+  length_offset_on_ = true;
+  position_mm_.z() = z_mm;
 }
 void PathWriter::Feed(const Eigen::Vector3d& to, double feed_mm_min) {
   out_->push_back(gcode::Feed{XYZ(to), feed_mm_min});
@@ -94,11 +156,11 @@ void PathWriter::FeedXY(const Eigen::Vector2d& to, double feed_mm_min) {
 void PathWriter::FeedZ(double z_mm, double feed_mm_min) {
   Feed(Eigen::Vector3d(position_mm_.x(), position_mm_.y(), z_mm), feed_mm_min);
 }
-void PathWriter::FeedC(double c_deg, double feed_deg_min) {
+void PathWriter::FeedC(double delta_deg, double feed_deg_min) {
   gcode::Axes a;
-  a.c_deg = c_deg;
-  out_->push_back(gcode::Feed{a, feed_deg_min});
-  c_deg_ = c_deg;
+  a.c_deg = delta_deg;
+  out_->push_back(gcode::Feed{a, feed_deg_min, true});
+  c_deg_ += delta_deg;
 }
 void PathWriter::RapidAround(const Eigen::Vector2d& to, double keep_radius_mm,
                              double route_radius_mm) {

@@ -41,14 +41,37 @@ class PathWriter {
     c_deg_ = c_deg;
   }
 
+  // Rapids near the piece: below clearance_z_mm an XY rapid is written as a
+  // straight G1 at positioning_feed (a G0 with per-axis rapids is a
+  // dog-leg), and a rapid that changes Z and XY is split: up first, then
+  // across; across first, then down. Without SetClearance: plain G0.
+  void SetClearance(double clearance_z_mm, double positioning_feed_mm_min) {
+    clearance_z_mm_ = clearance_z_mm;
+    positioning_feed_mm_min_ = positioning_feed_mm_min;
+  }
+  // C is indexed incrementally by the short way (roll-over safe); the
+  // tracked angle is continuous. RapidCAbsolute writes an absolute C (after
+  // C turning mode, when the table's angle is not known).
   void Rapid(const Eigen::Vector3d& to);
   void RapidXY(const Eigen::Vector2d& to);
   void RapidZ(double z_mm);
   void RapidC(double c_deg);
+  void RapidCAbsolute(double c_deg);
+  // C unclamp, index, clamp (no codes when already there and clamped).
+  void IndexC(double c_deg);
+  void ClampC(bool clamp);
+  // Tracked C in [0, 360).
+  double c_deg_normalised() const;
+  // Tool-change move (G49 G53 G0) in machine coordinates, then the tracked
+  // position is the gauge line's in program coordinates.
+  void MachineRapid(const gcode::Axes& to, double origin_z_mm);
+  // G0 G43 H<tool> Z<z> after a tool change.
+  void LengthOffset(int tool, double z_mm);
   void Feed(const Eigen::Vector3d& to, double feed_mm_min);
   void FeedXY(const Eigen::Vector2d& to, double feed_mm_min);
   void FeedZ(double z_mm, double feed_mm_min);
-  void FeedC(double c_deg, double feed_deg_min);
+  // C by delta_deg (incremental G91 G1 C), feed in deg/min.
+  void FeedC(double delta_deg, double feed_deg_min);
   // Rapid around the piece at the current Z (see RouteAround).
   void RapidAround(const Eigen::Vector2d& to, double keep_radius_mm,
                    double route_radius_mm);
@@ -56,8 +79,13 @@ class PathWriter {
 
  private:
   std::vector<gcode::Statement>* out_;
+  void StraightRapid(const Eigen::Vector3d& to);
   Eigen::Vector3d position_mm_ = Eigen::Vector3d::Zero();
   double c_deg_ = 0;
+  double clearance_z_mm_ = -1e300;
+  double positioning_feed_mm_min_ = 0;
+  bool c_clamped_ = false;
+  bool length_offset_on_ = false;
 };
 
 // A slot through the whole piece along axis `along` (0 = X, 1 = Y), walls

@@ -21,6 +21,9 @@ class CanonBuilder {
     line_ = line;
   }
   const Eigen::Vector3d& position_mm() const { return position_mm_; }
+  // Where the machine stands before the first statement (program
+  // coordinates).
+  void SetStart(const Eigen::Vector3d& p_mm) { position_mm_ = p_mm; }
   double c_deg() const { return c_deg_; }
 
   void Traverse(const Eigen::Vector3d& to_mm, double c_deg);

@@ -16,6 +16,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/limits.h"
+#include "ttp/geometry/frames.h"
 
 namespace ttp::gcode {
 namespace {
@@ -68,16 +69,20 @@ class Lexer {
             close != trimmed.size() - 1)
           Fail("DPRNT", "expected DPRNT[...]");
         const std::string body = trimmed.substr(open + 1, close - open - 1);
-        // Only the skip-position variables of a probing report may be
-        // printed (#5061..#5064 with an [integer digits, decimals] format).
+        // Only the skip-position variables of a probing report and the
+        // control's clock may be printed (#5061..#5068, #3011, #3012, with an
+        // [integer digits, decimals] format).
         static const std::regex kVariable(R"(#(\d+)(\[\d\d\])?)");
         for (auto it =
                  std::sregex_iterator(body.begin(), body.end(), kVariable);
              it != std::sregex_iterator(); ++it) {
           const int var = std::stoi((*it)[1]);
-          if (var < 5061 || var > 5064 || !(*it)[2].matched)
+          if (((var < 5061 || var > 5068) && var != 3011 && var != 3012) ||
+              !(*it)[2].matched)
             Fail("DPRNT",
-                 "only #5061..#5064[nn] may be printed, not " + it->str());
+                 "only #5061..#5068[nn], #3011[nn] and #3012[nn] may be "
+                 "printed, not " +
+                     it->str());
         }
         if (std::count(body.begin(), body.end(), '#') !=
             std::distance(
@@ -193,7 +198,10 @@ enum class GGroup {
   kLength,
   kCoord,
   kDistance,
-  kFeedMode
+  kFeedMode,
+  kMachineCoords,  // G53, one-shot
+  kPlaneRotation,  // FANUC G69
+  kPathMode,       // LinuxCNC G61 / G64
 };
 
 enum class Motion { kNone, kRapid, kFeed, kProbe };
@@ -201,7 +209,10 @@ enum class Motion { kNone, kRapid, kFeed, kProbe };
 class Interpreter {
  public:
   Interpreter(Dialect dialect, const Config& config, const std::string& source)
-      : dialect_(dialect), config_(config), source_(source) {}
+      : dialect_(dialect), config_(config), source_(source) {
+    // The machine starts at machine zero (as rs274 does with G54's offset).
+    builder_.SetStart(Eigen::Vector3d(0, 0, -WorkpieceOriginHeightMm(config)));
+  }
 
   // Returns false after M30 (the rest of the text is not read).
   bool Run(const Block& block) {
@@ -264,6 +275,15 @@ class Interpreter {
         return GGroup::kDistance;
       case 940:
         return GGroup::kFeedMode;
+      case 530:
+        return GGroup::kMachineCoords;
+      case 690:
+        if (Fanuc()) return GGroup::kPlaneRotation;
+        break;
+      case 610:
+      case 640:
+        if (!Fanuc()) return GGroup::kPathMode;
+        break;
       case 310:
         if (Fanuc()) return GGroup::kMotion;
         break;
@@ -275,7 +295,8 @@ class Interpreter {
   }
 
   // M-code groups: spindle 1, tool 2, coolant 3, end 4, C turning 5,
-  // clamp 6, digital outputs 7.
+  // clamp 6, digital outputs 7, B clamp 8, probe on/off 9, FANUC
+  // non-buffered M-code of the profile 10.
   std::optional<int> MGroupOf(int m) const {
     const MachineProfile& p = config_.machine;
     if (m == 3 || m == 4 || m == 5) return 1;
@@ -285,6 +306,9 @@ class Interpreter {
     if (Fanuc()) {
       if (m == p.m_c_turning_on || m == p.m_c_turning_off) return 5;
       if (m == p.m_table_clamp || m == p.m_table_unclamp) return 6;
+      if (m == p.m_b_clamp || m == p.m_b_unclamp) return 8;
+      if (m == p.m_probe_on || m == p.m_probe_off) return 9;
+      if (p.fanuc_sync_block == fmt::format("M{}", m)) return 10;
     } else if (m == 64 || m == 65) {
       return 7;
     }
@@ -295,7 +319,7 @@ class Interpreter {
     std::set<char> seen;
     std::map<GGroup, const Word*> g_groups;
     std::map<int, const Word*> m_groups;
-    const std::string allowed = Fanuc() ? "NOGMXYZCFSTHP" : "NGMXYZCFSTHP$";
+    const std::string allowed = Fanuc() ? "NOGMXYZBCFSTHP" : "NGMXYZBCFSTHP$";
     for (const Word& w : block.words) {
       if (allowed.find(w.letter) == std::string::npos) {
         if (w.letter == 'O') Fail(w.raw, "O-word control is not supported");
@@ -375,7 +399,10 @@ class Interpreter {
     std::stringstream ss(body);
     std::string part;
     while (std::getline(ss, part, '*')) parts.push_back(part);
-    if (parts.size() == 3 && parts[2].size() > 1 &&
+    // A fourth part T#3012[..] is the control's clock.
+    if ((parts.size() == 3 ||
+         (parts.size() == 4 && parts[3].rfind("T#", 0) == 0)) &&
+        parts[2].size() > 1 &&
         std::toupper(static_cast<unsigned char>(parts[2][0])) == 'C') {
       return Lower(parts[0]) + "," + parts[1] + "," + parts[2].substr(1);
     }
@@ -394,7 +421,12 @@ class Interpreter {
           continue;
         }
         if (prefix("msg,") || prefix("debug,")) {
-          builder_.Comment(c.substr(c.find(',') + 1));
+          const std::string body = c.substr(c.find(',') + 1);
+          ReportText r;
+          if (prefix("debug,") && ParseReportText(body, &r))
+            builder_.Report(body);
+          else
+            builder_.Comment(body);
           continue;
         }
       }
@@ -442,11 +474,17 @@ class Interpreter {
     } else if (HasM(block, 64) || HasM(block, 65)) {
       const Word* pw = Find(block, 'P');
       const int m = HasM(block, 64) ? 64 : 65;
-      if (!pw || pw->value != kLinuxCncClampOutput)
+      if (pw && pw->value == p.linuxcnc_c_clamp_output)
+        builder_.SetClamp(m == 64);
+      else if (!pw || pw->value != p.linuxcnc_b_clamp_output)
         Fail(fmt::format("M{}", m),
-             fmt::format("only output P{} (table clamp) is used",
-                         kLinuxCncClampOutput));
-      builder_.SetClamp(m == 64);
+             fmt::format("only outputs P{} (C clamp) and P{} (B clamp) are "
+                         "used",
+                         p.linuxcnc_c_clamp_output, p.linuxcnc_b_clamp_output));
+    }
+    if (const Word* b = Find(block, 'B')) {
+      if (Scaled(*b) != 0)
+        Fail(b->raw, "B must stay at 0 (the programs do not tilt the spindle)");
     }
     if (HasG(block, 430)) {
       const Word* h = Find(block, 'H');
@@ -457,7 +495,11 @@ class Interpreter {
              fmt::format("no tool {} in the process", tool));
       builder_.SetToolLengthOffset(spec->length_mm);
     }
-    if (HasG(block, 490)) builder_.SetToolLengthOffset(0.0);
+    if (HasG(block, 490)) {
+      builder_.SetToolLengthOffset(0.0);
+      length_offset_on_ = false;
+    }
+    if (HasG(block, 430)) length_offset_on_ = true;
     if (HasG(block, 40)) Dwell(block);
     if (HasG(block, 900)) absolute_ = true;
     if (HasG(block, 910)) absolute_ = false;
@@ -526,6 +568,12 @@ class Interpreter {
     const Word* axes[4] = {Find(block, 'X'), Find(block, 'Y'), Find(block, 'Z'),
                            Find(block, 'C')};
     const bool any_axis = axes[0] || axes[1] || axes[2] || axes[3];
+    // B is held at 0 (checked in Convert): a B-only move is a move of
+    // length zero, as rs274 sees it.
+    if (!any_axis && Find(block, 'B') && motion == Motion::kRapid) {
+      builder_.Traverse(builder_.position_mm(), builder_.c_deg());
+      return;
+    }
     if (!any_axis) {
       if (g_motion && motion == Motion::kProbe)
         Fail(g_motion->raw, "probe move without a target");
@@ -535,10 +583,24 @@ class Interpreter {
       Fail(FirstAxis(axes)->raw, "axis words without a motion mode (G0/G1)");
     Eigen::Vector3d to = builder_.position_mm();
     double c = builder_.c_deg();
+    const bool machine = HasG(block, 530);
+    if (machine) {
+      // G53: machine coordinates of the gauge line; program Z is machine Z
+      // less W's origin height (G54 has X = Y = 0).
+      if (length_offset_on_)
+        Fail("G53", "G53 with tool-length compensation on (give G49)");
+      if (motion != Motion::kRapid && motion != Motion::kFeed)
+        Fail("G53", "G53 needs G0 or G1");
+      if (axes[3]) Fail(axes[3]->raw, "G53 moves only X, Y and Z here");
+    }
+    const double origin_z = WorkpieceOriginHeightMm(config_);
     for (int a = 0; a < 3; ++a) {
       if (!axes[a]) continue;
       const double v = Scaled(*axes[a], true) * units_mm_;
-      to[a] = absolute_ ? v : to[a] + v;
+      if (machine)
+        to[a] = v - (a == 2 ? origin_z : 0.0);
+      else
+        to[a] = absolute_ ? v : to[a] + v;
     }
     if (axes[3]) {
       const double v = Scaled(*axes[3]);
@@ -578,6 +640,7 @@ class Interpreter {
   Motion motion_ = Motion::kNone;
   std::optional<double> feed_;
   int selected_tool_ = -1;
+  bool length_offset_on_ = false;
 };
 
 }  // namespace
@@ -596,6 +659,8 @@ Dialect DetectDialect(const std::string& text) {
       return Dialect::kFanuc;
     if (t.find('$') != std::string::npos ||
         t.find("(PRINT,") != std::string::npos ||
+        t.find("(DEBUG,") != std::string::npos ||
+        t.find("G64 P") != std::string::npos ||
         t.find("G4 P") != std::string::npos ||
         t.find("M64") != std::string::npos ||
         t.find("M65") != std::string::npos)
@@ -629,7 +694,8 @@ std::vector<CanonStatement> ReadProgram(const std::string& text,
   if (blocks == 0)
     throw InputError(source, 0, "", "the program is empty (no blocks)");
   auto statements = interpreter.Take();
-  ApplyTimeModel(statements, config.machine);
+  ApplyTimeModel(statements, config.machine,
+                 Eigen::Vector3d(0, 0, -WorkpieceOriginHeightMm(config)));
   return statements;
 }
 

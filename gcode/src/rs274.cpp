@@ -18,6 +18,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/frames.h"
 
 namespace ttp::gcode {
 namespace fs = std::filesystem;
@@ -46,9 +47,17 @@ struct TempDir {
 std::string IniText() {
   return "[EMC]\nVERSION = 1.1\n"
          "[RS274NGC]\nPARAMETER_FILE = ttp.var\n"
-         "[TRAJ]\nCOORDINATES = XYZC\nLINEAR_UNITS = mm\n"
+         "[TRAJ]\nCOORDINATES = XYZBC\nLINEAR_UNITS = mm\n"
          "ANGULAR_UNITS = degree\nSPINDLES = 2\n"
-         "[KINS]\nJOINTS = 4\nKINEMATICS = trivkins coordinates=XYZC\n";
+         "[KINS]\nJOINTS = 5\nKINEMATICS = trivkins coordinates=XYZBC\n";
+}
+
+// G54 active with W's origin height as its Z offset, so that G53 (machine
+// coordinates) means what it means on the machine. rs274 reads the
+// parameter file in inches, as the tool table.
+std::string VarFileText(const Config& config) {
+  return fmt::format("5220\t1.000000\n5223\t{:.8f}\n",
+                     WorkpieceOriginHeightMm(config) / kMmPerInch);
 }
 
 // rs274 reads the tool table in inches whatever the INI says.
@@ -123,7 +132,9 @@ std::string StringArg(const CanonCall& call) {
 bool Rs274Available() { return access(kRs274Path, X_OK) == 0; }
 
 std::vector<CanonStatement> ParseRs274Canon(const std::string& canon_text,
-                                            const std::string& source) {
+                                            const std::string& source,
+                                            int c_clamp_output,
+                                            const Eigen::Vector3d& start_mm) {
   static const std::regex line_re(
       R"(^\s*\d+\s+N(\.+|\d+)\s*([A-Z_0-9]+)\((.*)\)\s*.*$)");
   std::vector<CanonCall> calls;
@@ -151,6 +162,7 @@ std::vector<CanonStatement> ParseRs274Canon(const std::string& canon_text,
   }
 
   CanonBuilder builder;
+  builder.SetStart(start_mm);
   int selected_tool = -1;
   double units = 1.0;
   double feed = 0;
@@ -205,12 +217,15 @@ std::vector<CanonStatement> ParseRs274Canon(const std::string& canon_text,
       // (x y z a b c u v w), in program units (mm here).
       builder.SetToolLengthOffset(Numbers(call, source).at(2));
     } else if (n == "SET_AUX_OUTPUT_BIT" || n == "CLEAR_AUX_OUTPUT_BIT") {
-      if (static_cast<int>(Numbers(call, source).at(0)) == 0)
+      if (static_cast<int>(Numbers(call, source).at(0)) == c_clamp_output)
         builder.SetClamp(n == "SET_AUX_OUTPUT_BIT");
     } else if (n == "MESSAGE") {
       const std::string text = StringArg(call);
+      ReportText report;
       if (text.rfind(kReportPrefix, 0) == 0)
         builder.Report(text.substr(std::string(kReportPrefix).size()));
+      else if (ParseReportText(text, &report))
+        builder.Report(text);  // (debug,cut,...): a report queued with motion
       else
         builder.Comment(text);
     } else if (n == "COMMENT") {
@@ -231,10 +246,11 @@ Rs274Result RunRs274(const std::string& ngc_text, const Config& config) {
   TempDir dir;
   WriteFileAtomic(dir.path / "ttp.ini", IniText());
   WriteFileAtomic(dir.path / "ttp.tbl", ToolTableText(config));
-  WriteFileAtomic(dir.path / "ttp.var", "");
+  WriteFileAtomic(dir.path / "ttp.var", VarFileText(config));
   WriteFileAtomic(dir.path / "prog.ngc", PrepareProgram(ngc_text));
   const std::string cmd = fmt::format(
-      "cd '{}' && {} -g -n 2 -i ttp.ini -t ttp.tbl prog.ngc out.canon "
+      "cd '{}' && {} -g -n 2 -i ttp.ini -v ttp.var -t ttp.tbl prog.ngc "
+      "out.canon "
       "</dev/null >stdout.txt 2>stderr.txt",
       dir.path.string(), kRs274Path);
   int status = 0;
@@ -269,8 +285,11 @@ Rs274Result RunRs274(const std::string& ngc_text, const Config& config) {
     if (message.empty()) message = fmt::format("rs274 failed ({})", status);
     throw InputError("rs274", line, "", message);
   }
-  result.statements = ParseRs274Canon(result.canon_text, "rs274 canon");
-  ApplyTimeModel(result.statements, config.machine);
+  const Eigen::Vector3d start(0, 0, -WorkpieceOriginHeightMm(config));
+  result.statements =
+      ParseRs274Canon(result.canon_text, "rs274 canon",
+                      config.machine.linuxcnc_c_clamp_output, start);
+  ApplyTimeModel(result.statements, config.machine, start);
   return result;
 }
 

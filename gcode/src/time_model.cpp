@@ -5,9 +5,10 @@
 namespace ttp::gcode {
 
 void ApplyTimeModel(std::vector<CanonStatement>& statements,
-                    const MachineProfile& machine) {
+                    const MachineProfile& machine,
+                    const Eigen::Vector3d& start_mm) {
   constexpr double kRadToDeg = 180.0 / M_PI;
-  Eigen::Vector3d position_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position_mm = start_mm;
   double c_rad = 0;
   double c_rpm = 0;
   double t_s = 0;

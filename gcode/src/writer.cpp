@@ -35,7 +35,14 @@ class Writer {
     } else {
       Line(fmt::format("({})", SafeCommentText(program_.title)));
     }
-    Line("G21 G90 G17 G40 G49 G80 G94");
+    // Safety block: plane, units, no cutter or length compensation, no
+    // tilted plane (FANUC G69), no canned cycle, absolute, feed per minute;
+    // LinuxCNC path blending within a tolerance.
+    if (fanuc)
+      Line("G17 G21 G40 G49 G69 G80 G90 G94");
+    else
+      Line(fmt::format("G17 G21 G40 G49 G80 G90 G94 G64 P{:.3f}",
+                       kLinuxCncBlendToleranceMm));
     Line("G54");
     bool report_open = false;
     for (size_t i = 0; i < program_.statements.size(); ++i) {
@@ -79,21 +86,46 @@ class Writer {
     if (a.x_mm) s += " X" + Mm(*a.x_mm);
     if (a.y_mm) s += " Y" + Mm(*a.y_mm);
     if (a.z_mm) s += " Z" + Mm(*a.z_mm);
+    if (a.b_deg) s += " B" + Deg(*a.b_deg);
     if (a.c_deg) s += " C" + Deg(*a.c_deg);
     if (s.empty()) Fail("move without any axis");
     return s;
   }
 
   void Emit(const Comment& c) { Line("(" + SafeCommentText(c.text) + ")"); }
-  void Emit(const Rapid& r) { Line("G0" + AxisWords(r.to)); }
+  void Emit(const Rapid& r) {
+    Line((r.incremental ? "G91 G0" : "G0") + AxisWords(r.to));
+    if (r.incremental) Line("G90");
+  }
   void Emit(const Feed& f) {
     if (!std::isfinite(f.feed_per_min) || f.feed_per_min <= 0)
       Fail("feed must be > 0");
-    std::string line = "G1" + AxisWords(f.to);
+    std::string line = (f.incremental ? "G91 G1" : "G1") + AxisWords(f.to);
     const std::string feed = fmt::format("{:.1f}", f.feed_per_min);
     if (feed != last_feed_) line += " F" + feed;
     last_feed_ = feed;
     Line(line);
+    if (f.incremental) Line("G90");
+  }
+  void Emit(const MachineRapid& r) {
+    if (r.to.c_deg || r.to.b_deg) Fail("G53 moves only X, Y and Z here");
+    Line("G49 G53 G0" + AxisWords(r.to));
+  }
+  void Emit(const LengthOffset& l) {
+    if (l.tool < 0) Fail("tool number must be >= 0");
+    Line(fmt::format("G0 G43 H{} Z{}", l.tool, Mm(l.z_mm)));
+  }
+  void Emit(const BZeroClamp&) {
+    const MachineProfile& m = config_.machine;
+    if (dialect_ == Dialect::kFanuc) {
+      Line(fmt::format("M{}", m.m_b_unclamp));
+      Line("G0 B0.000");
+      Line(fmt::format("M{}", m.m_b_clamp));
+    } else {
+      Line(fmt::format("M65 P{}", m.linuxcnc_b_clamp_output));
+      Line("G0 B0.000");
+      Line(fmt::format("M64 P{}", m.linuxcnc_b_clamp_output));
+    }
   }
   void Emit(const Dwell& d) {
     if (!std::isfinite(d.seconds) || d.seconds < 0) Fail("dwell must be >= 0");
@@ -112,7 +144,6 @@ class Writer {
     if (!t.description.empty())
       Line(fmt::format("(T{} {})", t.tool, SafeCommentText(t.description)));
     Line(fmt::format("T{} M6", t.tool));
-    Line(fmt::format("G43 H{}", t.tool));
   }
   void Emit(const CSpin& c) {
     const long rpm = Rpm(c.rpm);
@@ -134,8 +165,8 @@ class Writer {
       Line(fmt::format("M{}", t.clamp ? config_.machine.m_table_clamp
                                       : config_.machine.m_table_unclamp));
     else
-      Line(
-          fmt::format("{} P{}", t.clamp ? "M64" : "M65", kLinuxCncClampOutput));
+      Line(fmt::format("{} P{}", t.clamp ? "M64" : "M65",
+                       config_.machine.linuxcnc_c_clamp_output));
   }
   void Emit(const Report& r) {
     for (char ch : r.event + r.feature)
@@ -146,9 +177,15 @@ class Writer {
     if (dialect_ == Dialect::kFanuc) {
       std::string event = r.event;
       for (char& ch : event) ch = static_cast<char>(std::toupper(ch));
-      Line(fmt::format("DPRNT[{}*{}*C{}]", event, r.feature, Deg(r.c_deg)));
+      // DPRNT is a macro statement: without a non-buffered block before it
+      // the control runs it while the previous move is still going.
+      Line(config_.machine.fanuc_sync_block);
+      Line(fmt::format("DPRNT[{}*{}*C{}*T#3012[60]]", event, r.feature,
+                       Deg(r.c_deg)));
     } else {
-      Line(fmt::format("(print,{},{},{})", r.event, r.feature, Deg(r.c_deg)));
+      // (debug,...) is queued with the motion; (print,...) would fire when
+      // the interpreter reads the line.
+      Line(fmt::format("(debug,{},{},{})", r.event, r.feature, Deg(r.c_deg)));
     }
   }
   void Emit(const Probe& p) {

@@ -2,9 +2,11 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -27,6 +29,8 @@ void VisitTool(V& v, ToolSpec& t) {
   v("tip_angle_deg", t.tip_angle_deg);
   v("spindle_rpm", t.spindle_rpm);
   v("feed_mm_min", t.feed_mm_min);
+  v("stick_out_mm", t.stick_out_mm);
+  v("holder_diameter_mm", t.holder_diameter_mm);
 }
 
 template <class V>
@@ -89,7 +93,26 @@ void VisitMachine(V& v, MachineProfile& m) {
   v("table_top_z_mm", m.table_top_z_mm);
   v("sphere_distance_mm", m.sphere_distance_mm);
   v("sphere_height_mm", m.sphere_height_mm);
+  v("sphere_phi_deg", m.sphere_phi_deg);
+  v("sphere_radius_mm", m.sphere_radius_mm);
+  v("sphere_stem_diameter_mm", m.sphere_stem_diameter_mm);
+  v("table_diameter_mm", m.table_diameter_mm);
+  v("clamps", m.clamps);
   v("waiting_position_w_mm", m.waiting_position_w_mm);
+  v("tool_change_position_m_mm", m.tool_change_position_m_mm);
+  v("rapid_semantics", m.rapid_semantics);
+  v("rapid_axis_mm_min", m.rapid_axis_mm_min);
+  v("positioning_feed_mm_min", m.positioning_feed_mm_min);
+  v("c_rollover", m.c_rollover);
+  v("m_b_clamp", m.m_b_clamp);
+  v("m_b_unclamp", m.m_b_unclamp);
+  v("linuxcnc_c_clamp_output", m.linuxcnc_c_clamp_output);
+  v("linuxcnc_b_clamp_output", m.linuxcnc_b_clamp_output);
+  v("fanuc_sync_block", m.fanuc_sync_block);
+  v("m_probe_on", m.m_probe_on);
+  v("m_probe_off", m.m_probe_off);
+  v("fanuc_skip_variables", m.fanuc_skip_variables);
+  v("linuxcnc_probe_variables", m.linuxcnc_probe_variables);
 }
 
 template <class V>
@@ -121,6 +144,13 @@ json ToJsonValue(const RefCylinder& c) {
   return json{{"diameter_mm", c.diameter_mm},
               {"z_bottom_mm", c.z_bottom_mm},
               {"z_top_mm", c.z_top_mm}};
+}
+json ToJsonValue(const ClampSpec& c) {
+  return json{{"phi_deg", c.phi_deg},
+              {"r_inner_mm", c.r_inner_mm},
+              {"r_outer_mm", c.r_outer_mm},
+              {"width_mm", c.width_mm},
+              {"height_mm", c.height_mm}};
 }
 json ToJsonValue(const ToolSpec& t);
 template <class T>
@@ -164,6 +194,8 @@ void ReadValue(const json& j, bool& out, const Reader& r,
 void ReadValue(const json& j, RefCylinder& out, const Reader& r,
                const std::string& path);
 void ReadValue(const json& j, ToolSpec& out, const Reader& r,
+               const std::string& path);
+void ReadValue(const json& j, ClampSpec& out, const Reader& r,
                const std::string& path);
 template <class T>
 void ReadValue(const json& j, std::vector<T>& out, const Reader& r,
@@ -243,6 +275,20 @@ void ReadValue(const json& j, RefCylinder& out, const Reader& r,
     rr("z_top_mm", c.z_top_mm);
   });
 }
+void ReadValue(const json& j, ClampSpec& out, const Reader& r,
+               const std::string& path) {
+  if (j.is_object())
+    for (const char* key :
+         {"phi_deg", "r_inner_mm", "r_outer_mm", "width_mm", "height_mm"})
+      if (!j.contains(key)) r.Fail(path + "." + key, "missing");
+  ReadObject(j, out, r, path, [](Reader& rr, ClampSpec& c) {
+    rr("phi_deg", c.phi_deg);
+    rr("r_inner_mm", c.r_inner_mm);
+    rr("r_outer_mm", c.r_outer_mm);
+    rr("width_mm", c.width_mm);
+    rr("height_mm", c.height_mm);
+  });
+}
 void ReadValue(const json& j, ToolSpec& out, const Reader& r,
                const std::string& path) {
   ReadObject(j, out, r, path,
@@ -308,6 +354,67 @@ void ValidateTool(const ToolSpec& t, const std::string& source,
           f + "spindle_rpm", "must be in (0, machine.max_spindle_rpm]");
   Require(t.feed_mm_min > 0 && t.feed_mm_min <= m.max_feed_mm_min, source,
           f + "feed_mm_min", "must be in (0, machine.max_feed_mm_min]");
+  Require(t.stick_out_mm >= t.flute_length_mm && t.stick_out_mm < t.length_mm,
+          source, f + "stick_out_mm",
+          "must be in [flute_length_mm, length_mm): the holder holds the "
+          "shank above the flutes and below the gauge line");
+  Require(t.holder_diameter_mm >= t.diameter_mm, source,
+          f + "holder_diameter_mm", "must not be smaller than diameter_mm");
+}
+
+// The features must fit the piece and each other: every later stage (the
+// toolpaths, the dexel model, the probe layout) assumes so. Each rule names
+// the field a user would change.
+void ValidateFeatureFit(const PartSpec& p, const std::string& source) {
+  const double blank_r = p.blank_diameter_mm / 2;
+  const double facet_d = p.facet_final_distance_mm;
+  Require(p.big_notch_half_width_mm < facet_d - 1.0, source,
+          "part.big_notch_half_width_mm",
+          "wider than the piece: the big notch must leave the segments "
+          "(half width below facet_final_distance_mm - 1 mm)");
+  Require(p.small_notch_half_width_mm < p.big_notch_half_width_mm, source,
+          "part.small_notch_half_width_mm",
+          "must be narrower than the big notch");
+  Require(p.small_notch_half_width_mm < facet_d - 1.0, source,
+          "part.small_notch_half_width_mm", "wider than the piece");
+  Require(p.facets_per_segment * p.facet_step_deg <= p.segment_span_deg + 1e-9,
+          source, "part.facet_step_deg",
+          "facets_per_segment * facet_step_deg exceeds segment_span_deg");
+  // Segments must not overlap each other nor reach into the notches.
+  for (size_t i = 0; i < p.segment_centre_deg.size(); ++i) {
+    const std::string f = "part.segment_centre_deg[" + std::to_string(i) + "]";
+    const double c = p.segment_centre_deg[i];
+    Require(c > 0 && c < 360, source, f, "must be in (0, 360)");
+    const double lo = (c - p.segment_span_deg / 2) * M_PI / 180;
+    const double hi = (c + p.segment_span_deg / 2) * M_PI / 180;
+    // The segment lies between the small notch (|x| <= xs) and the big
+    // notch (|y| <= yb) at the facets' inscribed radius.
+    for (double a : {lo, hi}) {
+      const double x = facet_d * std::cos(a), y = facet_d * std::sin(a);
+      Require(std::abs(y) >= p.big_notch_half_width_mm - 1.0 &&
+                  std::abs(x) >= p.small_notch_half_width_mm - 1.0,
+              source, f,
+              "segment (centre +- segment_span_deg/2) reaches into a notch");
+    }
+    Require(
+        std::floor(lo / (M_PI / 2)) == std::floor((hi - 1e-12) / (M_PI / 2)),
+        source, f, "segment crosses a notch (it must lie in one quadrant)");
+  }
+  // The mark lies on the top face of a segment.
+  bool on_segment = false;
+  for (double c : p.segment_centre_deg)
+    if (std::abs(p.mark_phi_deg - c) <= p.segment_span_deg / 2)
+      on_segment = true;
+  Require(on_segment, source, "part.mark_phi_deg",
+          "the mark must lie on a segment (within segment_span_deg/2 of a "
+          "segment centre)");
+  Require(p.big_notch_half_width_mm < blank_r, source,
+          "part.big_notch_half_width_mm", "wider than the blank");
+  Require(p.datum_circle_z_min_mm < p.datum_circle_z_max_mm, source,
+          "part.datum_circle_z_min_mm", "must be below datum_circle_z_max_mm");
+  Require(p.facet_bottom_z_mm < p.big_notch_floor_z_mm + 1e-9, source,
+          "part.facet_bottom_z_mm",
+          "must not be above the big-notch floor (facets reach it)");
 }
 
 }  // namespace
@@ -449,6 +556,8 @@ void ValidateConfig(const Config& c, const std::string& source) {
               p.adapter_diameter_mm,
           source, "part.bolt_circle_diameter_mm", "bolts outside the adapter");
 
+  ValidateFeatureFit(p, source);
+
   // Tools.
   ValidateTool(pr.roughing, source, "roughing", m);
   ValidateTool(pr.engraver, source, "engraver", m);
@@ -524,6 +633,103 @@ void ValidateConfig(const Config& c, const std::string& source) {
               m.travel_z_mm[1] >= w_origin_z + pr.safe_z_w_mm,
           source, "machine.travel_z_mm",
           "the piece and safe height do not fit the Z travel");
+  Require(m.rapid_semantics == "straight" || m.rapid_semantics == "per_axis",
+          source, "machine.rapid_semantics", "must be straight or per_axis");
+  for (int a = 0; a < 3; ++a)
+    Require(m.rapid_axis_mm_min[a] > 0, source,
+            "machine.rapid_axis_mm_min[" + std::to_string(a) + "]",
+            "must be positive");
+  Require(m.positioning_feed_mm_min > 0 &&
+              m.positioning_feed_mm_min <= m.max_feed_mm_min,
+          source, "machine.positioning_feed_mm_min",
+          "must be in (0, max_feed_mm_min]");
+  Require(m.sphere_radius_mm > 0, source, "machine.sphere_radius_mm",
+          "must be positive");
+  Require(m.sphere_stem_diameter_mm > 0 &&
+              m.sphere_stem_diameter_mm < 2 * m.sphere_radius_mm,
+          source, "machine.sphere_stem_diameter_mm",
+          "must be positive and below the ball diameter");
+  Require(m.sphere_height_mm > m.sphere_radius_mm, source,
+          "machine.sphere_height_mm", "the ball must sit above the table");
+  Require(m.sphere_distance_mm - m.sphere_radius_mm >
+              std::max(p.blank_diameter_mm, p.adapter_diameter_mm) / 2,
+          source, "machine.sphere_distance_mm",
+          "the sphere must stand outside the blank and the adapter");
+  Require(m.table_diameter_mm / 2 >= m.sphere_distance_mm, source,
+          "machine.table_diameter_mm", "the sphere must stand on the table");
+  for (size_t i = 0; i < m.clamps.size(); ++i) {
+    const ClampSpec& k = m.clamps[i];
+    const std::string f = "machine.clamps[" + std::to_string(i) + "]";
+    Require(k.r_inner_mm >= 0 && k.r_inner_mm < k.r_outer_mm, source,
+            f + ".r_inner_mm", "must be in [0, r_outer_mm)");
+    Require(k.width_mm > 0, source, f + ".width_mm", "must be positive");
+    Require(k.height_mm > 0 && k.height_mm < p.adapter_height_mm, source,
+            f + ".height_mm",
+            "must be positive and below the adapter top (the clamps hold "
+            "the adapter, not the piece)");
+    Require(k.r_outer_mm <= m.table_diameter_mm / 2, source, f + ".r_outer_mm",
+            "beyond the table");
+  }
+  for (const auto& [a, field, range] :
+       {std::tuple{0, "machine.tool_change_position_m_mm[0]", m.travel_x_mm},
+        std::tuple{1, "machine.tool_change_position_m_mm[1]", m.travel_y_mm},
+        std::tuple{2, "machine.tool_change_position_m_mm[2]", m.travel_z_mm}})
+    Require(m.tool_change_position_m_mm[a] >= range[0] &&
+                m.tool_change_position_m_mm[a] <= range[1],
+            source, field, "outside the travel");
+  {
+    double longest = 0;
+    for (const ToolSpec* t : pr.Tools())
+      longest = std::max(longest, t->length_mm);
+    const double top = m.table_top_z_mm + p.adapter_height_mm + p.height_mm();
+    Require(m.tool_change_position_m_mm[2] - longest >
+                std::max(top, m.table_top_z_mm + m.sphere_height_mm +
+                                  m.sphere_radius_mm) +
+                    pr.clearance_mm,
+            source, "machine.tool_change_position_m_mm[2]",
+            "the longest tool would not clear the piece and the sphere");
+  }
+  Require(
+      m.m_b_clamp >= 0 && m.m_b_unclamp >= 0 && m.m_b_clamp != m.m_b_unclamp,
+      source, "machine.m_b_clamp", "must be distinct M-codes");
+  Require(
+      m.m_probe_on >= 0 && m.m_probe_off >= 0 && m.m_probe_on != m.m_probe_off,
+      source, "machine.m_probe_on", "must be distinct M-codes");
+  Require(m.linuxcnc_c_clamp_output >= 0 && m.linuxcnc_b_clamp_output >= 0 &&
+              m.linuxcnc_c_clamp_output != m.linuxcnc_b_clamp_output,
+          source, "machine.linuxcnc_b_clamp_output",
+          "must be distinct outputs >= 0");
+  Require(m.fanuc_sync_block == "G53" ||
+              (m.fanuc_sync_block.size() > 1 && m.fanuc_sync_block[0] == 'M' &&
+               m.fanuc_sync_block.find_first_not_of("0123456789", 1) ==
+                   std::string::npos),
+          source, "machine.fanuc_sync_block", "must be G53 or M<number>");
+  for (int a = 0; a < 4; ++a) {
+    Require(
+        m.fanuc_skip_variables[a] >= 5061 && m.fanuc_skip_variables[a] <= 5068,
+        source, "machine.fanuc_skip_variables[" + std::to_string(a) + "]",
+        "must be a skip position variable #5061..#5068");
+    Require(m.linuxcnc_probe_variables[a] >= 5061 &&
+                m.linuxcnc_probe_variables[a] <= 5069,
+            source,
+            "machine.linuxcnc_probe_variables[" + std::to_string(a) + "]",
+            "must be a probe position parameter #5061..#5069");
+  }
+  {
+    // The waiting tool (finishing cutter and holder) must stay out of the
+    // ring the R-test sphere sweeps while C turns.
+    const double wr =
+        std::hypot(m.waiting_position_w_mm[0], m.waiting_position_w_mm[1]);
+    const double reach = pr.finishing.holder_diameter_mm / 2;
+    const double ring_in = m.sphere_distance_mm - m.sphere_radius_mm;
+    const double ring_out = m.sphere_distance_mm + m.sphere_radius_mm;
+    Require(wr + reach + pr.clearance_mm <= ring_in ||
+                wr - reach - pr.clearance_mm >= ring_out,
+            source, "machine.waiting_position_w_mm",
+            "in the ring the R-test sphere sweeps while C turns (tool holder "
+            "within clearance_mm of radius sphere_distance_mm +- "
+            "sphere_radius_mm)");
+  }
 }
 
 }  // namespace ttp

@@ -78,6 +78,10 @@ TEST_P(CliVerifyDialect, ProjectProgramsPass) {
   r = test::RunTtp("verify " + cycle.string() + " --after " + pre.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("stage cycle"), std::string::npos) << r.output;
+  // The summary says what was checked; -v lists every check.
+  EXPECT_NE(r.output.find("R-test sphere"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("only C changes between cycles"), std::string::npos);
+  r = test::RunTtp("verify -v " + cycle.string() + " --after " + pre.string());
   EXPECT_NE(r.output.find("only C changes between cycles"), std::string::npos);
 }
 
@@ -93,13 +97,16 @@ TEST_P(CliVerifyDialect, RapidThroughMaterialIsCaughtWithItsLine) {
                               GetParam() + " --json " + json.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   const auto doc = nlohmann::json::parse(std::ifstream(json));
-  const nlohmann::json* f = FindCheck(doc, "rapid cuts no material");
+  const nlohmann::json* f =
+      FindCheck(doc, "rapid cuts no material (straight rapids)");
   ASSERT_NE(f, nullptr);
   EXPECT_FALSE(f->at("pass").get<bool>());
   EXPECT_EQ(f->at("line").get<int>(), line);
   // The text names the check and the line.
   EXPECT_NE(
-      r.output.find("rapid cuts no material: line " + std::to_string(line)),
+      r.output.find("FAIL rapid cuts no material (straight rapids): 5.0000 "
+                    "mm (limit 0.0000), line " +
+                    std::to_string(line)),
       std::string::npos)
       << r.output;
 }
@@ -108,8 +115,8 @@ TEST_P(CliVerifyDialect, FeedIntoTheAdapterIsCaughtWithItsLine) {
   const fs::path bad = Dir() / ("adapter_" + GetParam() + ".txt");
   const int line =
       InsertBeforeEnd(Program("pre", GetParam()), bad,
-                      {"G0 X130.0000 Y0.0000 Z50.0000", "G0 Z-26.0000",
-                       "G1 X95.0000 F300.0", "G1 X130.0000", "G0 Z50.0000"},
+                      {"G0 X120.0000 Y0.0000 Z50.0000", "G0 Z-26.0000",
+                       "G1 X95.0000 F300.0", "G1 X120.0000", "G0 Z50.0000"},
                       2);
   const fs::path json = Dir() / ("adapter_" + GetParam() + ".json");
   const auto r =
@@ -122,7 +129,9 @@ TEST_P(CliVerifyDialect, FeedIntoTheAdapterIsCaughtWithItsLine) {
   EXPECT_EQ(f->at("line").get<int>(), line);
   // 16 mm tool at 95 mm from the axis: 3 mm into the 180 mm adapter.
   EXPECT_NEAR(f->at("measured").get<double>(), 3.0, 1e-6);
-  EXPECT_NE(r.output.find("adapter not cut: line " + std::to_string(line)),
+  EXPECT_NE(r.output.find("FAIL adapter not cut: 3.0000 mm (limit 0.0000), "
+                          "line " +
+                          std::to_string(line)),
             std::string::npos)
       << r.output;
 }

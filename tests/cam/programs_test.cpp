@@ -456,17 +456,19 @@ TEST(ProgramsConfigTest, BadInputsNameTheField) {
     EXPECT_EQ(FieldOfError(c, &BuildPreMachiningProgram), "part.mark_depth_mm");
   }
   {
-    // Fits the piece, but not the waiting position at X = 160.
+    // Fits the piece, but not the tool-change position at X = 300.
     Config c;
     c.machine.travel_x_mm = {-150.0, 150.0};
-    EXPECT_EQ(FieldOfError(c, &BuildTestCycleProgram), "machine.travel_x_mm");
+    EXPECT_EQ(FieldOfError(c, &BuildTestCycleProgram),
+              "machine.tool_change_position_m_mm[0]");
+    c.machine.tool_change_position_m_mm[0] = 140;
     EXPECT_EQ(FieldOfError(c, &BuildPreMachiningProgram), "(no error)");
   }
   {
     Config c;
-    c.machine.travel_z_mm = {-10.0, 150.0};  // tool change height 110 + 54
+    c.machine.travel_z_mm = {-10.0, 150.0};  // tool change at Z 450
     EXPECT_EQ(FieldOfError(c, &BuildPreMachiningProgram),
-              "machine.travel_z_mm");
+              "machine.tool_change_position_m_mm[2]");
   }
   {
     Config c;
@@ -482,9 +484,17 @@ TEST(ProgramsConfigTest, BadInputsNameTheField) {
   {
     Config c;
     c.process.cycle_period_s = 600;
-    c.process.finishing.feed_mm_min = 20;  // a cycle takes far longer
+    c.machine.positioning_feed_mm_min = 20;  // a cycle takes far longer
     EXPECT_EQ(FieldOfError(c, &BuildTestCycleProgram),
               "process.cycle_period_s");
+  }
+  {
+    // 300 mm/min at 8000 rpm, 3 flutes: 0.0125 mm per tooth; at 0.1 mm
+    // radial engagement the chip is 2.3 um: the edge rubs.
+    Config c;
+    c.process.finishing.feed_mm_min = 300;
+    EXPECT_EQ(FieldOfError(c, &BuildTestCycleProgram),
+              "process.finishing.feed_mm_min");
   }
 }
 

@@ -40,7 +40,8 @@ TEST_F(ScheduleTest, HasEveryTestFeatureOnceWithItsCycle) {
 
 // Cycles start on the hour; every cut of cycle k lies in its hour, a few
 // minutes after the cycle's start, in the same place of the cycle as in the
-// reference cycle (the strips' Y shift moves them by less than a second).
+// reference cycle (the strips' Y shift changes the approach at the
+// positioning feed by less than two seconds).
 TEST_F(ScheduleTest, CutsAreOnTheHour) {
   const double period = schedule_->cycle_period_s;
   EXPECT_EQ(period, 3600.0);
@@ -55,7 +56,7 @@ TEST_F(ScheduleTest, CutsAreOnTheHour) {
     EXPECT_LT(cut.end_s, start + 600.0);
     const ScheduledCut& reference = schedule_->cuts[i % 5];
     EXPECT_NEAR(cut.end_s - start,
-                reference.end_s - schedule_->cycle_start_s[0], 1.0)
+                reference.end_s - schedule_->cycle_start_s[0], 2.0)
         << cut.feature;
   }
   EXPECT_GT(schedule_->total_s, 8 * period);

@@ -8,6 +8,14 @@
 namespace ttp::gcode {
 namespace {
 
+// The machine starts at machine zero; with W's origin there the hand-worked
+// positions of the transcripts start at program (0, 0, 0).
+Config OriginAtMachineZero() {
+  Config c;
+  c.machine.table_top_z_mm = -(c.part.adapter_height_mm + c.part.height_mm());
+  return c;
+}
+
 using testing::Expected;
 using K = CanonKind;
 
@@ -41,8 +49,8 @@ const char* kFanucGolden =
     "%\n";
 
 TEST(ReaderTest, FanucGoldenTranscript) {
-  const auto got =
-      ReadProgram(kFanucGolden, Dialect::kFanuc, Config{}, "golden.nc");
+  const auto got = ReadProgram(kFanucGolden, Dialect::kFanuc,
+                               OriginAtMachineZero(), "golden.nc");
   const std::vector<Expected> want = {
       {K::kComment, 2, 0, 0, 0, 0, 0, 0, "GOLDEN"},
       {K::kToolChange, 5, 0, 0, 0, 0, 0, 3},
@@ -96,8 +104,8 @@ const char* kLinuxCncGolden =
     "%\n";
 
 TEST(ReaderTest, LinuxCncGoldenTranscript) {
-  const auto got =
-      ReadProgram(kLinuxCncGolden, Dialect::kLinuxCnc, Config{}, "golden.ngc");
+  const auto got = ReadProgram(kLinuxCncGolden, Dialect::kLinuxCnc,
+                               OriginAtMachineZero(), "golden.ngc");
   std::vector<Expected> want = {
       {K::kComment, 2, 0, 0, 0, 0, 0, 0, "golden"},
       {K::kToolChange, 5, 0, 0, 0, 0, 0, 1},

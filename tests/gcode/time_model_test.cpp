@@ -19,7 +19,11 @@ TEST(TimeModelTest, DurationsFollowTheMachineProfile) {
       "M3 $1 S1200\n"      // 600 -> 1200 rpm: 2.5 s
       "M5 $1\n"            // 1200 -> 0: 5 s
       "M3 S1000\n";        // main spindle: no time in the model
-  const auto s = ReadProgram(text, Dialect::kLinuxCnc, Config{}, "t.ngc");
+  // The machine starts at machine zero: W's origin put there.
+  Config config;
+  config.machine.table_top_z_mm =
+      -(config.part.adapter_height_mm + config.part.height_mm());
+  const auto s = ReadProgram(text, Dialect::kLinuxCnc, config, "t.ngc");
   const std::vector<double> want = {1, 2, 1.75, 3, 3, 2.5, 2.5, 2.5, 5, 0};
   ASSERT_EQ(s.size(), want.size());
   double t = 0;

@@ -36,10 +36,9 @@ TEST(WriterTest, FanucTextFollowsTheDocumentedForm) {
   const std::string expected =
       "%\n"
       "O1000 (t)\n"
-      "G21 G90 G17 G40 G49 G80 G94\n"
+      "G17 G21 G40 G49 G69 G80 G90 G94\n"
       "G54\n"
       "T1 M6\n"
-      "G43 H1\n"
       "M3 S3000\n"
       "G0 X10.0000 Y0.0000 Z5.0000\n"
       "G1 Z-1.0000 F600.0\n"
@@ -49,7 +48,8 @@ TEST(WriterTest, FanucTextFollowsTheDocumentedForm) {
       "M601\n"
       "M10\n"
       "POPEN\n"
-      "DPRNT[CUT*Z5*C0.000]\n"
+      "G53\n"
+      "DPRNT[CUT*Z5*C0.000*T#3012[60]]\n"
       "PCLOS\n"
       "M30\n"
       "%\n";
@@ -60,10 +60,9 @@ TEST(WriterTest, LinuxCncTextFollowsTheDocumentedForm) {
   const std::string expected =
       "%\n"
       "(t)\n"
-      "G21 G90 G17 G40 G49 G80 G94\n"
+      "G17 G21 G40 G49 G80 G90 G94 G64 P0.005\n"
       "G54\n"
       "T1 M6\n"
-      "G43 H1\n"
       "M3 S3000\n"
       "G0 X10.0000 Y0.0000 Z5.0000\n"
       "G1 Z-1.0000 F600.0\n"
@@ -72,7 +71,7 @@ TEST(WriterTest, LinuxCncTextFollowsTheDocumentedForm) {
       "M3 $1 S20\n"
       "M5 $1\n"
       "M64 P0\n"
-      "(print,cut,Z5,0.000)\n"
+      "(debug,cut,Z5,0.000)\n"
       "M30\n"
       "%\n";
   EXPECT_EQ(WriteProgram(SmallProgram(), Dialect::kLinuxCnc, Config{}),

@@ -50,6 +50,25 @@ inline void FacetPass(Program& p, double phi_rad, double d, double r,
        feed);
 }
 
+// Tool change as the machine wants it: up and across to the tool-change
+// position in machine coordinates, M6, G43 H with a Z word, spindle on.
+inline void ChangeToolAtToolChangePosition(Program& p, const Config& config,
+                                           const ToolSpec& tool) {
+  const auto& tc = config.machine.tool_change_position_m_mm;
+  auto& s = p.statements;
+  s.push_back(SpindleOff{});
+  Axes up;
+  up.z_mm = tc[2];
+  s.push_back(MachineRapid{up});
+  Axes across;
+  across.x_mm = tc[0];
+  across.y_mm = tc[1];
+  s.push_back(MachineRapid{across});
+  s.push_back(ToolChange{tool.number, tool.name});
+  s.push_back(LengthOffset{tool.number, 50.0});
+  s.push_back(SpindleOn{tool.spindle_rpm, true});
+}
+
 // Options to break the programs on purpose.
 struct PreFaults {
   std::string facet;          // facet id cut at a wrong distance
@@ -69,8 +88,8 @@ inline Program MakePreProgram(const Config& config,
   auto& s = p.statements;
   // Step 1: face 1 mm and turn the reference cylinders.
   const double r1 = proc.roughing.diameter_mm / 2;
-  s.push_back(ToolChange{proc.roughing.number, proc.roughing.name});
-  s.push_back(SpindleOn{proc.roughing.spindle_rpm, true});
+  s.push_back(TableClamp{true});
+  ChangeToolAtToolChangePosition(p, config, proc.roughing);
   for (double y = -108; y <= 108.1; y += 12)
     Pass(p, {XYZ(-120, y, 0), XYZ(120, y, 0)}, proc.roughing.feed_mm_min);
   for (const RefCylinder& rc : part.ref_cylinders) {
@@ -80,22 +99,24 @@ inline Program MakePreProgram(const Config& config,
     const double z = rc.z_bottom_mm <= -part.height_mm() + 1e-9
                          ? rc.z_bottom_mm - 0.5
                          : rc.z_bottom_mm;
-    s.push_back(Rapid{XYZC(x + 20, 0, 50, 0)});
-    s.push_back(Rapid{XYZ(x + 20, 0, z)});
+    // Approach 10 mm out: the holder stays inside the R-test sphere's ring.
+    s.push_back(Rapid{XYZC(x + 10, 0, 50, 0)});
+    s.push_back(Rapid{XYZ(x + 10, 0, z)});
     s.push_back(Feed{XYZ(x, 0, z), proc.roughing.feed_mm_min});
+    s.push_back(TableClamp{false});
     s.push_back(Feed{XYZC(x, 0, z, 360), proc.turning_c_rpm * 360});
-    s.push_back(Feed{XYZ(x + 20, 0, z), proc.roughing.feed_mm_min});
-    s.push_back(Rapid{XYZC(x + 20, 0, 50, 0)});
+    s.push_back(TableClamp{true});
+    s.push_back(Feed{XYZ(x + 10, 0, z), proc.roughing.feed_mm_min});
+    s.push_back(Rapid{XYZC(x + 10, 0, 50, 0)});
   }
   if (faults.cut_adapter) {
-    s.push_back(Rapid{XYZ(130, 0, -26)});
+    s.push_back(Rapid{XYZ(120, 0, -26)});
     s.push_back(Feed{XYZ(95, 0, -26), proc.roughing.feed_mm_min});
-    s.push_back(Feed{XYZ(130, 0, -26), proc.roughing.feed_mm_min});
+    s.push_back(Feed{XYZ(120, 0, -26), proc.roughing.feed_mm_min});
   }
   if (faults.travel_exceeded) s.push_back(Rapid{XYZ(400, 0, 50)});
   // Step 2: the mark with the engraver (cone tip).
-  s.push_back(ToolChange{proc.engraver.number, proc.engraver.name});
-  s.push_back(SpindleOn{proc.engraver.spindle_rpm, true});
+  ChangeToolAtToolChangePosition(p, config, proc.engraver);
   const double mphi = part.mark_phi_deg * kDeg;
   const double ux = std::cos(mphi), uy = std::sin(mphi);
   Pass(p,
@@ -108,8 +129,7 @@ inline Program MakePreProgram(const Config& config,
        proc.engraver.feed_mm_min);
   // Step 3: small notch, two passes along Y.
   const double r3 = proc.notch.diameter_mm / 2;
-  s.push_back(ToolChange{proc.notch.number, proc.notch.name});
-  s.push_back(SpindleOn{proc.notch.spindle_rpm, true});
+  ChangeToolAtToolChangePosition(p, config, proc.notch);
   for (double x : {-part.small_notch_half_width_mm + r3,
                    part.small_notch_half_width_mm - r3})
     Pass(p,
@@ -117,8 +137,7 @@ inline Program MakePreProgram(const Config& config,
           XYZ(x, 120, part.small_notch_floor_z_mm)},
          proc.notch.feed_mm_min);
   // Step 4: big notch, passes along X.
-  s.push_back(ToolChange{proc.roughing.number, proc.roughing.name});
-  s.push_back(SpindleOn{proc.roughing.spindle_rpm, true});
+  ChangeToolAtToolChangePosition(p, config, proc.roughing);
   const double yb = part.big_notch_half_width_mm - r1;
   for (double y :
        {-yb, -yb + 12, -yb + 24, -yb + 36, 0.0, yb - 36, yb - 24, yb - 12, yb})
@@ -144,6 +163,15 @@ inline Program MakePreProgram(const Config& config,
 
 struct CycleFaults {
   bool rapid_through_piece = false;
+  // A G0 whose straight line keeps off the piece but whose per-axis
+  // dog-leg runs through segment X1.
+  bool dog_leg_rapid = false;
+  // C turns at 1200 rpm with the tool waiting in the sphere's ring.
+  bool spin_in_sphere_ring = false;
+  // M6 with the spindle over the piece.
+  bool tool_change_over_piece = false;
+  // The strip of cycle 0 cut with C unclamped.
+  bool unclamped_cut = false;
   int z_shift_cycle = -1;  // this cycle cuts 10 um higher
 };
 
@@ -158,8 +186,22 @@ inline Program MakeCycleProgram(const Config& config,
   p.number = 1000;
   p.title = "verify test cycle";
   auto& s = p.statements;
-  s.push_back(ToolChange{tool.number, tool.name});
-  s.push_back(SpindleOn{tool.spindle_rpm, true});
+  s.push_back(TableClamp{true});
+  if (faults.tool_change_over_piece) {
+    s.push_back(Rapid{XYZ(0, 0, 150)});
+    s.push_back(ToolChange{tool.number, tool.name});
+    s.push_back(LengthOffset{tool.number, 50.0});
+    s.push_back(SpindleOn{tool.spindle_rpm, true});
+  } else {
+    ChangeToolAtToolChangePosition(p, config, tool);
+  }
+  if (faults.dog_leg_rapid) {
+    s.push_back(Rapid{XYZC(150, -60, 50, 0)});
+    s.push_back(Rapid{XYZ(150, -60, -5)});
+    s.push_back(Rapid{XYZ(60, 150, -5)});
+    s.push_back(Rapid{XYZ(60, 150, 50)});
+  }
+  if (faults.unclamped_cut) s.push_back(TableClamp{false});
   if (faults.rapid_through_piece) {
     // Across segments X1 and Y1 (y = 70 is outside the big notch).
     s.push_back(Rapid{XYZC(-120, 70, 50, 0)});
@@ -204,6 +246,14 @@ inline Program MakeCycleProgram(const Config& config,
     s.push_back(Report{"cut", FacetId(Segment::kY2, k), c - 30});
     const auto& w = config.machine.waiting_position_w_mm;
     s.push_back(Rapid{XYZ(w[0], w[1], w[2])});
+    if (cycle == 0 && faults.spin_in_sphere_ring) {
+      s.push_back(Rapid{XYZ(0, 150, 20)});
+      s.push_back(CSpin{1200});
+      s.push_back(Dwell{10});
+      s.push_back(CSpin{0});
+      s.push_back(Rapid{XYZ(w[0], w[1], w[2])});
+    }
+    if (faults.unclamped_cut && cycle == 0) s.push_back(TableClamp{true});
     if (cycle < part.cycles()) s.push_back(Dwell{3400});
   }
   s.push_back(SpindleOff{});

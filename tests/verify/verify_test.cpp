@@ -14,8 +14,8 @@ using testing::MakeCycleProgram;
 using testing::MakePreProgram;
 
 VerifyReport Simulate(const gcode::Program& program, VerifyStage stage,
-                      gcode::Dialect dialect = gcode::Dialect::kLinuxCnc) {
-  const Config config;
+                      gcode::Dialect dialect = gcode::Dialect::kLinuxCnc,
+                      const Config& config = Config{}) {
   VerifyOptions options;
   options.stage = stage;
   return VerifyStatements(Canon(program, config, dialect), config, options,
@@ -127,11 +127,78 @@ TEST(VerifyTest, RapidThroughPieceFails) {
   faults.rapid_through_piece = true;
   const VerifyReport r =
       Simulate(MakeCycleProgram(Config{}, faults), VerifyStage::kCycle);
-  const Finding* f = r.Find("rapid cuts no material");
+  const Finding* f = r.Find("rapid cuts no material (straight rapids)");
   ASSERT_NE(f, nullptr);
   EXPECT_FALSE(f->pass);
   EXPECT_GT(f->measured, 1.0);  // 7 mm of a segment's height at z = -5
   EXPECT_GT(f->source_line, 0);
+}
+
+// Only the named check fails.
+void ExpectOnlyFailure(const VerifyReport& r, const std::string& check) {
+  const auto failed = r.Failed();
+  ASSERT_EQ(failed.size(), 1u) << Failures(r);
+  EXPECT_EQ(failed[0]->check, check);
+  EXPECT_GT(failed[0]->measured, 0.0);
+  EXPECT_GT(failed[0]->source_line, 0);
+}
+
+TEST(VerifyTest, DogLegRapidIsCaughtOnlyUnderPerAxisRapids) {
+  testing::CycleFaults faults;
+  faults.dog_leg_rapid = true;
+  const VerifyReport r =
+      Simulate(MakeCycleProgram(Config{}, faults), VerifyStage::kCycle);
+  const Finding* per_axis = r.Find("rapid cuts no material (per-axis rapids)");
+  ASSERT_NE(per_axis, nullptr);
+  EXPECT_FALSE(per_axis->pass);
+  EXPECT_NEAR(per_axis->measured, 5.0, 1e-6);  // the whole 5 mm of Z
+  EXPECT_GT(per_axis->source_line, 0);
+  EXPECT_TRUE(r.Find("rapid cuts no material (straight rapids)")->pass);
+  // What the dog-leg cut away shows on the surfaces it crossed; nothing
+  // else fails.
+  for (const Finding* f : r.Failed())
+    if (f != per_axis) EXPECT_EQ(f->check.rfind("surface ", 0), 0u) << f->check;
+}
+
+TEST(VerifyTest, WaitingInTheSphereRingWhileCTurnsIsCaught) {
+  testing::CycleFaults faults;
+  faults.spin_in_sphere_ring = true;
+  const VerifyReport r =
+      Simulate(MakeCycleProgram(Config{}, faults), VerifyStage::kCycle);
+  ExpectOnlyFailure(r, "clear of what C sweeps while turning");
+  EXPECT_NE(r.Find("clear of what C sweeps while turning")
+                ->detail.find("R-test sphere"),
+            std::string::npos);
+}
+
+TEST(VerifyTest, ToolChangeOverThePieceIsCaught) {
+  testing::CycleFaults faults;
+  faults.tool_change_over_piece = true;
+  const VerifyReport r =
+      Simulate(MakeCycleProgram(Config{}, faults), VerifyStage::kCycle);
+  ExpectOnlyFailure(r, "tool change away from the piece");
+}
+
+TEST(VerifyTest, CutWithCUnclampedIsCaught) {
+  testing::CycleFaults faults;
+  faults.unclamped_cut = true;
+  const VerifyReport r =
+      Simulate(MakeCycleProgram(Config{}, faults), VerifyStage::kCycle);
+  ExpectOnlyFailure(r, "C clamped while cutting, free while turning");
+}
+
+TEST(VerifyTest, SphereInTheWayOfAMoveIsCaught) {
+  // The same correct program on a machine whose sphere stands where the
+  // cycle's tool passes: the collision model sees it.
+  Config config;
+  config.machine.sphere_distance_mm = 120.0;
+  config.machine.sphere_height_mm = 40.0;
+  config.machine.waiting_position_w_mm = {0.0, 0.0, 50.0};
+  const VerifyReport r = Simulate(MakeCycleProgram(config), VerifyStage::kCycle,
+                                  gcode::Dialect::kLinuxCnc, config);
+  const Finding* f = r.Find("tool and holder clear the fixtures");
+  ASSERT_NE(f, nullptr);
+  EXPECT_FALSE(f->pass);
 }
 
 TEST(VerifyTest, ZMoveBetweenCyclesFails) {

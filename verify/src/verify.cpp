@@ -11,6 +11,7 @@
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
 #include "ttp/verify/dexel.h"
+#include "ttp/verify/machine.h"
 
 namespace ttp::verify {
 namespace {
@@ -358,9 +359,10 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
   const double adapter_radius = part.adapter_diameter_mm / 2;
   const double origin_height = WorkpieceOriginHeightMm(config);
 
-  double worst_rapid = 0, worst_travel = 0, worst_adapter = 0,
-         worst_no_spindle = 0;
-  int rapid_at = -1, travel_at = -1, adapter_at = -1, no_spindle_at = -1;
+  double worst_rapid = 0, worst_rapid_per_axis = 0, worst_travel = 0,
+         worst_adapter = 0, worst_no_spindle = 0, worst_unclamped = 0;
+  int rapid_at = -1, rapid_per_axis_at = -1, travel_at = -1, adapter_at = -1,
+      no_spindle_at = -1, unclamped_at = -1;
   std::vector<int> unknown_tools;
   std::vector<Cut> cuts;
 
@@ -377,8 +379,10 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
     bool known = false;
     std::optional<ToolShape> tool;
     double spindle_rpm = 0;
+    bool c_clamped = false;
     for (int i = 0; i < static_cast<int>(program.size()); ++i) {
       const CanonStatement& st = program[i];
+      if (st.kind == CanonKind::kClamp) c_clamped = st.value > 0;
       switch (st.kind) {
         case CanonKind::kToolChange: {
           const ToolSpec* spec =
@@ -438,28 +442,48 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
       }
       if (!tool) continue;
 
-      // Pieces of the move in W.
+      // Pieces of the move in W: a straight move of the axes (feeds, and
+      // rapids under straight semantics), and for rapids the per-axis
+      // dog-leg as well.
       std::vector<Sweep> sweeps;
-      const double dc = c_to - c_from;
-      if ((to - from).norm() < 1e-12 && std::abs(dc) > 0) {
-        const double rho = from.head<2>().norm();
-        const double theta0 = std::atan2(from.y(), from.x());
-        sweeps.push_back(Sweep::Rotation(*tool, rho, from.z(),
-                                         theta0 + machine.c_sense * c_from,
-                                         theta0 + machine.c_sense * c_to));
-      } else {
+      const auto add_straight = [&](const Eigen::Vector3d& p0, double c0,
+                                    const Eigen::Vector3d& p1, double c1) {
+        const double dc = c1 - c0;
+        if ((p1 - p0).norm() < 1e-12 && std::abs(dc) > 0) {
+          const double rho = p0.head<2>().norm();
+          const double theta0 = std::atan2(p0.y(), p0.x());
+          sweeps.push_back(Sweep::Rotation(*tool, rho, p0.z(),
+                                           theta0 + machine.c_sense * c0,
+                                           theta0 + machine.c_sense * c1));
+          return;
+        }
         const int n = std::max(
             1, static_cast<int>(std::ceil(std::abs(dc) / kMaxPieceRad)));
         for (int k = 0; k < n; ++k) {
           const double f0 = double(k) / n, f1 = double(k + 1) / n;
-          sweeps.push_back(Sweep::Straight(
-              *tool, to_w(from + f0 * (to - from), c_from + f0 * dc),
-              to_w(from + f1 * (to - from), c_from + f1 * dc)));
+          sweeps.push_back(
+              Sweep::Straight(*tool, to_w(p0 + f0 * (p1 - p0), c0 + f0 * dc),
+                              to_w(p0 + f1 * (p1 - p0), c0 + f1 * dc)));
         }
+      };
+      add_straight(from, c_from, to, c_to);
+      const size_t straight_pieces = sweeps.size();
+      if (st.kind == CanonKind::kTraverse) {
+        const auto corners =
+            RapidPath({from, c_from}, {to, c_to}, machine, true);
+        if (corners.size() > 2)
+          for (size_t k = 0; k + 1 < corners.size(); ++k)
+            add_straight(corners[k].p_mm, corners[k].c_rad, corners[k + 1].p_mm,
+                         corners[k + 1].c_rad);
       }
-      double removed = 0;
-      for (const Sweep& sw : sweeps) {
-        removed = std::max(removed, model.Cut(sw, record ? i : -1, nullptr));
+      double removed = 0, removed_per_axis = 0;
+      for (size_t piece = 0; piece < sweeps.size(); ++piece) {
+        const Sweep& sw = sweeps[piece];
+        const double r = model.Cut(sw, record ? i : -1, nullptr);
+        if (piece < straight_pieces)
+          removed = std::max(removed, r);
+        else
+          removed_per_axis = std::max(removed_per_axis, r);
         if (!record) continue;
         // Adapter: a cylinder about the C axis below the piece, so the
         // table angle does not matter.
@@ -494,6 +518,10 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
           adapter_at = i;
         }
       }
+      if (record && removed_per_axis > worst_rapid_per_axis) {
+        worst_rapid_per_axis = removed_per_axis;
+        rapid_per_axis_at = i;
+      }
       if (!record || removed <= kCutEpsMm) continue;
       if (st.kind == CanonKind::kTraverse) {
         if (removed > worst_rapid) {
@@ -502,6 +530,13 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
         }
       } else {
         cuts.push_back({i, st.start_s, st.start_s + st.duration_s, from, to});
+        // A cut with C standing still needs the table clamped; a turning
+        // cut (C moving) needs it unclamped.
+        const bool turning = std::abs(c_to - c_from) > 1e-12;
+        if (c_clamped == turning && removed > worst_unclamped) {
+          worst_unclamped = removed;
+          unclamped_at = i;
+        }
         if (spindle_rpm <= 0 && removed > worst_no_spindle) {
           worst_no_spindle = removed;
           no_spindle_at = i;
@@ -523,12 +558,33 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
     out.push_back(f);
   }
   {
-    Finding f =
-        MakeFinding("rapid cuts no material", worst_rapid, kCutEpsMm, "mm");
+    Finding f = MakeFinding("rapid cuts no material (straight rapids)",
+                            worst_rapid, kCutEpsMm, "mm");
     SetWhere(&f, statements, rapid_at);
     if (!f.pass) f.detail = "material removed by a rapid move";
     out.push_back(f);
   }
+  {
+    Finding f = MakeFinding("rapid cuts no material (per-axis rapids)",
+                            worst_rapid_per_axis, kCutEpsMm, "mm");
+    SetWhere(&f, statements, rapid_per_axis_at);
+    if (!f.pass)
+      f.detail =
+          "material removed by a rapid when each axis runs at its own rate "
+          "(dog-leg)";
+    out.push_back(f);
+  }
+  {
+    Finding f = MakeFinding("C clamped while cutting, free while turning",
+                            worst_unclamped, kCutEpsMm, "mm");
+    SetWhere(&f, statements, unclamped_at);
+    if (!f.pass)
+      f.detail =
+          "a cut with C standing and unclamped, or a turning cut "
+          "with C clamped";
+    out.push_back(f);
+  }
+  for (Finding& f : CheckMachine(statements, config)) out.push_back(f);
   {
     Finding f = MakeFinding("spindle turns while cutting", worst_no_spindle,
                             kCutEpsMm, "mm");
@@ -573,11 +629,15 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
       const Ray& ray = rays[worst_ray];
       SetWhere(&f, statements, ray.last_cut_statement);
       const Eigen::Vector3d at = ray.origin + kProbeInsideMm * ray.direction;
-      f.detail = fmt::format(
-          "{} rays; worst {:+.1f} um ({}) at W ({:.2f}, {:.2f}, {:.2f})",
-          probe.rays.size(), signed_worst * 1000,
-          signed_worst > 0 ? "material left" : "cut too deep", at.x(), at.y(),
-          at.z());
+      if (std::abs(signed_worst) * 1000 < 0.05)
+        f.detail = fmt::format("{} rays; all within 0.05 um of nominal",
+                               probe.rays.size());
+      else
+        f.detail = fmt::format(
+            "{} rays; worst {:+.1f} um ({}) at W ({:.2f}, {:.2f}, {:.2f})",
+            probe.rays.size(), signed_worst * 1000,
+            signed_worst > 0 ? "material left" : "cut too deep", at.x(), at.y(),
+            at.z());
       if (ray.last_cut_statement < 0 && !f.pass) f.detail += ", never cut";
     }
     out.push_back(f);
@@ -622,7 +682,12 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
     for (size_t k = 0; k < cycles.size(); ++k)
       for (int i = cycles[k].front().statement; i <= cycles[k].back().statement;
            ++i)
-        if (statements[i].kind == CanonKind::kFeed) feeds[k].push_back(i);
+        // Positioning moves (G1 at the profile's positioning feed between
+        // cuts) may differ; every other feed must repeat.
+        if (statements[i].kind == CanonKind::kFeed &&
+            std::abs(statements[i].feed_per_min -
+                     machine.positioning_feed_mm_min) > 1e-6)
+          feeds[k].push_back(i);
     const auto start_of = [&](int i) {
       for (int j = i - 1; j >= 0; --j)
         if (statements[j].kind != CanonKind::kToolChange)
@@ -696,37 +761,43 @@ nlohmann::json ReportToJson(const VerifyReport& report) {
   return doc;
 }
 
-std::string FormatReportTable(const VerifyReport& report) {
-  std::string out = fmt::format(
-      "verify {} (stage {}): {} statements, {} rays ({} feature probes)\n",
-      report.source, StageName(report.stage), report.statements, report.rays,
-      report.probe_rays);
-  out +=
-      fmt::format("{:<4} {:<32} {:>12} {:>10} {:<3} {:>6} {:>6}  {}\n", "",
-                  "check", "measured", "limit", "", "stmt", "line", "detail");
-  std::vector<const Finding*> order;
+std::string FormatReportTable(const VerifyReport& report, bool verbose) {
+  const auto failed = report.Failed();
+  int surfaces = 0;
   for (const Finding& f : report.findings)
-    if (!f.pass) order.push_back(&f);
+    if (f.check.rfind("surface ", 0) == 0) ++surfaces;
+  std::string out = fmt::format(
+      "verify {} (stage {}): {} statements; {} of {} checks passed\n"
+      "  checked: {} feature surfaces against the drawing ({} probe rays), "
+      "rapids under straight and per-axis semantics, tool and holder against "
+      "the table, clamps, adapter and R-test sphere and stem, what C sweeps "
+      "while turning, tool changes, C clamping, spindle, travel\n",
+      report.source, StageName(report.stage), report.statements,
+      report.findings.size() - failed.size(), report.findings.size(), surfaces,
+      report.probe_rays);
+  for (const Finding* f : failed) {
+    out += fmt::format("  FAIL {}: {:.4f} {} (limit {:.4f})", f->check,
+                       f->measured, f->unit, f->limit);
+    if (f->source_line > 0)
+      out += fmt::format(", line {} of {}", f->source_line, report.source);
+    if (!f->detail.empty()) out += "; " + f->detail;
+    out += "\n";
+  }
+  out += failed.empty() ? "  all checks passed\n"
+                        : fmt::format("  {} check(s) failed\n", failed.size());
+  if (!verbose) return out;
+  out +=
+      fmt::format("{:<4} {:<44} {:>12} {:>10} {:<3} {:>6} {:>6}  {}\n", "",
+                  "check", "measured", "limit", "", "stmt", "line", "detail");
+  std::vector<const Finding*> order = failed;
   for (const Finding& f : report.findings)
     if (f.pass) order.push_back(&f);
   for (const Finding* f : order) {
     out += fmt::format(
-        "{:<4} {:<32} {:>12.4f} {:>10.4f} {:<3} {:>6} {:>6}  {}\n",
+        "{:<4} {:<44} {:>12.4f} {:>10.4f} {:<3} {:>6} {:>6}  {}\n",
         f->pass ? "ok" : "FAIL", f->check, f->measured, f->limit, f->unit,
         f->statement >= 0 ? std::to_string(f->statement) : "-",
         f->source_line > 0 ? std::to_string(f->source_line) : "-", f->detail);
-  }
-  const auto failed = report.Failed();
-  if (failed.empty()) {
-    out += "all checks passed\n";
-  } else {
-    out += fmt::format("{} check(s) failed:\n", failed.size());
-    for (const Finding* f : failed) {
-      out += "  " + f->check;
-      if (f->source_line > 0)
-        out += fmt::format(": line {} of {}", f->source_line, report.source);
-      out += "\n";
-    }
   }
   return out;
 }

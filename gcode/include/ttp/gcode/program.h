@@ -23,19 +23,38 @@ const char* DialectName(Dialect d);
 
 struct Axes {
   std::optional<double> x_mm, y_mm, z_mm, c_deg;
+  std::optional<double> b_deg;
 };
 
 struct Comment {
   std::string text;
 };
+// incremental: the given axes move by their values (G91 for this block,
+// G90 after it); C is indexed this way so that a table with roll-over
+// turns as meant.
 struct Rapid {
   Axes to;
+  bool incremental = false;
 };
 // Linear feed move. feed is mm/min, or deg/min for a pure C move.
 struct Feed {
   Axes to;
   double feed_per_min;
+  bool incremental = false;
 };
+// Rapid in machine coordinates of the gauge line (G49 G53 G0): tool-length
+// compensation is cancelled in the same block. Used for the tool-change
+// position.
+struct MachineRapid {
+  Axes to;
+};
+// G43 H<tool> with a Z word: compensation on while moving (rapid) to z_mm.
+struct LengthOffset {
+  int tool;
+  double z_mm;
+};
+// B axis to 0 and clamped (the spindle axis stays vertical).
+struct BZeroClamp {};
 struct Dwell {
   double seconds;
 };
@@ -62,8 +81,10 @@ struct TableClamp {
   bool clamp;
 };
 // Report to the compensation PC: becomes a `cut` row (feature name of
-// talc-log.md section 5) with the table angle. FANUC DPRNT, LinuxCNC
-// (print,...).
+// talc-log.md section 5) with the table angle, sent when the motion before
+// it has ended. FANUC: the profile's non-buffered block (G53 or an M-code)
+// then DPRNT with the control's clock (#3012, hhmmss); LinuxCNC
+// (debug,...), queued with the motion.
 struct Report {
   std::string event;
   std::string feature;
@@ -82,7 +103,8 @@ struct ProgramEnd {};  // M30
 
 using Statement =
     std::variant<Comment, Rapid, Feed, Dwell, SpindleOn, SpindleOff, Coolant,
-                 ToolChange, CSpin, TableClamp, Report, Probe, ProgramEnd>;
+                 ToolChange, CSpin, TableClamp, Report, Probe, ProgramEnd,
+                 MachineRapid, LengthOffset, BZeroClamp>;
 
 struct Program {
   std::string name;   // "pre" or "cycle"

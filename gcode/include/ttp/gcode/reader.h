@@ -45,9 +45,11 @@ std::vector<CanonStatement> ReadProgram(const std::string& text,
 // Rapids: max(XYZ length / rapid_mm_min, |dC| / c_index_deg_s). Feeds and
 // probes: XYZ length / feed, or |dC| (deg) / feed for a pure C move. Dwells:
 // their seconds. C turning: c_spinup_s * |rpm change| / c_max_rpm. Every
-// other statement takes no time. Positions start at (0, 0, 0), C = 0.
+// other statement takes no time. Positions start at start_mm (program
+// coordinates; ReadProgram and RunRs274 give machine zero), C = 0.
 void ApplyTimeModel(std::vector<CanonStatement>& statements,
-                    const MachineProfile& machine);
+                    const MachineProfile& machine,
+                    const Eigen::Vector3d& start_mm = Eigen::Vector3d::Zero());
 
 // End time of the last statement (0 when empty).
 double TotalDuration(const std::vector<CanonStatement>& statements);

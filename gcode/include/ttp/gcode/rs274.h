@@ -31,8 +31,12 @@ Rs274Result RunRs274(const std::string& ngc_text, const Config& config);
 // Parses rs274's canon output (mm, degrees) into canonical statements with
 // the reader's semantics (state changes only, M30 resets dropped, interpreter
 // comments dropped). source names the text in errors.
-std::vector<CanonStatement> ParseRs274Canon(const std::string& canon_text,
-                                            const std::string& source);
+// c_clamp_output: the digital output (M64/M65 P) of the C clamp; start_mm:
+// where the machine stands before the first call (program coordinates).
+std::vector<CanonStatement> ParseRs274Canon(
+    const std::string& canon_text, const std::string& source,
+    int c_clamp_output = 0,
+    const Eigen::Vector3d& start_mm = Eigen::Vector3d::Zero());
 
 struct ToolpathDifference {
   bool same = true;

@@ -86,6 +86,22 @@ struct ToolSpec {
   double tip_angle_deg = 0.0;     // 0 = flat end; 90 for the engraver
   double spindle_rpm = 8000.0;
   double feed_mm_min = 600.0;
+  // Holder geometry for the collision model: the cutter and its shank
+  // (diameter_mm) reach stick_out_mm from the tip; above that the holder
+  // (holder_diameter_mm) reaches up to the gauge line (length_mm).
+  double stick_out_mm = 40.0;
+  double holder_diameter_mm = 40.0;
+};
+
+// A clamp on the table (it turns with C): a box in the table frame at C = 0,
+// radially from r_inner_mm to r_outer_mm along the direction phi_deg, width_mm
+// across it, from the table top up to height_mm.
+struct ClampSpec {
+  double phi_deg = 0;
+  double r_inner_mm = 0;
+  double r_outer_mm = 0;
+  double width_mm = 0;
+  double height_mm = 0;
 };
 
 struct MachineProfile {
@@ -111,9 +127,55 @@ struct MachineProfile {
   int program_number = 1000;  // O-number of the test cycle, pre = +1
   double table_top_z_mm = 0.0;
   double sphere_distance_mm = 160.0;  // R-test sphere, d/2
-  double sphere_height_mm = 80.0;
-  // Waiting position of the tool tip in W (mm) between cycles.
-  std::array<double, 3> waiting_position_w_mm = {160.0, 0.0, 50.0};
+  double sphere_height_mm = 80.0;     // centre above the table top
+  // R-test sphere on the table (turns with C): its direction at C = 0 in
+  // the table frame, ball radius, and the stem from the table up to the
+  // ball.
+  double sphere_phi_deg = 0.0;
+  double sphere_radius_mm = 12.7;
+  double sphere_stem_diameter_mm = 12.0;
+  // Round table (turns with C), top at table_top_z_mm.
+  double table_diameter_mm = 500.0;
+  // Clamps holding the adapter on the table.
+  std::vector<ClampSpec> clamps = {{60.0, 85.0, 125.0, 24.0, 20.0},
+                                   {180.0, 85.0, 125.0, 24.0, 20.0},
+                                   {300.0, 85.0, 125.0, 24.0, 20.0}};
+  // Waiting position of the tool tip in W (mm) between cycles: inside the
+  // circle the R-test sphere sweeps while C turns, outside the piece.
+  std::array<double, 3> waiting_position_w_mm = {120.0, 0.0, 50.0};
+  // Tool-change position: machine coordinates (M, mm) of the gauge line,
+  // reached with G53 after G49; away from the piece and the sphere.
+  std::array<double, 3> tool_change_position_m_mm = {300.0, 0.0, 450.0};
+  // Rapid (G0) semantics: "straight" (linear interpolation, FANUC parameter
+  // 1401 bit 1 = 1, LinuxCNC) or "per_axis" (each axis at its own rate, the
+  // FANUC default): a diagonal G0 is then a dog-leg.
+  std::string rapid_semantics = "per_axis";
+  std::array<double, 3> rapid_axis_mm_min = {30000.0, 30000.0, 24000.0};
+  // Feed of positioning moves near the piece (G1: straight on every
+  // control), mm/min.
+  double positioning_feed_mm_min = 6000.0;
+  // C axis with roll-over: absolute C commands take the short way (FANUC)
+  // or the sign's direction (LinuxCNC wrapped rotary); programs index C
+  // incrementally.
+  bool c_rollover = true;
+  // B axis (tilting): programs hold it at 0 and clamped.
+  int m_b_clamp = 12;
+  int m_b_unclamp = 13;
+  // LinuxCNC digital outputs (M64/M65 P<n>) of the C and B clamps.
+  int linuxcnc_c_clamp_output = 0;
+  int linuxcnc_b_clamp_output = 1;
+  // FANUC block that stops buffering so that a DPRNT after it runs when the
+  // motion before it has ended ("G53" or a parameter-3411 M-code, "M100").
+  std::string fanuc_sync_block = "G53";
+  // Touch probe on/off M-codes.
+  int m_probe_on = 80;
+  int m_probe_off = 81;
+  // System variables of the skip / probe position of X, Y, Z and C: on an
+  // XYZBC machine FANUC numbers the axes X Y Z B C (#5061.. #5065), LinuxCNC
+  // uses fixed letters (#5061 X .. #5066 C; #5070 = 1 when the probe
+  // tripped).
+  std::array<int, 4> fanuc_skip_variables = {5061, 5062, 5063, 5065};
+  std::array<int, 4> linuxcnc_probe_variables = {5061, 5062, 5063, 5066};
 };
 
 struct ProcessSpec {
@@ -126,7 +188,9 @@ struct ProcessSpec {
                        32.0,
                        0.0,
                        3000.0,
-                       600.0};
+                       960.0,
+                       40.0,
+                       40.0};
   ToolSpec engraver = {"90 deg engraving cutter",
                        2,
                        6.0,
@@ -136,7 +200,9 @@ struct ProcessSpec {
                        5.0,
                        90.0,
                        12000.0,
-                       300.0};
+                       300.0,
+                       20.0,
+                       32.0};
   ToolSpec notch = {"8 mm carbide end mill",
                     3,
                     8.0,
@@ -146,7 +212,9 @@ struct ProcessSpec {
                     20.0,
                     0.0,
                     8000.0,
-                    500.0};
+                    960.0,
+                    25.0,
+                    32.0};
   ToolSpec finishing = {"12 mm 3-flute carbide finishing end mill",
                         4,
                         12.0,
@@ -156,7 +224,9 @@ struct ProcessSpec {
                         26.0,
                         0.0,
                         8000.0,
-                        300.0};
+                        1440.0,
+                        35.0,
+                        40.0};
   // Touch-trigger probe for on-machine measurement (ttp plan probe):
   // diameter = stylus ball diameter, length = gauge length to the ball
   // centre; flutes, speeds and feeds are not used.
@@ -169,7 +239,9 @@ struct ProcessSpec {
                     30.0,
                     0.0,
                     1.0,
-                    100.0};
+                    100.0,
+                    50.0,
+                    25.0};
   double roughing_step_down_mm = 3.0;  // big notch roughing
   double finish_allowance_mm = 0.2;    // big notch wall/floor finish pass
   double turning_c_rpm = 20.0;         // C speed while turning cylinders

@@ -65,7 +65,9 @@ VerifyReport VerifyStatements(
     const VerifyOptions& options, const std::string& source);
 
 nlohmann::json ReportToJson(const VerifyReport& report);
-// Plain-text table, one finding per line, failures first.
-std::string FormatReportTable(const VerifyReport& report);
+// Plain text: a summary first (what was checked, how many checks passed,
+// the failures with their lines); with `verbose` then every check with its
+// numbers, failures first.
+std::string FormatReportTable(const VerifyReport& report, bool verbose = false);
 
 }  // namespace ttp::verify
