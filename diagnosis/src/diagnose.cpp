@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <limits>
 
 #include "ttp/geometry/error.h"
@@ -315,8 +316,7 @@ std::vector<double> EffectOnObservations(Cause cause,
         out[i] = std::isfinite(v) ? v : 0.0;
       }
     } else {
-      const std::string id = obs.labels[i].substr(6);  // "angle X1-3"
-      auto it = deltas.find(id);
+      auto it = deltas.find(obs.facet[i].ToString());
       if (it != deltas.end()) out[i] = it->second.angle_rad * 1e6;
     }
   }
@@ -568,11 +568,11 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   for (const auto& [id, angle] : measured.facet_angle_rad) {
     auto it = run.simulation.results.find(id);
     if (it == run.simulation.results.end() || !it->second.present) continue;
-    FeatureKind kind;
-    Segment seg;
-    int j;
-    if (!ParseFeatureId(id, &kind, &seg, &j)) continue;
+    const std::optional<FeatureId> facet = FeatureId::Parse(id);
+    if (!facet || !facet->IsTestFeature()) continue;
     obs.labels.push_back("angle " + id);
+    obs.facet.resize(obs.labels.size() - 1);
+    obs.facet.push_back(*facet);
     obs.value.push_back((angle - it->second.angle_rad) * 1e6);
     double u_meas = 0;
     auto mf = measured.features.find(id);
@@ -580,7 +580,7 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
       u_meas = std::sqrt(mf->second.var_angle_rad2) * 1e6;
     obs.sigma.push_back(
         std::max(options.min_sigma_urad, std::hypot(u_meas, est_urad)));
-    obs.cycle.push_back(CycleForIndex(part, j));
+    obs.cycle.push_back(CycleForIndex(part, facet->index));
     obs.group.push_back(4);
   }
   return run;

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/series.h"
 
 namespace ttp::diagnosis {
 
@@ -99,29 +100,8 @@ EffectContext MakeEffectContext(const Config& config,
 
 std::vector<double> LagFilter(const std::vector<double>& input, double step_s,
                               double tau_s) {
-  std::vector<double> out(input.size(), 0.0);
-  if (input.empty()) return out;
-  const double a = std::exp(-step_s / std::max(tau_s, 1e-9));
-  out[0] = input[0];
-  // Exact for an input linear across each step (first-order hold).
-  const double ramp = 1 - tau_s / step_s * (1 - a);
-  for (size_t i = 1; i < input.size(); ++i)
-    out[i] = a * out[i - 1] + (1 - a) * input[i - 1] +
-             (input[i] - input[i - 1]) * ramp;
-  return out;
+  return ttp::LagFilter(input, step_s, tau_s);
 }
-
-namespace {
-double Sample(const std::vector<double>& v, double t0, double step, double t) {
-  if (v.empty()) return 0;
-  const double x = (t - t0) / step;
-  if (x <= 0) return v.front();
-  const size_t i = static_cast<size_t>(x);
-  if (i + 1 >= v.size()) return v.back();
-  const double f = x - i;
-  return v[i] * (1 - f) + v[i + 1] * f;
-}
-}  // namespace
 
 FitScatter FeatureFitScatter(const PartSpec& part, FeatureKind kind,
                              double rms_mm, int points) {
@@ -155,10 +135,12 @@ EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
         // The piece (and adapter) grow with their own temperature instead
         // of the table's: a hot piece is cut to the programmed size and
         // shrinks when it cools.
-        const double dT_piece = params[1] * Sample(lagged, context.grid_t0_s,
-                                                   context.grid_step_s, s.t_s);
-        const double dT_table = Sample(context.machine_dT_K, context.grid_t0_s,
-                                       context.grid_step_s, s.t_s);
+        const double dT_piece =
+            params[1] * InterpolateUniform(lagged, context.grid_t0_s,
+                                           context.grid_step_s, s.t_s);
+        const double dT_table =
+            InterpolateUniform(context.machine_dT_K, context.grid_t0_s,
+                               context.grid_step_s, s.t_s);
         if (s.is_facet) {
           d.d_mm = -s.radius_mm * (context.piece_alpha_per_k * dT_piece -
                                    kTableAlphaPerK * dT_table);

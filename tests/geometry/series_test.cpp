@@ -21,6 +21,15 @@ TEST(Interpolate, LinearBetweenHeldOutside) {
   EXPECT_TRUE(Interpolate(t, p, 5.0).isApprox(Eigen::Vector2d(1, -2)));
 }
 
+TEST(InterpolateUniform, SameAsOnTheExplicitGrid) {
+  const std::vector<double> v = {4, -2, 7, 7, 1};
+  const std::vector<double> t = {10, 12.5, 15, 17.5, 20};
+  for (double x = 5; x < 25; x += 0.37)
+    EXPECT_NEAR(InterpolateUniform(v, 10, 2.5, x), Interpolate(t, v, x), 1e-12)
+        << x;
+  EXPECT_EQ(InterpolateUniform({}, 0, 1, 3), 0);
+}
+
 // The response to a step and to a ramp against the closed forms
 // y = 1 - exp(-t / tau) and y = t - tau (1 - exp(-t / tau)).
 TEST(LagFilter, StepAndRampMatchTheClosedForm) {

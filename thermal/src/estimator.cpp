@@ -7,28 +7,10 @@
 #include <cmath>
 
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/series.h"
 
 namespace ttp::thermal {
 namespace {
-
-// Piecewise-linear interpolation, held constant outside [t.front, t.back].
-double Interp(const std::vector<double>& t, const std::vector<double>& v,
-              double x) {
-  if (x <= t.front()) return v.front();
-  if (x >= t.back()) return v.back();
-  const size_t i = std::upper_bound(t.begin(), t.end(), x) - t.begin();
-  const double w = (x - t[i - 1]) / (t[i] - t[i - 1]);
-  return v[i - 1] + w * (v[i] - v[i - 1]);
-}
-
-template <typename T>
-T InterpT(const std::vector<double>& t, const std::vector<T>& v, double x) {
-  if (x <= t.front()) return v.front();
-  if (x >= t.back()) return v.back();
-  const size_t i = std::upper_bound(t.begin(), t.end(), x) - t.begin();
-  const double w = (x - t[i - 1]) / (t[i] - t[i - 1]);
-  return v[i - 1] * (1 - w) + v[i] * w;
-}
 
 struct InputSpec {
   const char* name;
@@ -124,10 +106,10 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     for (double tau : options.tau_grid_s) {
       std::vector<double> f(steps);
       const double a = 1.0 - std::exp(-dt / tau);
-      double x = Interp(t, v, t0) - base;  // start in steady state
+      double x = Interpolate(t, v, t0) - base;  // start in steady state
       f[0] = x;
       for (int i = 1; i < steps; ++i) {
-        const double u = Interp(t, v, t0 + (i - 0.5) * dt) - base;
+        const double u = Interpolate(t, v, t0 + (i - 0.5) * dt) - base;
         x += a * (u - x);
         f[i] = x;
       }
@@ -224,13 +206,8 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
 }
 
 double MachineErrorEstimator::InputAt(int input, int tau, double t_s) const {
-  const auto& f = signals_[input].filtered[tau];
-  const double x = (t_s - grid_t0_) / options_.grid_step_s;
-  if (x <= 0) return f.front();
-  const size_t i = static_cast<size_t>(x);
-  if (i + 1 >= f.size()) return f.back();
-  const double w = x - i;
-  return f[i] * (1 - w) + f[i + 1] * w;
+  return InterpolateUniform(signals_[input].filtered[tau], grid_t0_,
+                            options_.grid_step_s, t_s);
 }
 
 double MachineErrorEstimator::ModelAt(int e, double t_s) const {
@@ -254,7 +231,7 @@ double MachineErrorEstimator::ResidualAt(int e, double t_s, int skip) const {
       t.push_back(rtest_t_[k]);
       r.push_back(residual_[k][e]);
     }
-    return Interp(t, r, t_s);
+    return Interpolate(t, r, t_s);
   }
   double sw = 0, swr = 0;
   for (int k = 0; k < n; ++k) {
@@ -277,12 +254,12 @@ CAxisErrors MachineErrorEstimator::MachineErrorsAt(double t_s) const {
 }
 
 CAxisErrors MachineErrorEstimator::LinearErrorsAt(double t_s) const {
-  return InterpT(rtest_t_, rtest_y_, t_s);
+  return Interpolate(rtest_t_, rtest_y_, t_s);
 }
 
 CAxisErrors MachineErrorEstimator::PredictedAt(double t_s) const {
   if (!compensation_ || pred_t_.empty()) return CAxisErrors{};
-  return InterpT(pred_t_, pred_, t_s);
+  return Interpolate(pred_t_, pred_, t_s);
 }
 
 std::string MachineErrorEstimator::Describe() const {

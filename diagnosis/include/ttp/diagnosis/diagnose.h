@@ -49,6 +49,7 @@ MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path);
 // Residual observations: measured - simulated.
 struct Observations {
   std::vector<std::string> labels;  // "E_X@3", "angle X1-3"
+  std::vector<FeatureId> facet;     // group 4 (angles): the facet
   std::vector<double> value;        // um (figures) or urad (angles)
   std::vector<double> sigma;        // standard uncertainty, same unit
   std::vector<int> cycle;           // 0 = reference features

@@ -20,6 +20,18 @@ V Interpolate(const std::vector<double>& t, const std::vector<V>& v,
   return v[i - 1] * (1 - w) + v[i] * w;
 }
 
+// The same on a uniform grid: samples v at t0_s + i * step_s (none: 0).
+inline double InterpolateUniform(const std::vector<double>& v, double t0_s,
+                                 double step_s, double x) {
+  if (v.empty()) return 0;
+  const double u = (x - t0_s) / step_s;
+  if (u <= 0) return v.front();
+  const size_t i = static_cast<size_t>(u);
+  if (i + 1 >= v.size()) return v.back();
+  const double w = u - i;
+  return v[i] * (1 - w) + v[i + 1] * w;
+}
+
 // First-order lag y' = (u - y) / tau of `input` sampled every step_s,
 // starting in steady state (y[0] = u[0]), exact for an input linear across
 // each step (first-order hold). tau_s <= 0 is taken as 1e-9 s (y = u).
