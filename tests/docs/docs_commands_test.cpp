@@ -99,7 +99,8 @@ std::vector<std::string> Documents() {
 std::set<std::string> NamedEntries(const std::string& command) {
   std::set<std::string> out;
   static const std::regex path_word(R"(([A-Za-z0-9_.-]+)/)");
-  for (auto it = std::sregex_iterator(command.begin(), command.end(), path_word);
+  for (auto it =
+           std::sregex_iterator(command.begin(), command.end(), path_word);
        it != std::sregex_iterator(); ++it) {
     const std::string name = it->str(1);
     if (name == "build" || name == "." || name == "..") continue;
@@ -150,8 +151,9 @@ TEST_P(DocCommands, RunAsWritten) {
     for (const std::string& e : NamedEntries(c.command)) entries.insert(e);
   }
   for (const std::string& e : entries) {
-    fs::copy(fs::path(TTP_SOURCE_DIR) / e, dir / e,
-             fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+    fs::copy(
+        fs::path(TTP_SOURCE_DIR) / e, dir / e,
+        fs::copy_options::recursive | fs::copy_options::overwrite_existing);
   }
   const std::string path = std::string(TTP_BINARY_DIR) + "/app";
   for (const DocCommand& c : commands) {
