@@ -6,14 +6,14 @@
 // `ttp report-html DATA.json -o report.html`: renders a report data file.
 #include <cstdio>
 #include <filesystem>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "command.h"
 #include "planned_cuts.h"
+#include "ttp/diagnosis/diagnose.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
-#include "ttp/diagnosis/diagnose.h"
 #include "ttp/inspect/grade.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
@@ -104,8 +104,10 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                          "(with --log)");
       CheckOutputPath(*out, *compare, "--output");
       if (!json_out->empty()) CheckOutputPath(*json_out, *compare, "--json");
-      const inspect::Measurement a = inspect::LoadMeasurement(config, (*compare)[0]);
-      const inspect::Measurement b = inspect::LoadMeasurement(config, (*compare)[1]);
+      const inspect::Measurement a =
+          inspect::LoadMeasurement(config, (*compare)[0]);
+      const inspect::Measurement b =
+          inspect::LoadMeasurement(config, (*compare)[1]);
       const inspect::GradeResult ga = inspect::GradeMeasurement(a, *limits);
       const inspect::GradeResult gb = inspect::GradeMeasurement(b, *limits);
       const std::string title = options->title == report::ReportOptions{}.title

@@ -3,8 +3,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <cctype>
+#include <cstdlib>
 #include <iostream>
 #include <map>
 #include <set>
@@ -71,8 +71,7 @@ CLI::Option* AddOutputOption(CLI::App* cmd, std::string* path,
 
 CLI::Option* AddJsonOption(CLI::App* cmd, std::string* path,
                            const std::string& what) {
-  return cmd->add_option("--json", *path,
-                         what + " ('-': pure JSON on stdout)");
+  return cmd->add_option("--json", *path, what + " ('-': pure JSON on stdout)");
 }
 
 std::ostream& TextOut(const std::string& json_path) {
@@ -80,8 +79,7 @@ std::ostream& TextOut(const std::string& json_path) {
 }
 
 CLI::Option* AddVerboseFlag(CLI::App* cmd, bool* verbose) {
-  return cmd->add_flag("-v,--verbose", *verbose,
-                       "details after the summary");
+  return cmd->add_flag("-v,--verbose", *verbose, "details after the summary");
 }
 
 namespace {
@@ -89,17 +87,16 @@ namespace {
 // Options whose values are names (enums): compared case-insensitively.
 const std::set<std::string>& EnumOptions() {
   static const std::set<std::string> names = {
-      "--dialect", "--effect",     "--compensation", "--robust",
-      "--units",   "--instrument", "--probe-frame",  "--measurement",
-      "--cause"};
+      "--dialect",    "--effect",      "--compensation", "--robust", "--units",
+      "--instrument", "--probe-frame", "--measurement",  "--cause"};
   return names;
 }
 
 // Options that hold counts or seeds: a negative value is an error, not a
 // wrap-around to 2^64 - 1.
 const std::set<std::string>& NonNegativeOptions() {
-  static const std::set<std::string> names = {"--seed", "--points",
-                                              "--cycles", "--runs"};
+  static const std::set<std::string> names = {"--seed", "--points", "--cycles",
+                                              "--runs"};
   return names;
 }
 
@@ -153,8 +150,8 @@ int EditDistance(const std::string& a, const std::string& b) {
   for (size_t i = 1; i <= n; ++i) {
     for (size_t j = 1; j <= m; ++j) {
       const int cost = a[i - 1] == b[j - 1] ? 0 : 1;
-      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1,
-                          d[i - 1][j - 1] + cost});
+      d[i][j] =
+          std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
       if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
         d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
     }

@@ -7,8 +7,8 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <functional>
-#include <ostream>
 #include <nlohmann/json.hpp>
+#include <ostream>
 #include <string>
 #include <vector>
 

@@ -1,12 +1,12 @@
 #include "ttp/inspect/grade.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <limits>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "ttp/geometry/error.h"
 
@@ -28,13 +28,15 @@ std::string Fixed(double v, int decimals) {
 std::string Short(double v) { return fmt::format("{:g}", v); }
 
 std::string Upper(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  for (char& c : s)
+    c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return s;
 }
 
 std::string FigureList(const std::vector<Figure>& figures) {
   std::string s;
-  for (Figure f : figures) s += (s.empty() ? "" : ", ") + std::string(FigureName(f));
+  for (Figure f : figures)
+    s += (s.empty() ? "" : ", ") + std::string(FigureName(f));
   return s;
 }
 
@@ -47,12 +49,18 @@ const std::vector<Figure>& ThesisFigures() {
 
 const char* FigureName(Figure f) {
   switch (f) {
-    case Figure::kEX: return "E_X";
-    case Figure::kEY: return "E_Y";
-    case Figure::kEZ: return "E_Z";
-    case Figure::kEB: return "E_B";
-    case Figure::kETTP: return "E_TTP";
-    case Figure::kEC: return "E_C";
+    case Figure::kEX:
+      return "E_X";
+    case Figure::kEY:
+      return "E_Y";
+    case Figure::kEZ:
+      return "E_Z";
+    case Figure::kEB:
+      return "E_B";
+    case Figure::kETTP:
+      return "E_TTP";
+    case Figure::kEC:
+      return "E_C";
   }
   return "?";
 }
@@ -136,22 +144,32 @@ std::string GradeLimits::Describe() const {
 
 const char* VerdictName(Verdict v) {
   switch (v) {
-    case Verdict::kPass: return "pass";
-    case Verdict::kFail: return "fail";
-    case Verdict::kUndecidable: return "undecidable";
-    case Verdict::kMissing: return "missing";
-    case Verdict::kNotDecidable: return "not_decidable";
+    case Verdict::kPass:
+      return "pass";
+    case Verdict::kFail:
+      return "fail";
+    case Verdict::kUndecidable:
+      return "undecidable";
+    case Verdict::kMissing:
+      return "missing";
+    case Verdict::kNotDecidable:
+      return "not_decidable";
   }
   return "?";
 }
 
 Capability CapabilityOf(MeasurementKind kind) {
   switch (kind) {
-    case MeasurementKind::kCloud: return {true, "CMM point cloud"};
-    case MeasurementKind::kInspectionJson: return {true, "inspection JSON"};
-    case MeasurementKind::kDial: return {false, "dial gauge"};
-    case MeasurementKind::kDmis: return {true, "CMM (DMIS)"};
-    case MeasurementKind::kProbe: return {true, "on-machine probe"};
+    case MeasurementKind::kCloud:
+      return {true, "CMM point cloud"};
+    case MeasurementKind::kInspectionJson:
+      return {true, "inspection JSON"};
+    case MeasurementKind::kDial:
+      return {false, "dial gauge"};
+    case MeasurementKind::kDmis:
+      return {true, "CMM (DMIS)"};
+    case MeasurementKind::kProbe:
+      return {true, "on-machine probe"};
   }
   return {true, ""};
 }
@@ -193,11 +211,26 @@ GradeResult GradeFigures(const std::vector<CycleFigures>& figures,
       g.limit = fg.limit;
       double v = kNaN, u = kNaN;
       switch (fig) {
-        case Figure::kEX: v = cf.e_x_mm * 1e3; u = 2e3 * cf.u_x_mm; break;
-        case Figure::kEY: v = cf.e_y_mm * 1e3; u = 2e3 * cf.u_y_mm; break;
-        case Figure::kEZ: v = cf.e_z_mm * 1e3; u = 2e3 * cf.u_z_mm; break;
-        case Figure::kEB: v = cf.e_b_rad * 1e6; u = 2e6 * cf.u_b_rad; break;
-        case Figure::kETTP: v = cf.e_ttp_mm * 1e3; u = 2e3 * cf.u_ttp_mm; break;
+        case Figure::kEX:
+          v = cf.e_x_mm * 1e3;
+          u = 2e3 * cf.u_x_mm;
+          break;
+        case Figure::kEY:
+          v = cf.e_y_mm * 1e3;
+          u = 2e3 * cf.u_y_mm;
+          break;
+        case Figure::kEZ:
+          v = cf.e_z_mm * 1e3;
+          u = 2e3 * cf.u_z_mm;
+          break;
+        case Figure::kEB:
+          v = cf.e_b_rad * 1e6;
+          u = 2e6 * cf.u_b_rad;
+          break;
+        case Figure::kETTP:
+          v = cf.e_ttp_mm * 1e3;
+          u = 2e3 * cf.u_ttp_mm;
+          break;
         case Figure::kEC:
           for (const CycleExtras& ex : extras) {
             if (ex.cycle == cf.cycle) {
@@ -233,8 +266,8 @@ GradeResult GradeFigures(const std::vector<CycleFigures>& figures,
     fg.decided = fg.reason.empty();
     int fails = 0, passes = 0;
     for (GradedValue& g : values) {
-      g.verdict = fg.decided ? Decide(g.value, g.u, g.limit)
-                             : Verdict::kNotDecidable;
+      g.verdict =
+          fg.decided ? Decide(g.value, g.u, g.limit) : Verdict::kNotDecidable;
       fails += g.verdict == Verdict::kFail;
       passes += g.verdict == Verdict::kPass;
       ++r.counts[static_cast<int>(g.verdict)];
@@ -283,18 +316,22 @@ GradeResult GradeFigures(const nlohmann::json& doc, const GradeLimits& limits,
     const std::string where = "figures[" + std::to_string(i) + "]";
     if (!f.is_object() || !f.contains("cycle") ||
         !f["cycle"].is_number_integer())
-      throw InputError(source, 0, where + ".cycle", "missing or not an integer");
-    const nlohmann::json u =
-        f.contains("U") && f["U"].is_object() ? f["U"] : nlohmann::json::object();
+      throw InputError(source, 0, where + ".cycle",
+                       "missing or not an integer");
+    const nlohmann::json u = f.contains("U") && f["U"].is_object()
+                                 ? f["U"]
+                                 : nlohmann::json::object();
     // Value (um or um/m) and U (k = 2) -> CycleFigures' mm/rad and k = 1.
     auto get = [&](const char* key, double scale, double* v, double* sd) {
-      if (!f.contains(key)) throw InputError(source, 0, where + "." + key, "missing");
+      if (!f.contains(key))
+        throw InputError(source, 0, where + "." + key, "missing");
       const nlohmann::json& x = f[key];
       if (!x.is_null() && !x.is_number())
         throw InputError(source, 0, where + "." + key, "not a number");
       *v = x.is_number() ? x.get<double>() * scale : kNaN;
       const bool has_u = u.contains(key) && u[key].is_number();
-      *sd = has_u ? u[key].get<double>() * scale / 2 : (x.is_number() ? 0.0 : kNaN);
+      *sd = has_u ? u[key].get<double>() * scale / 2
+                  : (x.is_number() ? 0.0 : kNaN);
     };
     CycleFigures cf;
     cf.cycle = f["cycle"].get<int>();
@@ -328,7 +365,8 @@ std::vector<Figure> GradeResult::DecidedOn() const {
 std::string GradeResult::Summary() const {
   const std::vector<Figure> on = DecidedOn();
   int graded = 0;
-  for (const GradedValue& g : values) graded += g.verdict != Verdict::kNotDecidable;
+  for (const GradedValue& g : values)
+    graded += g.verdict != Verdict::kNotDecidable;
   std::string s;
   if (on.empty()) {
     s = "UNDECIDABLE: no figure can be decided";
@@ -345,8 +383,7 @@ std::string GradeResult::Summary() const {
   std::string not_decided;
   for (const FigureGrade& fg : figures) {
     if (fg.decided) continue;
-    not_decided +=
-        fmt::format("  {}: {}\n", FigureName(fg.figure), fg.reason);
+    not_decided += fmt::format("  {}: {}\n", FigureName(fg.figure), fg.reason);
   }
   s += "\nLimits: " + limits.Describe() +
        "; ISO 14253-1 (conformance zone reduced by U, k = 2)\n";
@@ -356,7 +393,9 @@ std::string GradeResult::Summary() const {
 
 nlohmann::json GradeToJson(const GradeResult& r) {
   using nlohmann::json;
-  auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  auto num = [](double v) {
+    return std::isfinite(v) ? json(v) : json(nullptr);
+  };
   json values = json::array();
   for (const auto& g : r.values) {
     values.push_back({{"cycle", g.cycle},
@@ -369,14 +408,14 @@ nlohmann::json GradeToJson(const GradeResult& r) {
   }
   json figures = json::array();
   for (const auto& fg : r.figures) {
-    figures.push_back(
-        {{"figure", FigureName(fg.figure)},
-         {"unit", FigureUnit(fg.figure)},
-         {"limit", fg.limit},
-         {"decided", fg.decided},
-         {"verdict", fg.decided ? json(VerdictName(fg.verdict)) : json(nullptr)},
-         {"reason", fg.decided ? json(nullptr) : json(fg.reason)},
-         {"max_u_expanded", num(fg.max_u)}});
+    figures.push_back({{"figure", FigureName(fg.figure)},
+                       {"unit", FigureUnit(fg.figure)},
+                       {"limit", fg.limit},
+                       {"decided", fg.decided},
+                       {"verdict", fg.decided ? json(VerdictName(fg.verdict))
+                                              : json(nullptr)},
+                       {"reason", fg.decided ? json(nullptr) : json(fg.reason)},
+                       {"max_u_expanded", num(fg.max_u)}});
   }
   json on = json::array();
   for (Figure f : r.DecidedOn()) on.push_back(FigureName(f));

@@ -87,9 +87,9 @@ json ResidualsJson(const diagnosis::ResidualTable& t) {
               {"sigma", json::object()}};
   for (size_t g = 0; g < diagnosis::ResidualTable::kFigures.size(); ++g) {
     const char* key = diagnosis::ResidualTable::kFigures[g];
-    for (auto [name, column] :
-         {std::pair{"before", &t.before_um[g]}, std::pair{"after", &t.after_um[g]},
-          std::pair{"sigma", &t.sigma_um[g]}}) {
+    for (auto [name, column] : {std::pair{"before", &t.before_um[g]},
+                                std::pair{"after", &t.after_um[g]},
+                                std::pair{"sigma", &t.sigma_um[g]}}) {
       json values = json::array();
       for (double v : *column) values.push_back(NumberOrNull(v));
       out[name][key] = values;
@@ -103,7 +103,8 @@ json ResidualsJson(const diagnosis::ResidualTable& t) {
 json AssembleReportData(const Config& config, const ReportInputs& in,
                         const ReportOptions& options) {
   if (in.measurement == nullptr || in.grade == nullptr)
-    throw InputError("report", 0, "", "a report needs a measurement and its grade");
+    throw InputError("report", 0, "",
+                     "a report needs a measurement and its grade");
   if (in.diagnosis != nullptr && in.log == nullptr)
     throw InputError("report", 0, "", "a diagnosis needs its TALC log");
   if ((in.diagnosis == nullptr) != (in.explanation == nullptr))
@@ -160,10 +161,9 @@ json AssembleReportData(const Config& config, const ReportInputs& in,
     }
     // An angle the instrument did not measure (dial gauge) is null: shown
     // as "not measured", never as 0.
-    facets[id] = {
-        {"distance_mm", r.present ? NumberOrNull(r.d_mm) : json()},
-        {"angle_error_urad",
-         r.present ? NumberOrNull(r.angle_rad * 1e6) : json()}};
+    facets[id] = {{"distance_mm", r.present ? NumberOrNull(r.d_mm) : json()},
+                  {"angle_error_urad",
+                   r.present ? NumberOrNull(r.angle_rad * 1e6) : json()}};
   }
   if (!facets.empty()) data["facets"] = facets;
 
@@ -215,11 +215,20 @@ double FigureSpanUm(const std::vector<CycleFigures>& figures,
     if (cf.cycle * cycle_period_s > hours * 3600.0 + 1e-6) continue;
     double v = std::nan("");
     switch (figure) {
-      case inspect::Figure::kEX: v = cf.e_x_mm; break;
-      case inspect::Figure::kEY: v = cf.e_y_mm; break;
-      case inspect::Figure::kEZ: v = cf.e_z_mm; break;
-      case inspect::Figure::kETTP: v = cf.e_ttp_mm; break;
-      default: break;
+      case inspect::Figure::kEX:
+        v = cf.e_x_mm;
+        break;
+      case inspect::Figure::kEY:
+        v = cf.e_y_mm;
+        break;
+      case inspect::Figure::kEZ:
+        v = cf.e_z_mm;
+        break;
+      case inspect::Figure::kETTP:
+        v = cf.e_ttp_mm;
+        break;
+      default:
+        break;
     }
     if (!std::isfinite(v)) continue;
     any = true;

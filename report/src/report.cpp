@@ -89,7 +89,9 @@ const char* FigureUnit(const std::string& key) {
   return key == "E_B" ? "um/m" : "um";
 }
 
-std::string Num(double v, int decimals = 2) { return FormatNumber(v, decimals); }
+std::string Num(double v, int decimals = 2) {
+  return FormatNumber(v, decimals);
+}
 
 // The section's input sub-document, or null when absent.
 const json* Find(const json& doc, const char* key) {
@@ -211,10 +213,10 @@ std::string VerdictSection(const json& data) {
            "</section>\n";
   }
   const std::string overall = (*grade)["verdict"].get<std::string>();
-  const std::string text =
-      overall == "fail"   ? "FAIL - non-conformance proven"
-      : overall == "pass" ? "PASS - conformance proven"
-                          : "UNDECIDABLE - conformance not proven";
+  const std::string text = overall == "fail" ? "FAIL - non-conformance proven"
+                           : overall == "pass"
+                               ? "PASS - conformance proven"
+                               : "UNDECIDABLE - conformance not proven";
   html += fmt::format(
       "<div class=\"stamp {}\" id=\"overall-verdict\" "
       "data-verdict=\"{}\">{}</div>\n",
@@ -275,21 +277,20 @@ std::string VerdictSection(const json& data) {
       if (v["value"].is_null()) {
         table += "<td class=\"missing\">missing</td>";
       } else {
-        table += fmt::format(
-            "<td class=\"{}\">{} &plusmn; {}</td>", verdict,
-            FormatNumber(v["value"].get<double>(), 2),
-            v["u_expanded"].is_null()
-                ? std::string("?")
-                : FormatNumber(v["u_expanded"].get<double>(), 2));
+        table +=
+            fmt::format("<td class=\"{}\">{} &plusmn; {}</td>", verdict,
+                        FormatNumber(v["value"].get<double>(), 2),
+                        v["u_expanded"].is_null()
+                            ? std::string("?")
+                            : FormatNumber(v["u_expanded"].get<double>(), 2));
       }
     }
     std::string fverdict = "not_decidable";
     if (figure_grade.count(f) && !(*figure_grade[f])["verdict"].is_null())
       fverdict = (*figure_grade[f])["verdict"].get<std::string>();
     table += fmt::format(
-        "<td>&plusmn;{} {}</td><td class=\"{}\">{}</td></tr>\n", limit,
-        unit, fverdict,
-        fverdict == "not_decidable" ? "not decided" : fverdict);
+        "<td>&plusmn;{} {}</td><td class=\"{}\">{}</td></tr>\n", limit, unit,
+        fverdict, fverdict == "not_decidable" ? "not decided" : fverdict);
   }
   table += "</table>\n";
   return html + table + "</section>\n";
@@ -491,10 +492,6 @@ std::string DiagnosisSection(const json& data) {
   return html + "</table>\n</section>\n";
 }
 
-
-
-
-
 }  // namespace
 
 namespace {
@@ -515,8 +512,10 @@ std::string WarningsBlock(const json& data) {
 std::string Page(const std::string& title, const std::string& header_meta,
                  const std::string& body, const json& data, const json& meta,
                  const char* schema) {
-  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
-         "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+  return "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta "
+         "charset=\"utf-8\">\n"
+         "<meta name=\"viewport\" "
+         "content=\"width=device-width,initial-scale=1\">"
          "\n<title>" +
          Escape(title) + "</title>\n<style>\n" +
          Joined(report_assets::kUplotCssPieces) + "\n" +
@@ -655,12 +654,12 @@ std::string RenderComparisonHtml(const json& d) {
   // The page script draws figures.measured (A) and figures.simulated (B).
   const json plot_data = {
       {"figures", {{"measured", a["figures"]}, {"simulated", b["figures"]}}}};
-  const json meta = {{"limits", d.value("limits", json::object())},
-                     {"cuts", json::array()},
-                     {"labels",
-                      {{"measured", "A: " + a["measurement"].get<std::string>()},
-                       {"simulated",
-                        "B: " + b["measurement"].get<std::string>()}}}};
+  const json meta = {
+      {"limits", d.value("limits", json::object())},
+      {"cuts", json::array()},
+      {"labels",
+       {{"measured", "A: " + a["measurement"].get<std::string>()},
+        {"simulated", "B: " + b["measurement"].get<std::string>()}}}};
   return Page(title, Escape(name(a)) + " &middot; " + Escape(name(b)), body,
               plot_data, meta, kCompareSchema);
 }

@@ -90,8 +90,8 @@ std::string DialCsv(const PartSpec& part, const FeatureResults& features,
       const double delta_um = (features.at(f.id).d_mm - reference[group]) * 1e3;
       // A facet further out reads less (the gauge is pushed in); a deeper
       // strip reads more.
-      reading = (f.kind == FeatureKind::kStrip ? delta_um : -delta_um) +
-                repeat(rng);
+      reading =
+          (f.kind == FeatureKind::kStrip ? delta_um : -delta_um) + repeat(rng);
       reading = std::round(reading);  // 1 um resolution
       if (reading == 0) reading = 0;  // no "-0"
     }
@@ -100,7 +100,8 @@ std::string DialCsv(const PartSpec& part, const FeatureResults& features,
   return csv;
 }
 
-std::string ProbeCsv(const Config& config, const std::map<std::string, Plane>& planes,
+std::string ProbeCsv(const Config& config,
+                     const std::map<std::string, Plane>& planes,
                      std::mt19937& rng) {
   const PartSpec& part = config.part;
   std::normal_distribution<double> noise(0.0, 0.3e-3);
@@ -111,7 +112,8 @@ std::string ProbeCsv(const Config& config, const std::map<std::string, Plane>& p
     const bool vertical = std::abs(n.z()) > 0.999;
     double c_rad = 0;
     if (!vertical)
-      c_rad = TableAngleFor(std::atan2(n.y(), n.x()), 0.0, config.machine.c_sense);
+      c_rad =
+          TableAngleFor(std::atan2(n.y(), n.x()), 0.0, config.machine.c_sense);
     c_rad = std::remainder(c_rad, 2 * M_PI);
     // The ball centre moves along -n through the planned point + r n.
     const Eigen::Vector3d start = p.point_w_mm + r * n;
@@ -156,8 +158,7 @@ std::string DmisOutput(const PartSpec& part,
   std::string out =
       "$$ DMIS output of the thermal test piece (samples/README.md)\n"
       "DMISMN/'ttp sample run-c',05.2\nUNITS/MM,ANGDEC\n";
-  for (const NominalFeature& f :
-       BuildNominalFeatures(part, Stage::kFinished)) {
+  for (const NominalFeature& f : BuildNominalFeatures(part, Stage::kFinished)) {
     if (f.kind == FeatureKind::kNotchFloor || f.kind == FeatureKind::kMark)
       continue;
     Eigen::Vector3d n = f.normal, point = f.point;
@@ -167,13 +168,14 @@ std::string DmisOutput(const PartSpec& part,
     }
     if (f.kind == FeatureKind::kCylinder) {
       if (f.id != "CYL199") continue;
-      out += fmt::format("FA(CYL199)=FEAT/CIRCLE,INNER,CART,0,0,{:.4f},0,0,1,{:.4f}\n",
-                         point.z(), f.size_mm);
+      out += fmt::format(
+          "FA(CYL199)=FEAT/CIRCLE,INNER,CART,0,0,{:.4f},0,0,1,{:.4f}\n",
+          point.z(), f.size_mm);
       continue;
     }
-    out += fmt::format("FA({})=FEAT/PLANE,CART,{:.4f},{:.4f},{:.4f},{:.7f},{:.7f},{:.7f}\n",
-                       Label(f.id), point.x(), point.y(), point.z(), n.x(),
-                       n.y(), n.z());
+    out += fmt::format(
+        "FA({})=FEAT/PLANE,CART,{:.4f},{:.4f},{:.4f},{:.7f},{:.7f},{:.7f}\n",
+        Label(f.id), point.x(), point.y(), point.z(), n.x(), n.y(), n.z());
   }
   return out + "ENDFIL\n";
 }
@@ -187,7 +189,8 @@ std::string SpheresCsv(const thermal::TalcLog& log) {
   const thermal::RTestRecord* first = &log.rtests.front();
   const thermal::RTestRecord* later = first;
   for (const auto& r : log.rtests)
-    if (std::abs(r.t_ref_s - 4 * 3600) < std::abs(later->t_ref_s - 4 * 3600)) later = &r;
+    if (std::abs(r.t_ref_s - 4 * 3600) < std::abs(later->t_ref_s - 4 * 3600))
+      later = &r;
   int cycle = 0;
   for (const thermal::RTestRecord* rec : {first, later}) {
     for (int k = 0; k < 8; ++k) {
@@ -217,10 +220,12 @@ int main(int argc, char** argv) {
     std::mt19937 rng(static_cast<uint32_t>(std::stoul(argv[4])));
     const inspect::Measurement m = inspect::LoadMeasurement(config, argv[1]);
     const auto planes = Planes(config.part, m.result.features);
-    WriteFileAtomic(out / "dial.csv", DialCsv(config.part, m.result.features, rng));
+    WriteFileAtomic(out / "dial.csv",
+                    DialCsv(config.part, m.result.features, rng));
     WriteFileAtomic(out / "probe.csv", ProbeCsv(config, planes, rng));
     WriteFileAtomic(out / "piece.dmo", DmisOutput(config.part, planes));
-    WriteFileAtomic(out / "spheres.csv", SpheresCsv(thermal::ReadTalcLog(argv[2])));
+    WriteFileAtomic(out / "spheres.csv",
+                    SpheresCsv(thermal::ReadTalcLog(argv[2])));
   } catch (const std::exception& e) {
     std::cerr << "make_samples: " << e.what() << "\n";
     return 2;

@@ -226,9 +226,9 @@ TEST_P(CliVerdicts, GradeAndReportAgree) {
   // The summary names what the verdict was decided on.
   EXPECT_NE(g.output.find(" on E_X, E_Y, E_Z"), std::string::npos) << g.output;
   const std::string page = ReadTextFile(dir / "r.html");
-  EXPECT_NE(page.find("data-verdict=\"" + grade["verdict"].get<std::string>() +
-                      "\""),
-            std::string::npos);
+  EXPECT_NE(
+      page.find("data-verdict=\"" + grade["verdict"].get<std::string>() + "\""),
+      std::string::npos);
   // Angles the instrument did not measure are not shown as numbers.
   if (std::string(c.file) == "dial.csv") {
     for (const auto& [id, facet] : data["facets"].items())
@@ -278,10 +278,10 @@ TEST(CliVerdicts, RunAgreesWithGrade) {
 // (on).
 TEST(CliReportCompare, SpansOfTwoPieces) {
   const fs::path dir = OutDir();
-  const auto r = RunTtp("report --compare " + Q(Sample("run-a", "piece.ply")) +
-                        " " + Q(Sample("run-b", "piece.xyz")) + " -o " +
-                        Q(dir / "compare.html") + " --json " +
-                        Q(dir / "compare.json"));
+  const auto r =
+      RunTtp("report --compare " + Q(Sample("run-a", "piece.ply")) + " " +
+             Q(Sample("run-b", "piece.xyz")) + " -o " +
+             Q(dir / "compare.html") + " --json " + Q(dir / "compare.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const json data = json::parse(ReadTextFile(dir / "compare.json"));
   ASSERT_EQ(data["spans"].size(), 12u);

@@ -31,13 +31,15 @@ TEST(ExplainDiagnosis, SummaryAndResidualsOfATwinRun) {
   EXPECT_EQ(e.summary.rfind("workpiece_expansion: its BIC is lower", 0), 0u)
       << e.summary;
   EXPECT_NE(e.summary.find("the next best candidate"), std::string::npos);
-  ASSERT_EQ(e.residuals.cycles.size(), static_cast<size_t>(config.part.cycles()));
+  ASSERT_EQ(e.residuals.cycles.size(),
+            static_cast<size_t>(config.part.cycles()));
   double before2 = 0, after2 = 0;
   int matched = 0;
   for (size_t i = 0; i < run.observations.size(); ++i) {
     const int g = run.observations.group[i], c = run.observations.cycle[i];
     if (g < 0 || g > 3 || c < 1) continue;
-    EXPECT_DOUBLE_EQ(e.residuals.before_um[g][c - 1], run.observations.value[i]);
+    EXPECT_DOUBLE_EQ(e.residuals.before_um[g][c - 1],
+                     run.observations.value[i]);
     before2 += std::pow(e.residuals.before_um[g][c - 1], 2);
     after2 += std::pow(e.residuals.after_um[g][c - 1], 2);
     ++matched;

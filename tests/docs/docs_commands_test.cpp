@@ -38,14 +38,33 @@ std::vector<DocCommand> ExtractCommands(const std::string& text) {
   int n = 0;
   DocCommand pending;
   bool continuing = false;
+  std::string heredoc_end;  // while inside a here-document: its terminator
   static const std::regex exit_marker(R"(#\s*exit\s+(\d+)\s*$)");
+  static const std::regex heredoc(
+      R"(<<-?\s*['"]?([A-Za-z_][A-Za-z0-9_]*)['"]?)");
+  const auto finish = [&] {
+    std::smatch m;
+    const std::string first_line =
+        pending.command.substr(0, pending.command.find('\n'));
+    if (std::regex_search(first_line, m, exit_marker))
+      pending.expected_exit = std::stoi(m.str(1));
+    out.push_back(pending);
+  };
   while (std::getline(in, line)) {
     ++n;
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    const std::string trimmed = line.substr(
-        std::min(line.size(), line.find_first_not_of(" \t") == std::string::npos
-                                  ? line.size()
-                                  : line.find_first_not_of(" \t")));
+    if (!heredoc_end.empty()) {  // kept verbatim, up to the terminator
+      pending.command += "\n" + line;
+      const size_t start = line.find_first_not_of('\t');
+      if (start != std::string::npos && line.substr(start) == heredoc_end) {
+        heredoc_end.clear();
+        finish();
+      }
+      continue;
+    }
+    const size_t first = line.find_first_not_of(" \t");
+    const std::string trimmed =
+        first == std::string::npos ? std::string() : line.substr(first);
     if (!in_sh) {
       if (trimmed == "```sh" || trimmed.rfind("```sh ", 0) == 0) in_sh = true;
       continue;
@@ -66,9 +85,11 @@ std::vector<DocCommand> ExtractCommands(const std::string& text) {
     pending.command += (pending.command.empty() ? "" : " ") + part;
     if (continuing) continue;
     std::smatch m;
-    if (std::regex_search(pending.command, m, exit_marker))
-      pending.expected_exit = std::stoi(m.str(1));
-    out.push_back(pending);
+    if (std::regex_search(part, m, heredoc)) {
+      heredoc_end = m.str(1);
+      continue;
+    }
+    finish();
   }
   return out;
 }
@@ -99,7 +120,8 @@ std::vector<std::string> Documents() {
 std::set<std::string> NamedEntries(const std::string& command) {
   std::set<std::string> out;
   static const std::regex path_word(R"(([A-Za-z0-9_.-]+)/)");
-  for (auto it = std::sregex_iterator(command.begin(), command.end(), path_word);
+  for (auto it =
+           std::sregex_iterator(command.begin(), command.end(), path_word);
        it != std::sregex_iterator(); ++it) {
     const std::string name = it->str(1);
     if (name == "build" || name == "." || name == "..") continue;
@@ -115,9 +137,10 @@ std::string Tail(const std::string& text, size_t n = 3000) {
 TEST(ExtractCommands, JoinsContinuationsAndReadsExitMarkers) {
   const std::string doc =
       "text\n```sh\nttp a \\\n   --b 1\n\n# a comment\nttp c  # exit 1\n```\n"
-      "```\nttp not-run\n```\n    ttp indented-not-run\n```sh\nttp d\n```\n";
+      "```\nttp not-run\n```\n    ttp indented-not-run\n```sh\nttp d\n"
+      "cat > a.toml <<'EOF'\n# kept\n\nx = 1\nEOF\nttp e\n```\n";
   const std::vector<DocCommand> got = ExtractCommands(doc);
-  ASSERT_EQ(got.size(), 3u);
+  ASSERT_EQ(got.size(), 5u);
   EXPECT_EQ(got[0].command, "ttp a  --b 1");
   EXPECT_EQ(got[0].line, 3);
   EXPECT_EQ(got[0].expected_exit, 0);
@@ -125,6 +148,10 @@ TEST(ExtractCommands, JoinsContinuationsAndReadsExitMarkers) {
   EXPECT_EQ(got[1].expected_exit, 1);
   EXPECT_EQ(got[1].line, 7);
   EXPECT_EQ(got[2].command, "ttp d");
+  // A here-document is one command with its lines as written.
+  EXPECT_EQ(got[3].command, "cat > a.toml <<'EOF'\n# kept\n\nx = 1\nEOF");
+  EXPECT_EQ(got[3].line, 15);
+  EXPECT_EQ(got[4].command, "ttp e");
   const std::set<std::string> named =
       NamedEntries("ttp report samples/run-a/piece.ply -o out/x.html");
   EXPECT_TRUE(named.count("samples"));
@@ -150,8 +177,9 @@ TEST_P(DocCommands, RunAsWritten) {
     for (const std::string& e : NamedEntries(c.command)) entries.insert(e);
   }
   for (const std::string& e : entries) {
-    fs::copy(fs::path(TTP_SOURCE_DIR) / e, dir / e,
-             fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+    fs::copy(
+        fs::path(TTP_SOURCE_DIR) / e, dir / e,
+        fs::copy_options::recursive | fs::copy_options::overwrite_existing);
   }
   const std::string path = std::string(TTP_BINARY_DIR) + "/app";
   for (const DocCommand& c : commands) {

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "ttp/geometry/error.h"
 
@@ -104,8 +104,9 @@ TEST(Grade, ECOnlyOnRequest) {
 // A figure whose U reaches its limit cannot be shown to conform: it is
 // left out of the verdict with the reason, whatever its values.
 TEST(Grade, UAtTheLimitIsNotDecidable) {
-  const std::vector<CycleFigures> f = {Cycle(1, 0.5, 0.5, 0.5, 0.1, 0.5, 1, 14),
-                                       Cycle(2, 0.5, 0.5, 0.5, 0.1, 0.5, 1, 15)};
+  const std::vector<CycleFigures> f = {
+      Cycle(1, 0.5, 0.5, 0.5, 0.1, 0.5, 1, 14),
+      Cycle(2, 0.5, 0.5, 0.5, 0.1, 0.5, 1, 15)};
   const GradeResult r = GradeFigures(f, {}, Capability{}, GradeLimits{});
   const FigureGrade& b = Of(r, Figure::kEB);
   EXPECT_FALSE(b.decided);
@@ -118,8 +119,9 @@ TEST(Grade, UAtTheLimitIsNotDecidable) {
   EXPECT_EQ(std::count(on.begin(), on.end(), Figure::kEB), 0);
   EXPECT_EQ(r.counts[static_cast<int>(Verdict::kNotDecidable)], 2);
   // Just below the limit it is graded (and undecidable: 0.1 > 15 - 14.9).
-  const GradeResult r2 = GradeFigures(
-      {Cycle(1, 0.5, 0.5, 0.5, 0.2, 0.5, 1, 14.9)}, {}, Capability{}, GradeLimits{});
+  const GradeResult r2 =
+      GradeFigures({Cycle(1, 0.5, 0.5, 0.5, 0.2, 0.5, 1, 14.9)}, {},
+                   Capability{}, GradeLimits{});
   EXPECT_TRUE(Of(r2, Figure::kEB).decided);
   EXPECT_EQ(r2.overall, Verdict::kUndecidable);
 }
@@ -129,29 +131,30 @@ TEST(Grade, UAtTheLimitIsNotDecidable) {
 TEST(Grade, InstrumentWithoutAnglesDecidesOnTheRest) {
   CycleFigures c = Cycle(1, 1, 1, 1, 0, 1, 1, 0);
   c.e_b_rad = c.u_b_rad = std::nan("");
-  const GradeResult r =
-      GradeFigures({c}, {}, CapabilityOf(MeasurementKind::kDial), GradeLimits{});
+  const GradeResult r = GradeFigures(
+      {c}, {}, CapabilityOf(MeasurementKind::kDial), GradeLimits{});
   EXPECT_EQ(r.overall, Verdict::kPass);
-  EXPECT_NE(Of(r, Figure::kEB).reason.find("dial gauge measures no facet angle"),
-            std::string::npos);
+  EXPECT_NE(
+      Of(r, Figure::kEB).reason.find("dial gauge measures no facet angle"),
+      std::string::npos);
   // The same missing E_B from a CMM is a missing value: not proven.
-  const GradeResult cmm =
-      GradeFigures({c}, {}, CapabilityOf(MeasurementKind::kCloud), GradeLimits{});
+  const GradeResult cmm = GradeFigures(
+      {c}, {}, CapabilityOf(MeasurementKind::kCloud), GradeLimits{});
   EXPECT_EQ(cmm.overall, Verdict::kPass);  // every value missing: not decided
   EXPECT_NE(Of(cmm, Figure::kEB).reason.find("every value missing"),
             std::string::npos);
   CycleFigures c2 = Cycle(2, 1, 1, 1, 1, 1, 1, 2);
-  const GradeResult part =
-      GradeFigures({c, c2}, {}, CapabilityOf(MeasurementKind::kCloud), GradeLimits{});
+  const GradeResult part = GradeFigures(
+      {c, c2}, {}, CapabilityOf(MeasurementKind::kCloud), GradeLimits{});
   EXPECT_EQ(part.overall, Verdict::kUndecidable);  // cycle 1's E_B missing
 }
 
 // An inspection JSON grades as the typed figures it holds.
 TEST(Grade, InspectionJsonGradesAsItsFigures) {
-  const std::vector<CycleFigures> f = {Cycle(1, 1.0, 4.8, -0.5, 2.0, 0.2, 1, 2)};
-  const nlohmann::json doc = {
-      {"kind", "cloud"},
-      {"figures", FiguresToJson(f)["figures"]}};
+  const std::vector<CycleFigures> f = {
+      Cycle(1, 1.0, 4.8, -0.5, 2.0, 0.2, 1, 2)};
+  const nlohmann::json doc = {{"kind", "cloud"},
+                              {"figures", FiguresToJson(f)["figures"]}};
   const GradeResult a = GradeFigures(doc, GradeLimits{}, "piece.json");
   const GradeResult b = GradeFigures(f, {}, Capability{}, GradeLimits{});
   EXPECT_EQ(GradeToJson(a), GradeToJson(b));

@@ -137,8 +137,8 @@ void CheckPageDrawsEverything(const fs::path& html,
 
   const RunResult dom =
       BrowserTest::Chromium("--window-size=1280,1000 --dump-dom " +
-               Quote("file://" + fs::absolute(html).string()),
-               html.parent_path() / "profile");
+                                Quote("file://" + fs::absolute(html).string()),
+                            html.parent_path() / "profile");
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
   *dom_out = dom.output;
   std::string console;
@@ -196,7 +196,8 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   const RunResult report = RunCommand(
       "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
       "/app/ttp report --log samples/run-a/talc.csv samples/run-a/piece.ply"
-      " -o " + Quote(html) + " --json " + Quote(data_path) + " 2>&1");
+      " -o " +
+      Quote(html) + " --json " + Quote(data_path) + " 2>&1");
   ASSERT_EQ(report.exit_code, 1) << report.output;  // run-a fails
   const json data = json::parse(ReadFile(data_path));
   std::string dom;
@@ -214,7 +215,7 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   fs::remove(png);
   const RunResult shot =
       Chromium("--window-size=1280,2600 --screenshot=" + Quote(png) + " " +
-               Quote("file://" + fs::absolute(html).string()),
+                   Quote("file://" + fs::absolute(html).string()),
                dir_ / "profile");
   ASSERT_EQ(shot.exit_code, 0) << shot.output;
   ASSERT_TRUE(fs::exists(png)) << shot.output;
@@ -240,7 +241,8 @@ TEST_P(BrowserKinds, DrawsEveryPlot) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path html = fs::absolute(dir / (std::string(c.name) + ".html"));
-  const fs::path data_path = fs::absolute(dir / (std::string(c.name) + ".json"));
+  const fs::path data_path =
+      fs::absolute(dir / (std::string(c.name) + ".json"));
   const RunResult report = RunCommand(
       "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
       "/app/ttp report " + c.args + " -o " + Quote(html) + " --json " +
@@ -255,9 +257,10 @@ TEST_P(BrowserKinds, DrawsEveryPlot) {
   }
   std::map<std::string, int> expected;
   if (data.contains("pieces")) {
-    expected = ExpectedPoints(json{{"figures",
-                                    {{"measured", data["pieces"][0]["figures"]},
-                                     {"simulated", data["pieces"][1]["figures"]}}}});
+    expected =
+        ExpectedPoints(json{{"figures",
+                             {{"measured", data["pieces"][0]["figures"]},
+                              {"simulated", data["pieces"][1]["figures"]}}}});
   } else {
     expected = ExpectedPoints(data);
   }

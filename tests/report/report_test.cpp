@@ -114,7 +114,8 @@ TEST(RenderReportHtml, VerdictTableIsTheGivenGrade) {
   const std::string html = RenderReportHtml(data);
   EXPECT_TRUE(Has(html, "<td class=\"fail\">4.50 &plusmn; 0.80</td>"));
   // No "-0.00".
-  EXPECT_TRUE(Has(html, "<td class=\"not_decidable\">0.00 &plusmn; 16.00</td>"));
+  EXPECT_TRUE(
+      Has(html, "<td class=\"not_decidable\">0.00 &plusmn; 16.00</td>"));
   EXPECT_TRUE(Has(html, "<b>E_B</b>: U up to 16.0 um/m"));
 }
 

@@ -26,9 +26,9 @@ std::string Sample(const std::string& rel) {
 // Validates `doc` against schemas/NAME.schema.json; the validator's output
 // on failure.
 ::testing::AssertionResult Valid(const std::string& name, const fs::path& doc) {
-  const auto r = RunCommand("python3 " +
-                            Q(fs::path(TTP_SOURCE_DIR) / "schemas/validate.py") +
-                            " " + name + " " + Q(doc) + " 2>&1");
+  const auto r = RunCommand(
+      "python3 " + Q(fs::path(TTP_SOURCE_DIR) / "schemas/validate.py") + " " +
+      name + " " + Q(doc) + " 2>&1");
   if (r.exit_code == 0) return ::testing::AssertionSuccess();
   return ::testing::AssertionFailure()
          << doc.filename() << " against " << name << ".schema.json:\n"

@@ -44,7 +44,9 @@ struct GradeLimits {
 
   bool IsValid(std::string* error) const;  // names the field
   void Validate() const;  // throws InputError naming the option
-  double For(Figure f) const { return IsAngular(f) ? angular_um_per_m : linear_um; }
+  double For(Figure f) const {
+    return IsAngular(f) ? angular_um_per_m : linear_um;
+  }
   bool Grades(Figure f) const;
   // "5 um linear, 15 um/m angular (the thesis' action limits, 7.2.1)".
   std::string Describe() const;
@@ -65,7 +67,8 @@ const char* VerdictName(Verdict v);
 struct GradedValue {
   int cycle = 0;
   Figure figure = Figure::kEX;
-  double value = 0, u = 0, limit = 0;  // um or um/m; U expanded (k = 2); NaN = none
+  double value = 0, u = 0,
+         limit = 0;  // um or um/m; U expanded (k = 2); NaN = none
   Verdict verdict = Verdict::kMissing;
 };
 
@@ -76,18 +79,18 @@ struct FigureGrade {
   bool decided = false;  // counted in the overall verdict
   std::string reason;    // why not decided (empty when decided)
   Verdict verdict = Verdict::kNotDecidable;  // fail / pass / undecidable
-  double max_u = 0;      // largest U over the cycles (NaN = none)
+  double max_u = 0;  // largest U over the cycles (NaN = none)
 };
 
 // What the instrument behind the figures can measure.
 struct Capability {
-  bool angles = true;         // facet angles (E_B, E_C)
-  std::string instrument;     // "dial gauge", ... for the reason text
+  bool angles = true;      // facet angles (E_B, E_C)
+  std::string instrument;  // "dial gauge", ... for the reason text
 };
 Capability CapabilityOf(MeasurementKind kind);
 
 struct GradeResult {
-  std::vector<GradedValue> values;  // graded figures, cycle by cycle
+  std::vector<GradedValue> values;   // graded figures, cycle by cycle
   std::vector<FigureGrade> figures;  // one per figure of kAllFigures
   // fail if any value of a decided figure fails; pass if every value of the
   // decided figures passes (and at least one figure is decided); else
@@ -121,7 +124,8 @@ GradeResult GradeFigures(const nlohmann::json& inspection,
 // schemas/grade.schema.json
 nlohmann::json GradeToJson(const GradeResult& result);
 // Same; `limits` must be the result's own (kept for callers that pass it).
-nlohmann::json GradeToJson(const GradeResult& result, const GradeLimits& limits);
+nlohmann::json GradeToJson(const GradeResult& result,
+                           const GradeLimits& limits);
 // Summary first; the per-value table with verbose.
 std::string GradeTable(const GradeResult& result, bool verbose = true);
 
