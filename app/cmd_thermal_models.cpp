@@ -44,6 +44,9 @@ void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
                   "selection criterion: cv (chronological cross-validation "
                   "with the MDL factor, default) or mdl (in-sample MDL-like, "
                   "thesis eq. 4.23)");
+  cmd->add_option("--temperature-lag-s", o->temperature_lag_s,
+                  "joint/auto: the lag each temperature passes through "
+                  "besides its direct path (default 3600 s)");
   cmd->add_option("--max-terms", o->max_terms,
                   "most regressors per output (default 8)");
   cmd->add_option("--weight-half-life-s", o->weight_half_life_s,
@@ -96,8 +99,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
         ->required();
     cmd->add_option("--outputs", *outputs,
                     "outputs to model, comma separated (default: every d_)");
-    cmd->add_option("--model", o->model,
-                    "auto (default), static, fir, lag, arx or combined");
+    cmd->add_option(
+        "--model", o->model,
+        "auto (default, = joint), static, fir, lag, arx, combined or joint");
     cmd->add_option("--json", *json_out, "also write a fit summary as JSON");
     AddFitOptions(cmd, o.get());
     cmd->callback([&global, log, out, outputs, json_out, o] {

@@ -291,11 +291,10 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
            lag_model.regressors.empty() ? Eigen::VectorXd::Zero(n_rows)
                                         : PredictOutput(lag_model, ts),
            "lag", int(lag_model.regressors.size()));
-    // Every structure, and auto = the lowest selection score among them.
+    // Every structure, and auto (= joint).
     double best_rms = std::numeric_limits<double>::infinity();
-    double auto_score = std::numeric_limits<double>::infinity();
     Eigen::VectorXd auto_pred, best_pred, static_pred;
-    std::string auto_name, best_name;
+    std::string best_name;
     int auto_terms = 0;
     size_t entry = 3;
     for (Structure s : AllStructures()) {
@@ -306,15 +305,13 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
       if (rms < best_rms)
         best_rms = rms, best_pred = pred, best_name = StructureName(s);
       if (s == Structure::kStatic) static_pred = pred;
-      if (m.cv_score < auto_score) {
-        auto_score = m.cv_score;
+      if (s == Structure::kJoint) {
         auto_pred = pred;
-        auto_name = StructureName(s);
         auto_terms = int(m.regressors.size());
       }
       ++entry;
     }
-    record(entry, auto_pred, auto_name, auto_terms);
+    record(entry, auto_pred, "joint", auto_terms);
     res.best.push_back(best_name);
     res.simplest.push_back("static");
     res.best_um.col(j) = best_pred;

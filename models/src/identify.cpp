@@ -31,6 +31,26 @@ std::vector<Regressor> BaseRegressors(const TimeSeries& ts) {
   return out;
 }
 
+// `joint`: every temperature directly and through one lag (a direct and a
+// slower path), n and n^2 through a lag at every time constant (the spindle's
+// heat a n + b n^2 with its spectrum of time constants).
+std::vector<Regressor> JointRegressors(const TimeSeries& ts,
+                                       const FitOptions& o) {
+  std::vector<Regressor> out;
+  for (const auto& name : ts.input_names)
+    if (IsSpeed(name))
+      for (double tau : o.taus_s) {
+        out.push_back({name, 1, 0, {tau}});
+        out.push_back({name, 2, 0, {tau}});
+      }
+  for (const auto& name : ts.input_names)
+    if (!IsSpeed(name)) {
+      out.push_back({name, 1, 0, {}});
+      out.push_back({name, 1, 0, {o.temperature_lag_s}});
+    }
+  return out;
+}
+
 // A candidate pool: regressors, and the groups forward selection may add in
 // one step (a group enters whole; a single regressor is a group of one).
 struct Pool {
@@ -129,6 +149,8 @@ std::vector<Pool> CandidatePools(const TimeSeries& ts, Structure s,
             pool.Group({{name, 1, 0, {}}, {name, 1, 0, {tau}}});
           }
         }
+      break;
+    case Structure::kJoint:  // no selection: FitOutput fits it whole
       break;
   }
   return pools;
@@ -241,9 +263,16 @@ bool Solve(const Eigen::MatrixXd& a, const std::vector<int>& idx, double lambda,
   }
   const double n = a(0, 0);
   if (n <= 0) return false;
-  // A tiny floor keeps collinear candidates (e.g. lags of one input at
-  // neighbouring time constants) solvable; it is far below any ridge tried.
-  for (int r = 1; r < k; ++r) m(r, r) += (lambda + 1e-9) * n;
+  // The penalty is on the regressors standardised by this Gram's own data
+  // (lambda n var_j on the diagonal): a CV fold is scaled by what its
+  // training blocks saw, not by the whole span. A tiny floor keeps collinear
+  // candidates (e.g. lags of one input at neighbouring time constants)
+  // solvable; it is far below any ridge tried.
+  for (int r = 1; r < k; ++r) {
+    const double mean = a(idx[r], 0) / n;
+    const double var = std::max(a(idx[r], idx[r]) / n - mean * mean, 1e-12);
+    m(r, r) += (lambda + 1e-9) * n * var;
+  }
   Eigen::LDLT<Eigen::MatrixXd> ldlt(m);
   if (ldlt.info() != Eigen::Success) return false;
   *theta = ldlt.solve(rhs);
@@ -421,6 +450,8 @@ const char* StructureName(Structure s) {
       return "arx";
     case Structure::kCombined:
       return "combined";
+    case Structure::kJoint:
+      return "joint";
   }
   return "?";
 }
@@ -435,8 +466,8 @@ bool ParseStructure(const std::string& name, Structure* s) {
 }
 
 std::vector<Structure> AllStructures() {
-  return {Structure::kStatic, Structure::kFir, Structure::kLag, Structure::kArx,
-          Structure::kCombined};
+  return {Structure::kStatic, Structure::kFir,      Structure::kLag,
+          Structure::kArx,    Structure::kCombined, Structure::kJoint};
 }
 
 bool FitOptions::IsValid(std::string* error) const {
@@ -447,10 +478,11 @@ bool FitOptions::IsValid(std::string* error) const {
   Structure s;
   if (model != "auto" && !ParseStructure(model, &s))
     return fail("model: '" + model +
-                "' is not auto, static, fir, lag, arx or combined");
+                "' is not auto, static, fir, lag, arx, combined or joint");
   if (taus_s.empty()) return fail("taus_s: at least one time constant");
   for (double t : taus_s)
     if (!(t > 0)) return fail("taus_s: time constants must be > 0");
+  if (!(temperature_lag_s > 0)) return fail("temperature_lag_s: must be > 0");
   if (!(fir_step_s > 0)) return fail("fir_step_s: must be > 0");
   if (fir_taps < 1 || fir_taps > 50) return fail("fir_taps: 1..50");
   if (max_terms < 1 || max_terms > 40) return fail("max_terms: 1..40");
@@ -483,6 +515,14 @@ TimeSeries HeadOf(const TimeSeries& ts, double t_end_s) {
 OutputModel FitOutput(const TimeSeries& fit, int output, Structure structure,
                       const FitOptions& o) {
   CheckOptions(o);
+  if (structure == Structure::kJoint) {
+    OutputModel m =
+        FitFixed(fit, output, JointRegressors(fit, o), Structure::kJoint, o);
+    m.selection_log.push_back(fmt::format(
+        "{} regressors, ridge {:g} by CV: score {:.4g}, CV RMS {:.3f} um",
+        m.regressors.size(), m.ridge, m.cv_score, m.cv_rms_um));
+    return m;
+  }
   const auto pools = CandidatePools(fit, structure, o);
   OutputModel best;
   best.cv_score = std::numeric_limits<double>::infinity();
@@ -550,18 +590,9 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   model.median_step_s = MedianStep(fit);
   std::set<std::string> needed;
   for (int j : which) {
-    OutputModel best;
-    best.cv_score = std::numeric_limits<double>::infinity();
-    if (o.model == "auto") {
-      for (Structure s : AllStructures()) {
-        OutputModel m = FitOutput(fit, j, s, o);
-        if (m.cv_score < best.cv_score) best = std::move(m);
-      }
-    } else {
-      Structure s;
-      ParseStructure(o.model, &s);
-      best = FitOutput(fit, j, s, o);
-    }
+    Structure s = Structure::kJoint;  // auto
+    if (o.model != "auto") ParseStructure(o.model, &s);
+    OutputModel best = FitOutput(fit, j, s, o);
     ComputeFeatures(fit, best.regressors, nullptr, &best.end_state);
     for (const auto& r : best.regressors) needed.insert(r.input);
     model.outputs.push_back(std::move(best));
@@ -622,6 +653,7 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
   const FitOptions& o = model.options;
   j["options"] = {{"model", o.model},
                   {"taus_s", o.taus_s},
+                  {"temperature_lag_s", o.temperature_lag_s},
                   {"fir_step_s", o.fir_step_s},
                   {"fir_taps", o.fir_taps},
                   {"max_terms", o.max_terms},
@@ -673,6 +705,8 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
     const auto& o = j.at("options");
     model.options.model = o.value("model", "auto");
     model.options.taus_s = o.value("taus_s", model.options.taus_s);
+    model.options.temperature_lag_s =
+        o.value("temperature_lag_s", model.options.temperature_lag_s);
     model.options.criterion = o.value("criterion", "cv");
     model.options.weight_half_life_s = o.value("weight_half_life_s", 0.0);
     for (const auto& oj : j.at("outputs")) {

@@ -89,7 +89,7 @@ TEST(CliModels, FitPredictContinuesAndCompare) {
              (dir / "cmp.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto cmp = ReadJson(dir / "cmp.json");
-  EXPECT_EQ(cmp["models"].size(), 9u);
+  EXPECT_EQ(cmp["models"].size(), 10u);  // 3 references, 6 structures, auto
   EXPECT_TRUE(cmp["diagnosis"].contains("d_ch5"));
   EXPECT_NE(r.output.find("simplest"), std::string::npos);
 }

@@ -105,12 +105,36 @@ TEST(Identify, DynamicModelBeatsStaticOnTwoNodeNetwork) {
       PredictOutput(FitOutput(HeadOf(ts, kSplit), 0, Structure::kStatic, o),
                     ts),
       kSplit);
-  EXPECT_NE(m.outputs[0].structure, Structure::kStatic);
+  EXPECT_EQ(m.outputs[0].structure, Structure::kJoint);
   EXPECT_LT(auto_rms, 0.5 * static_rms)
       << "auto " << auto_rms << " static " << static_rms;
-  EXPECT_LT(auto_rms, 0.15 * none) << auto_rms << " vs none " << none;
-  // The unrelated sensor is not selected.
-  for (const auto& r : m.outputs[0].regressors) EXPECT_NE(r.input, "T_cabinet");
+  EXPECT_LT(auto_rms, 0.35 * none) << auto_rms << " vs none " << none;
+  // The unrelated sensor is kept (no selection) but shrunk: its share of the
+  // prediction over the holdout is small.
+  const OutputModel& om = m.outputs[0];
+  const int cab = ts.InputIndex("T_cabinet");
+  Eigen::VectorXd cabinet = Eigen::VectorXd::Zero(ts.rows());
+  for (size_t r = 0; r < om.regressors.size(); ++r)
+    if (om.regressors[r].input == "T_cabinet")
+      cabinet += om.coef(static_cast<Eigen::Index>(r)) *
+                 ComputeFeatures(ts, {om.regressors[r]}).col(0);
+  ASSERT_GE(cab, 0);
+  const double spread =
+      std::sqrt((cabinet.array() - cabinet.mean()).square().mean());
+  EXPECT_LT(spread, 0.1 * none) << "T_cabinet contributes " << spread;
+}
+
+// The network's unmeasured node has a time constant of C2 / (G12 + G2a) =
+// 12000 s; with the temperatures' lag near it the joint model follows it
+// closely (the default 3600 s is what the real spindle test holds up with).
+TEST(Identify, JointWithTemperatureLagNearTheHiddenNode) {
+  const TimeSeries ts = TwoNodeNetwork(7);
+  FitOptions o;
+  o.temperature_lag_s = 14400;
+  const ThermalModel m = FitThermalModel(ts, {}, o, kSplit);
+  const double none = HoldoutRms(ts, Eigen::VectorXd::Zero(ts.rows()), kSplit);
+  EXPECT_LT(HoldoutRms(ts, PredictOutput(m.outputs[0], ts), kSplit),
+            0.15 * none);
 }
 
 TEST(Identify, PredictIsCausalAndIgnoresOutputs) {
@@ -140,8 +164,7 @@ TEST(Identify, PredictIsCausalAndIgnoresOutputs) {
 
 TEST(Identify, ModelFileRoundTripAndContinuation) {
   const TimeSeries ts = TwoNodeNetwork(5);
-  FitOptions o;
-  o.model = "arx";
+  FitOptions o;  // auto: the joint model
   const ThermalModel m = FitThermalModel(ts, {"d_z"}, o, kSplit);
   const ThermalModel back =
       ModelFromJson(nlohmann::json::parse(ModelToJson(m).dump()), "model.json");
@@ -213,33 +236,63 @@ TEST(Identify, MdlCriterionAndWlseRun) {
   EXPECT_LT(HoldoutRms(ts, PredictOutput(m.outputs[0], ts), kSplit), none);
 }
 
-// Real data: fit on the first 15 h of the FL spindle test, predict the next
-// 8 h (3750 1/min, a speed never seen in the fit) from the inputs alone.
-// Measured on this split (docs/THERMAL.md): auto beats the better of the two
-// simple models (static on all 16 temperatures; lags of n and n^2) on d_ch1,
-// d_ch2 and d_ch5 by a wide margin, and no compensation on every channel;
-// on d_ch3 and d_ch4 the static model on all 16 temperatures stays better.
-TEST(Identify, RealSpindleTestOnChronologicalHoldout) {
-  const TimeSeries ts = ReadThermalLog(std::string(TTP_DATA_DIR) +
-                                       "/reference/fl-thermal/train.csv");
-  const CompareResult r = CompareModels(ts, 54000, FitOptions());
+// Real data: the FL spindle test, fitted on the first part and predicted
+// from the inputs alone. The simple models (static on all 16 temperatures;
+// lags of n and n^2) are measured here on the same split.
+struct Rms {
+  double none, simple, static_all_t, mine;
+};
+std::vector<Rms> RealSplit(const TimeSeries& ts, double holdout_from_s) {
+  const CompareResult r = CompareModels(ts, holdout_from_s, FitOptions());
   auto entry = [&](const std::string& name) -> const CompareEntry& {
     for (const auto& e : r.entries)
       if (e.name == name) return e;
     throw std::runtime_error(name);
   };
+  std::vector<Rms> out;
   for (size_t k = 0; k < r.outputs.size(); ++k) {
-    const double simple = std::min(entry("static_all_T").stats[k].rms_um,
-                                   entry("lag_speed").stats[k].rms_um);
-    const double none = entry("none").stats[k].rms_um;
-    const double mine = entry("auto").stats[k].rms_um;
-    EXPECT_LT(mine, 0.6 * none) << r.outputs[k];
-    if (r.outputs[k] == "d_ch1" || r.outputs[k] == "d_ch2" ||
-        r.outputs[k] == "d_ch5") {
-      EXPECT_LT(mine, 0.5 * simple)
-          << r.outputs[k] << ": auto " << mine << " simple " << simple;
-    }
+    const double st = entry("static_all_T").stats[k].rms_um;
+    out.push_back({entry("none").stats[k].rms_um,
+                   std::min(st, entry("lag_speed").stats[k].rms_um), st,
+                   entry("auto").stats[k].rms_um});
   }
+  return out;
+}
+
+// Fit on the first 15 h (1250 and 2500 1/min), predict the next 8 h (3750
+// 1/min, a speed never seen in the fit). Measured (docs/THERMAL.md): auto
+// is 2.3 to 4 times better than the better simple model on d_ch1, d_ch2,
+// d_ch5; on d_ch3 and d_ch4 the static model on all 16 temperatures is
+// better (2.0, 2.8 um against 2.9, 3.1 um), both about a tenth of no
+// compensation.
+TEST(Identify, RealSpindleTestUnseenSpeed) {
+  const TimeSeries ts = ReadThermalLog(std::string(TTP_DATA_DIR) +
+                                       "/reference/fl-thermal/train.csv");
+  const std::vector<Rms> r = RealSplit(ts, 54000);
+  ASSERT_EQ(r.size(), 5u);
+  for (int k : {0, 1, 4})
+    EXPECT_LT(r[k].mine, 0.5 * r[k].simple)
+        << "d_ch" << k + 1 << ": auto " << r[k].mine << " simple "
+        << r[k].simple;
+  for (int k : {2, 3}) {
+    EXPECT_LT(r[k].mine, 0.15 * r[k].none) << "d_ch" << k + 1;
+    EXPECT_LT(r[k].mine, 1.6 * r[k].static_all_t) << "d_ch" << k + 1;
+  }
+}
+
+// Inside the first 15 h: fit on 10 h, predict the next 5 h. auto beats the
+// better simple model (or no compensation) on every channel.
+TEST(Identify, RealSpindleTestInsideTheFirstHalf) {
+  const TimeSeries ts =
+      HeadOf(ReadThermalLog(std::string(TTP_DATA_DIR) +
+                            "/reference/fl-thermal/train.csv"),
+             54000);
+  const std::vector<Rms> r = RealSplit(ts, 36000);
+  ASSERT_EQ(r.size(), 5u);
+  for (size_t k = 0; k < r.size(); ++k)
+    EXPECT_LT(r[k].mine, 0.75 * std::min(r[k].simple, r[k].none))
+        << "d_ch" << k + 1 << ": auto " << r[k].mine << " simple "
+        << r[k].simple << " none " << r[k].none;
 }
 
 }  // namespace

@@ -1,7 +1,9 @@
 // Identification of thermal error models from a thermal log, one model per
 // output (MISO submodels, thesis 4.1.3). Every structure is linear in its
 // parameters once its regressors are fixed, so each is a (weighted, ridge)
-// least-squares fit on a regressor set chosen by forward selection:
+// least-squares fit. `joint` takes every regressor at once and lets the ridge
+// penalty (chosen by chronological cross-validation) do the shrinking; the
+// others choose a regressor set by forward selection:
 //   static    inputs as they are (temperatures, n, n^2)
 //   fir       taps of the inputs at 0, dt, 2 dt, ... (thesis eq. 3.35)
 //   lag       first-order lags of n and n^2 (spindle heat through the
@@ -10,8 +12,12 @@
 //             poles of A (one or two, as time constants, exact for any step)
 //             are shared by every input; B by least squares
 //   combined  temperatures, lagged temperatures and lagged n, n^2 together
-// `auto` runs all of them and keeps the lowest chronological cross-validation
-// score. The prediction uses the inputs only (never a measured output).
+//   joint     every temperature directly and through one lag, n and n^2
+//             through a lag at every time constant, all in one ridge fit
+// `auto` is `joint`: greedy selection scored inside the fitted data picks
+// regressors that fit the seen speeds and extrapolate badly to an unseen
+// one; shrinking a fixed, physically complete set holds up on both.
+// The prediction uses the inputs only (never a measured output).
 #pragma once
 
 #include <Eigen/Core>
@@ -25,16 +31,19 @@
 
 namespace ttp::models {
 
-enum class Structure { kStatic, kFir, kLag, kArx, kCombined };
+enum class Structure { kStatic, kFir, kLag, kArx, kCombined, kJoint };
 const char* StructureName(Structure s);
-// "static", "fir", "lag", "arx", "combined"; false when unknown.
+// "static", "fir", "lag", "arx", "combined", "joint"; false when unknown.
 bool ParseStructure(const std::string& name, Structure* s);
 std::vector<Structure> AllStructures();
 
 struct FitOptions {
-  std::string model = "auto";  // auto or a structure name
+  std::string model = "auto";  // auto (= joint) or a structure name
   // Lag time constants searched (s) and FIR taps (step and count).
   std::vector<double> taus_s = {900, 1800, 3600, 7200, 14400};
+  // `joint`: the one lag each temperature passes through besides its direct
+  // path (s).
+  double temperature_lag_s = 3600;
   double fir_step_s = 1800;
   int fir_taps = 6;
   int max_terms = 8;  // regressors per output, intercept not counted
@@ -50,7 +59,7 @@ struct FitOptions {
   // of a real prediction: hours ahead); "block": on block k only.
   std::string cv_horizon = "all";
   // Ridge factors (relative, on standardised regressors) tried by CV.
-  std::vector<double> ridge = {0, 1e-4, 1e-3, 1e-2, 1e-1};
+  std::vector<double> ridge = {0, 1e-4, 1e-3, 1e-2, 1e-1, 1};
   // "cv": CV RMS times the MDL factor (1 + p ln N / N); "mdl": the thesis'
   // in-sample MDL-like criterion alone (RMS (1 + p ln N / N)), no CV.
   std::string criterion = "cv";
