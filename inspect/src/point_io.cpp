@@ -419,6 +419,18 @@ PointCloud ReadPly(std::string_view data, const std::string& source,
   const long long n = vertex->count;
   if (n <= 0)
     throw InputError(source, 0, "element vertex", "the cloud has no points");
+  // The data must be there before anything is allocated for it: binary
+  // records of `stride` bytes, ascii lines of at least two bytes a value.
+  const size_t body = data.size() - std::min(pos, data.size());
+  const size_t least_bytes =
+      format == "binary_little_endian"
+          ? static_cast<size_t>(vertex->stride) * static_cast<size_t>(n)
+          : 2 * vertex->props.size() * static_cast<size_t>(n);
+  if (body < least_bytes)
+    throw InputError(source, 0, "element vertex",
+                     "truncated: header declares " + std::to_string(n) +
+                         " vertices, the file is too short to hold them (" +
+                         std::to_string(body) + " bytes of data)");
   // Straight into the cloud's matrix (no zero fill, no second copy).
   Eigen::Matrix3Xd xyz_m(3, n);
   AdviseHugePages(xyz_m.data(), sizeof(double) * 3 * n);
@@ -667,6 +679,23 @@ PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
     throw InputError(source, 0, "POINTS", "the cloud has no points");
   h.points = points;
   const size_t have = data.size() - std::min(h.body, data.size());
+  // PCL sizes its buffer from the header: the data must be there first.
+  // Ascii needs two bytes a value at least; LZF expands at most about
+  // 100 times.
+  const long long values = h.stride == 0 ? 0 : points * h.stride;
+  if (values > limits::kMaxCloudBytes)
+    throw InputError(source, 0, "POINTS",
+                     std::to_string(points) + " points of " +
+                         std::to_string(h.stride) +
+                         " bytes are beyond the "
+                         "limit of " +
+                         std::to_string(limits::kMaxCloudBytes) + " bytes");
+  if (h.data_kind == "ascii" &&
+      static_cast<long long>(have) <
+          2 * points * static_cast<long long>(fields.size()))
+    throw InputError(source, 0, "POINTS",
+                     "truncated: header declares " + std::to_string(points) +
+                         " points, the file is too short to hold them");
   if (h.data_kind == "binary" &&
       have < static_cast<size_t>(h.stride) * static_cast<size_t>(points)) {
     throw InputError(source, 0, "point " + std::to_string(have / h.stride),
@@ -684,6 +713,11 @@ PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
           source, 0, "DATA",
           "compressed data truncated: " + std::to_string(sizes_of[0]) +
               " bytes declared, " + std::to_string(have - 8) + " present");
+    if (static_cast<long long>(sizes_of[1]) > 100LL * sizes_of[0] + 1024)
+      throw InputError(source, 0, "DATA",
+                       "compressed data of " + std::to_string(sizes_of[0]) +
+                           " bytes cannot hold " + std::to_string(points) +
+                           " points");
     if (static_cast<long long>(sizes_of[1]) != h.stride * points)
       throw InputError(source, 0, "DATA",
                        "uncompressed size " + std::to_string(sizes_of[1]) +

@@ -220,6 +220,20 @@ TEST_F(PointIoTest, LimitsBeforeAllocation) {
             std::string::npos);
   EXPECT_NE(ErrorOf(Write("n.xyz", "1e300 0 0\n0 1 0\n0 0 1\n")).find("limit"),
             std::string::npos);
+  // Counts within the limit but far beyond the data: refused before the
+  // coordinates are allocated (a few bytes must not cost a gigabyte).
+  EXPECT_NE(ErrorOf(Write("short.ply",
+                          "ply\nformat ascii 1.0\nelement vertex 50000000\n"
+                          "property double x\nproperty double y\nproperty "
+                          "double z\nend_header\n1 2 3\n"))
+                .find("too short"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("short.pcd", head +
+                                           "COUNT 1 1 1\nWIDTH 50000000\n"
+                                           "HEIGHT 1\nPOINTS 50000000\n"
+                                           "DATA ascii\n1 2 3\n"))
+                .find("too short"),
+            std::string::npos);
   // Blank space only: no points (and no exception other than InputError).
   EXPECT_NE(ErrorOf(Write("blank.xyz", " \n\t\n")).find("blank"),
             std::string::npos);

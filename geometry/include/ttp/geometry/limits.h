@@ -17,6 +17,7 @@ constexpr std::int64_t kMaxCloudPoints = 50'000'000;
 constexpr int kMaxCloudFields = 256;
 constexpr int kMaxFieldCount = 1024;  // PCD COUNT of one field
 constexpr int kMaxRecordBytes = 65'536;
+constexpr std::int64_t kMaxCloudBytes = 4'000'000'000;  // records x points
 // Coordinates of a measured point, mm (the piece is 200 mm, a CMM table a
 // few metres; 1e6 mm rules out 1e300 while leaving every unit mix-up to the
 // inspection's own plausibility checks).
