@@ -195,12 +195,17 @@ class Writer {
     const std::string feed = fmt::format("{:.1f}", p.feed_per_min);
     if (dialect_ == Dialect::kFanuc) {
       Line("G31" + AxisWords(p.to) + " F" + feed);
-      Line(fmt::format(
-          "DPRNT[PROBE*{}*X#5061[44]*Y#5062[44]*Z#5063[44]*C#5064[33]]",
-          p.point_id));
+      // Skip positions of X, Y, Z and C in the control's axis order (C is
+      // #5065 on an XYZBC machine).
+      const auto& v = config_.machine.fanuc_skip_variables;
+      Line(fmt::format("DPRNT[PROBE*{}*X#{}[44]*Y#{}[44]*Z#{}[44]*C#{}[33]]",
+                       p.point_id, v[0], v[1], v[2], v[3]));
     } else {
       Line("G38.2" + AxisWords(p.to) + " F" + feed);
-      Line(fmt::format("(print,probe,{},#5061,#5062,#5063,#5064)", p.point_id));
+      // LinuxCNC probe results by letter: #5061 X .. #5066 C.
+      const auto& v = config_.machine.linuxcnc_probe_variables;
+      Line(fmt::format("(print,probe,{},#{},#{},#{},#{})", p.point_id, v[0],
+                       v[1], v[2], v[3]));
     }
     last_feed_ = feed;
   }

@@ -87,7 +87,8 @@ TEST(ProbeProgramTest, Rs274AcceptsTheLinuxCncProgram) {
       BuildProbeProgram(config, points), Dialect::kLinuxCnc, config);
   auto rs = gcode::RunRs274(text, config);
   auto ours = gcode::ReadProgram(text, Dialect::kLinuxCnc, config, "p");
-  // rs274 substitutes #5061..#5064 in the report: without a probe it
+  // rs274 substitutes #5061..#5063 and #5066 (C on XYZBC) in the report:
+  // without a probe it
   // "trips" at the end of the move, which the report must then show.
   int reports = 0;
   for (size_t i = 1; i < rs.statements.size(); ++i) {
@@ -103,6 +104,8 @@ TEST(ProbeProgramTest, Rs274AcceptsTheLinuxCncProgram) {
     EXPECT_NEAR(x, s.end_mm.x(), 1e-5);
     EXPECT_NEAR(y, s.end_mm.y(), 1e-5);
     EXPECT_NEAR(z, s.end_mm.z(), 1e-5);
+    // #5066 is C on LinuxCNC's XYZBC machine (#5064 would be A: 0).
+    EXPECT_NEAR(c, s.end_c_rad * 180.0 / M_PI, 1e-4) << s.text;
     s.text = "probe";
   }
   EXPECT_EQ(reports, static_cast<int>(points.size()));

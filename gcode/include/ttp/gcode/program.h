@@ -93,7 +93,9 @@ struct Report {
 // Probing move (FANUC G31 skip, LinuxCNC G38.2) towards `to`, stopping at
 // the touch; then the skip position is reported for planned point
 // `point_id`: FANUC `DPRNT[PROBE*<id>*X#5061[44]*Y#5062[44]*Z#5063[44]*
-// C#5064[33]]`, LinuxCNC `(print,probe,<id>,#5061,#5062,#5063,#5064)`.
+// C#5065[33]]`, LinuxCNC `(print,probe,<id>,#5061,#5062,#5063,#5066)` (the
+// variables of the machine profile: fanuc_skip_variables,
+// linuxcnc_probe_variables).
 struct Probe {
   Axes to;
   double feed_per_min;

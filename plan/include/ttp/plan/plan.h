@@ -66,8 +66,10 @@ struct ProbeOptions {
 // On-machine probing program: for every point the table is indexed so that
 // the point's normal is along machine +X (horizontal normals) or +Z (top,
 // strips), so only one linear axis moves while probing. Each touch is
-// followed by a report of the skip position (FANUC: G31 and DPRNT of #5061..;
-// LinuxCNC: G38.2 and (print,...) of #5061..), which the operator saves as
+// followed by a report of the skip position (FANUC: G31 and DPRNT of the
+// profile's skip variables, C = #5065 on XYZBC; LinuxCNC: G38.2, which
+// stops with an error when the probe does not trip, and (print,...) of
+// #5061 X, #5062 Y, #5063 Z, #5066 C), which the operator saves as
 // the probe results CSV `point_id,x,y,z,c_deg` (measurements.md section 2).
 gcode::Program BuildProbeProgram(const Config& config,
                                  const std::vector<PlannedPoint>& points,
