@@ -93,8 +93,8 @@ nlohmann::json RunFit(const FitArgs& a, const Eigen::Matrix3Xd& p,
   // result: bad input for this shape, exit 2.
   if (!summary.Usable()) {
     throw InputError(a.points, 0, a.shape,
-                     std::string("no ") + a.shape + " fit: " +
-                         fit::FitStatusName(summary.status) + ": " +
+                     std::string("no ") + a.shape +
+                         " fit: " + fit::FitStatusName(summary.status) + ": " +
                          summary.message);
   }
   nlohmann::json u = nlohmann::json::object();

@@ -120,7 +120,6 @@ bool CheckRank(const Eigen::MatrixXd& jacobian,
   return false;
 }
 
-
 void RequirePoints(const char* shape, long count, long minimum,
                    bool all_finite) {
   if (count < minimum) {

@@ -293,7 +293,8 @@ ConeFit FitCone(const Eigen::Matrix3Xd& points, const FitOptions& options) {
   } else if (!(half_angle < M_PI / 2 - 1e-4)) {
     // Within 0.1 mrad of 90 degrees the cone is a plane: its apex slides
     // freely in it.
-    fit.apex = fit.point - axis * (fit.radius_at_point_mm / std::tan(half_angle));
+    fit.apex =
+        fit.point - axis * (fit.radius_at_point_mm / std::tan(half_angle));
     fit.summary.status = FitStatus::kDegenerate;
     fit.summary.converged = false;
     fit.summary.message =
@@ -301,7 +302,8 @@ ConeFit FitCone(const Eigen::Matrix3Xd& points, const FitOptions& options) {
         "cone's apex is undefined (fit a plane)";
     fit.summary.covariance.resize(0, 0);
   } else {
-    fit.apex = fit.point - axis * (fit.radius_at_point_mm / std::tan(half_angle));
+    fit.apex =
+        fit.point - axis * (fit.radius_at_point_mm / std::tan(half_angle));
   }
   return fit;
 }

@@ -3,8 +3,8 @@
 // tilt of a facet's normal about Z, not about the scatter's axes).
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/fit.h"
@@ -81,8 +81,9 @@ PlaneFit PlaneOf(const Eigen::Matrix3Xd& points,
 
 CircleFit2D CircleOf(const Eigen::Matrix2Xd& points,
                      const std::vector<Index>& indices) {
-  return FitSubset<CircleFit2D>(
-      points, indices, [](const Eigen::Matrix2Xd& p) { return FitCircle2D(p); });
+  return FitSubset<CircleFit2D>(points, indices, [](const Eigen::Matrix2Xd& p) {
+    return FitCircle2D(p);
+  });
 }
 
 }  // namespace
@@ -153,7 +154,9 @@ TrimmedCircle FitCircle2DTrimmed(const Eigen::Matrix2Xd& points,
   std::vector<Index> keep(static_cast<size_t>(points.cols()));
   for (Index i = 0; i < points.cols(); ++i) keep[static_cast<size_t>(i)] = i;
   out.circle = CircleOf(points, keep);
-  auto usable = [&] { return out.circle.summary.status == FitStatus::kConverged; };
+  auto usable = [&] {
+    return out.circle.summary.status == FitStatus::kConverged;
+  };
   for (double band : bands_mm) {
     if (!usable()) {
       out.inliers = std::move(keep);

@@ -321,10 +321,10 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
         if (std::abs(wall2[j].dot(flank_normal) - sign * half_notch) < 1.0)
           idx.push_back(wall[j]);
       }
-      fit::PlaneFit pl = fit::FitPlaneTrimmed(q, idx, hint,
-                                              Eigen::Vector3d::UnitZ(),
-                                              Rejection(o, 0.05))
-                             .plane;
+      fit::PlaneFit pl =
+          fit::FitPlaneTrimmed(q, idx, hint, Eigen::Vector3d::UnitZ(),
+                               Rejection(o, 0.05))
+              .plane;
       for (double band : {0.5, 0.1}) {
         if (!Usable(pl)) break;
         idx.clear();
@@ -374,9 +374,8 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
           "the datum circle %s (the %g mm cylinder between z %g and %g mm) "
           "is missing: %zu points near it, %d needed; the origin of W "
           "cannot be determined",
-          DatumCylinderId(part).c_str(), 2 * r_cyl,
-          part.datum_circle_z_min_mm, part.datum_circle_z_max_mm, pts.size(),
-          o.min_points);
+          DatumCylinderId(part).c_str(), 2 * r_cyl, part.datum_circle_z_min_mm,
+          part.datum_circle_z_max_mm, pts.size(), o.min_points);
       Refuse(source, why);
     }
     origin2 = c.centre;
@@ -418,8 +417,8 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
     const bool distinct =
         std::abs(std::remainder(2 * phi, 2 * M_PI)) > 1e-6 &&
         std::abs(std::remainder(2 * phi - M_PI, 2 * M_PI)) > 1e-6;
-    out.alignment.mark_found = proper >= 3 && count[0] != count[1] &&
-                               (!distinct || proper > mirrored);
+    out.alignment.mark_found =
+        proper >= 3 && count[0] != count[1] && (!distinct || proper > mirrored);
     if (!out.alignment.mark_found) {
       char why[400];
       if (distinct && mirrored >= 3 && mirrored > proper) {

@@ -12,13 +12,14 @@
 namespace ttp::inspect {
 
 bool DialOptions::IsValid(std::string* error) const {
-  const char* bad = !(resolution_um >= 0) || !std::isfinite(resolution_um)
-                        ? "resolution_um"
-                    : !(repeatability_um >= 0) || !std::isfinite(repeatability_um)
-                        ? "repeatability_um"
-                        : nullptr;
+  const char* bad =
+      !(resolution_um >= 0) || !std::isfinite(resolution_um) ? "resolution_um"
+      : !(repeatability_um >= 0) || !std::isfinite(repeatability_um)
+          ? "repeatability_um"
+          : nullptr;
   if (bad && error)
-    *error = std::string("DialOptions.") + bad + ": must be a finite value >= 0 in um";
+    *error = std::string("DialOptions.") + bad +
+             ": must be a finite value >= 0 in um";
   return bad == nullptr;
 }
 

@@ -100,8 +100,8 @@ InspectionResult InspectCloud(const PartSpec& part, const PointCloud& cloud,
                       aligned.warnings.end());
   const Eigen::Matrix3Xd w = PointsInW(aligned.alignment, cloud.xyz_mm);
   const Segmentation segmentation = SegmentCloud(part, w, o);
-  FittedFeatures fitted = FitFeatures(part, w, segmentation,
-                                      aligned.origin_covariance_mm2, o);
+  FittedFeatures fitted =
+      FitFeatures(part, w, segmentation, aligned.origin_covariance_mm2, o);
   out.features = std::move(fitted.features);
   out.diagnostics = std::move(fitted.diagnostics);
   out.points_assigned = fitted.points_assigned;

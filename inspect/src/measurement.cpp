@@ -357,7 +357,8 @@ InspectionResult FromFeatures(const PartSpec& part, FeatureResults features,
 bool MeasurementOptions::IsValid(std::string* error) const {
   std::string inner;
   const auto fail = [&](const char* member) {
-    if (error) *error = std::string("MeasurementOptions.") + member + "." + inner;
+    if (error)
+      *error = std::string("MeasurementOptions.") + member + "." + inner;
     return false;
   };
   if (!inspect.IsValid(&inner)) return fail("inspect");

@@ -75,7 +75,8 @@ Plane FitPlaneKnownSigma(const std::vector<Eigen::Vector3d>& pts,
 bool ProbeReadOptions::IsValid(std::string* error) const {
   if (!std::isfinite(repeatability_um) || repeatability_um < 0) {
     if (error)
-      *error = "ProbeReadOptions.repeatability_um: must be a finite number >= 0";
+      *error =
+          "ProbeReadOptions.repeatability_um: must be a finite number >= 0";
     return false;
   }
   if (frame != ProbeFrame::kAuto && frame != ProbeFrame::kMachine &&

@@ -70,8 +70,7 @@ TEST(Features, ParseFeatureIds) {
 // by their parts, not by their text ("X1-10" would sort before "X1-2").
 TEST(Features, FeatureIdRoundTripsEveryNominalName) {
   const PartSpec part;
-  for (const NominalFeature& f :
-       BuildNominalFeatures(part, Stage::kFinished)) {
+  for (const NominalFeature& f : BuildNominalFeatures(part, Stage::kFinished)) {
     const std::optional<FeatureId> id = FeatureId::Parse(f.id);
     ASSERT_TRUE(id.has_value()) << f.id;
     EXPECT_EQ(id->ToString(), f.id);
@@ -85,7 +84,8 @@ TEST(Features, FeatureIdRoundTripsEveryNominalName) {
                           "CYL0", "FLANK+X", "Z-1"})
     EXPECT_FALSE(FeatureId::Parse(bad).has_value()) << bad;
   EXPECT_EQ(*FeatureId::Parse("Y2-7"), FeatureId::Facet(Segment::kY2, 7));
-  EXPECT_NE(FeatureId::Facet(Segment::kX1, 7), FeatureId::Facet(Segment::kY1, 7));
+  EXPECT_NE(FeatureId::Facet(Segment::kX1, 7),
+            FeatureId::Facet(Segment::kY1, 7));
   EXPECT_NE(FeatureId::Facet(Segment::kX1, 7), FeatureId::Strip(7));
   EXPECT_TRUE(FeatureId::Facet(Segment::kX1, 2) <
               FeatureId::Facet(Segment::kX1, 9));

@@ -281,14 +281,14 @@ TEST(FitCone, CylinderAndPlaneAreDegenerate) {
       << on_cylinder.apex.transpose();
   const ConeFit on_plane = FitCone(NoisyPlane(rng, 200));
   EXPECT_EQ(on_plane.summary.status, FitStatus::kDegenerate)
-      << on_plane.summary.message << " half angle "
-      << on_plane.half_angle_rad;
+      << on_plane.summary.message << " half angle " << on_plane.half_angle_rad;
   // A slender but real cone (0.5 degrees) is still a cone.
   Eigen::Matrix3Xd slim(3, 60);
   const double tan_half = std::tan(0.5 * M_PI / 180);
   for (int i = 0; i < 60; ++i) {
     const double a = t(rng), z = 100 + h(rng);
-    slim.col(i) = q + z * axis + z * tan_half * (std::cos(a) * u + std::sin(a) * v);
+    slim.col(i) =
+        q + z * axis + z * tan_half * (std::cos(a) * u + std::sin(a) * v);
   }
   const ConeFit fit = FitCone(slim);
   EXPECT_TRUE(fit.summary.Usable()) << fit.summary.message;
@@ -304,8 +304,8 @@ TEST(FitCylinder, IterationLimitIsReportedNotHidden) {
   Eigen::Matrix3Xd p(3, 80);
   for (int i = 0; i < 80; ++i) {
     const double a = t(rng);
-    p.col(i) = q + h(rng) * axis +
-               (8 + g(rng)) * (std::cos(a) * u + std::sin(a) * v);
+    p.col(i) =
+        q + h(rng) * axis + (8 + g(rng)) * (std::cos(a) * u + std::sin(a) * v);
   }
   FitOptions one;
   one.max_iterations = 1;

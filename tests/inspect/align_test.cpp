@@ -61,9 +61,9 @@ TEST(AlignCloud, UndoesAnyPose) {
     EXPECT_LT((a.alignment.rotation * s.rotation - Eigen::Matrix3d::Identity())
                   .norm(),
               1e-4);
-    EXPECT_LT((a.alignment.rotation * s.translation + a.alignment.translation)
-                  .norm(),
-              2e-3);
+    EXPECT_LT(
+        (a.alignment.rotation * s.translation + a.alignment.translation).norm(),
+        2e-3);
     EXPECT_NEAR(a.alignment.circle_diameter_mm, 199.0, 1e-3);
     EXPECT_GT(a.origin_covariance_mm2(0, 0), 0);
     EXPECT_TRUE(a.warnings.empty());
@@ -118,9 +118,9 @@ TEST(AlignCloud, MissingX1FacetsKeepTheOrientation) {
     x1.push_back(FacetId(Segment::kX1, j));
   const SynthPiece s = Piece(9, x1);
   const InspectionResult r = InspectCloud(PartSpec{}, s.cloud);
-  EXPECT_LT((r.alignment.rotation * s.rotation - Eigen::Matrix3d::Identity())
-                .norm(),
-            1e-4);
+  EXPECT_LT(
+      (r.alignment.rotation * s.rotation - Eigen::Matrix3d::Identity()).norm(),
+      1e-4);
   for (const FeatureDiagnostic& d : r.diagnostics)
     EXPECT_EQ(d.status == "missing", d.id.rfind("X1-", 0) == 0) << d.id;
   for (size_t c = 0; c < r.figures.size(); ++c)

@@ -72,7 +72,8 @@ TEST(FitFeatures, KnownPlanesComeBackWithinTheirUncertainty) {
   EXPECT_FALSE(f.features.at(FacetId(kSegments[3], 1)).present);
   EXPECT_EQ(f.diagnostics.size(), 5u * facets);
   int missing = 0;
-  for (const FeatureDiagnostic& dg : f.diagnostics) missing += dg.status == "missing";
+  for (const FeatureDiagnostic& dg : f.diagnostics)
+    missing += dg.status == "missing";
   EXPECT_EQ(missing, 5 * facets - 2);
 }
 

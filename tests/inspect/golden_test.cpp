@@ -1,7 +1,8 @@
 // Golden outputs: every measurement path (cloud PLY and XYZ, probe CSV,
-// DMIS output, dial CSV) and `ttp fit` on NIST reference sets, compared with the outputs committed under
-// tests/inspect/golden/ (written by `ttp ... --json` from the same inputs).
-// A refactoring must not change them beyond the last digits.
+// DMIS output, dial CSV) and `ttp fit` on NIST reference sets, compared with
+// the outputs committed under tests/inspect/golden/ (written by `ttp ...
+// --json` from the same inputs). A refactoring must not change them beyond the
+// last digits.
 //
 // Tolerance: a number agrees when |got - want| <= 1e-9 (absolute, in the
 // file's own units: um, urad, mm) or <= 1e-7 * |want| (relative). Different
@@ -13,9 +14,10 @@
 //
 // To regenerate after an intended change of the outputs, run from the
 // repository root (and say why in the commit):
-//   ttp -q inspect samples/run-a/piece.ply --json tests/inspect/golden/run-a.inspect.json
-//   (likewise run-b, probe.csv, piece.dmo, dial.csv;
-//   `ttp -q fit SHAPE reference/nist-fits/...ds --json .../fit-NAME.json`)
+//   ttp -q inspect samples/run-a/piece.ply --json
+//   tests/inspect/golden/run-a.inspect.json (likewise run-b, probe.csv,
+//   piece.dmo, dial.csv; `ttp -q fit SHAPE reference/nist-fits/...ds --json
+//   .../fit-NAME.json`)
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -196,12 +198,12 @@ TEST(GoldenFit, NistSetsSameAsCommitted) {
   const struct {
     const char* shape;
     const char* set;
-  } sets[] = {{"plane", "Plane/pla8"},       {"line", "Line3d/lin3"},
-              {"circle3d", "Circle3d/cir5"}, {"sphere", "Sphere/sph5"},
+  } sets[] = {{"plane", "Plane/pla8"},        {"line", "Line3d/lin3"},
+              {"circle3d", "Circle3d/cir5"},  {"sphere", "Sphere/sph5"},
               {"cylinder", "Cylinder/cyl21"}, {"cone", "Cone/con19"}};
   for (const auto& s : sets) {
-    const std::string name = std::string(s.set).substr(
-        std::string(s.set).find('/') + 1);
+    const std::string name =
+        std::string(s.set).substr(std::string(s.set).find('/') + 1);
     const PointCloud cloud = ReadPointCloud(
         kData + "/reference/nist-fits/" + s.set + ".ds", ReadOptions{});
     nlohmann::json want = ReadJson(kGolden + "fit-" + name + ".json");

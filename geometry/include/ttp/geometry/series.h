@@ -11,8 +11,7 @@ namespace ttp {
 // t (same length, at least one), held constant outside [t.front, t.back].
 // V is any type with V * double and V + V (double, Eigen vectors).
 template <class V>
-V Interpolate(const std::vector<double>& t, const std::vector<V>& v,
-              double x) {
+V Interpolate(const std::vector<double>& t, const std::vector<V>& v, double x) {
   if (x <= t.front()) return v.front();
   if (x >= t.back()) return v.back();
   const size_t i = std::upper_bound(t.begin(), t.end(), x) - t.begin();
