@@ -303,11 +303,10 @@ Score Evaluate(const Grams& g, const std::vector<int>& idx, double lambda,
                const FitOptions& o) {
   Score s;
   s.lambda = lambda;
-  double sse = 0, count = 0, worst = 0;
+  double sse = 0, count = 0;
   Eigen::VectorXd theta;
   for (int k = o.cv_first_validation_block; k < o.cv_blocks; ++k) {
-    const Eigen::MatrixXd& v =
-        o.cv_horizon == "block" ? g.valid[k] : g.after[k];
+    const Eigen::MatrixXd& v = g.after[k];
     const double nv = v(0, 0);
     if (nv <= 0) continue;
     if (g.train[k](0, 0) < idx.size() + 1) continue;
@@ -315,10 +314,8 @@ Score Evaluate(const Grams& g, const std::vector<int>& idx, double lambda,
     const double fold = Sse(v, idx, theta);
     sse += fold;
     count += nv;
-    worst = std::max(worst, std::sqrt(fold / nv));
   }
-  if (count > 0)
-    s.cv_rms = o.cv_pooling == "worst" ? worst : std::sqrt(sse / count);
+  if (count > 0) s.cv_rms = std::sqrt(sse / count);
   if (!Solve(g.all, idx, lambda, &theta)) return s;
   // In-sample RMS unweighted: the sum of the validation-style Grams.
   Eigen::MatrixXd u = Eigen::MatrixXd::Zero(g.all.rows(), g.all.cols());

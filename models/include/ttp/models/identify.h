@@ -49,15 +49,11 @@ struct FitOptions {
   int max_terms = 8;  // regressors per output, intercept not counted
   // Chronological cross-validation: the fitted span is cut into cv_blocks
   // blocks of equal time; fold k trains on blocks [0, k) and validates on
-  // block k, for k = cv_first_validation_block .. cv_blocks - 1.
+  // every block from k to the end (the horizon of a real prediction: hours
+  // ahead), for k = cv_first_validation_block .. cv_blocks - 1; the score is
+  // the RMS over every validated sample.
   int cv_blocks = 8;
   int cv_first_validation_block = 4;
-  // "pooled": RMS over every validation block; "worst": the largest block
-  // RMS (favours models that hold up on every block).
-  std::string cv_pooling = "pooled";
-  // "all": fold k validates on every block from k to the end (the horizon
-  // of a real prediction: hours ahead); "block": on block k only.
-  std::string cv_horizon = "all";
   // Ridge factors (relative, on standardised regressors) tried by CV.
   std::vector<double> ridge = {0, 1e-4, 1e-3, 1e-2, 1e-1, 1};
   // "cv": CV RMS times the MDL factor (1 + p ln N / N); "mdl": the thesis'
