@@ -71,10 +71,16 @@ void Register(CLI::App& root, GlobalOptions& global) {
     auto output = std::make_shared<std::string>("-");
     cmd->add_option("--dialect", *dialect, "fanuc (default) or linuxcnc");
     cmd->add_option("-o,--output", *output, "text here (default stdout)");
-    cmd->callback([&global, dialect, output, build] {
+    auto dry_run = std::make_shared<double>(-1.0);
+    cmd->add_option("--dry-run", *dry_run,
+                    "shorten every dwell to at most this many seconds (a "
+                    "trial run on a controller; nothing else changes)");
+    cmd->callback([&global, dialect, output, build, dry_run] {
       const Dialect d = ParseDialect(*dialect, "--dialect");
       const Config config = global.LoadConfig();
-      WriteText(*output, WriteProgram(build(config), d, config));
+      gcode::Program program = build(config);
+      if (*dry_run >= 0) cam::ShortenDwells(program, *dry_run);
+      WriteText(*output, WriteProgram(program, d, config));
     });
   };
   add_program("pre", "write the pre-machining program (steps 1-5, NC hold)",

@@ -246,6 +246,12 @@ void PreFacets(PathWriter& path, const Config& c) {
 
 }  // namespace
 
+void ShortenDwells(gcode::Program& program, double max_s) {
+  for (gcode::Statement& s : program.statements)
+    if (auto* d = std::get_if<gcode::Dwell>(&s))
+      d->seconds = std::min(d->seconds, max_s);
+}
+
 std::string CycleCommentText(int cycle) {
   return fmt::format("cycle {}", cycle);
 }

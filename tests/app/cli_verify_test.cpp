@@ -185,5 +185,22 @@ TEST(CliVerify, BadInputIsExit2) {
   EXPECT_NE(r.output.find(":2"), std::string::npos) << r.output;
 }
 
+// A notch wider than the piece is refused with the field's name before
+// anything is written (it used to crash the cut simulation).
+TEST(CliVerify, FeaturesThatDoNotFitAreRefusedNamingTheField) {
+  const fs::path config = Dir() / "wide_notch.json";
+  WriteLines(config, {R"({"part":{"big_notch_half_width_mm":200}})"});
+  const fs::path json = Dir() / "wide_notch_result.json";
+  for (const std::string& args : {std::string("verify --json ") + json.string(),
+                                  std::string("gcode cycle --dialect linuxcnc"),
+                                  std::string("schedule")}) {
+    const auto r = test::RunTtp("--config " + config.string() + " " + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find("part.big_notch_half_width_mm"), std::string::npos)
+        << r.output;
+  }
+  EXPECT_FALSE(fs::exists(json));
+}
+
 }  // namespace
 }  // namespace ttp

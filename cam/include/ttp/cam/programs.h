@@ -52,6 +52,10 @@ TestCycleLayout ComputeTestCycleLayout(const Config& config);
 double XFacetTableAngleDeg(const Config& config, int j);
 double YFacetTableAngleDeg(const Config& config, int j);
 
+// Dry run: every dwell longer than max_s becomes max_s; nothing else
+// changes (a trial on a controller keeps the moves, feeds and reports).
+void ShortenDwells(gcode::Program& program, double max_s);
+
 // Text of the cycle comment, "cycle <k>".
 std::string CycleCommentText(int cycle);
 
