@@ -87,11 +87,20 @@ std::string ParamText(const diagnosis::ParamEstimate& p) {
 std::string Summary(const diagnosis::DiagnosisReport& d, double threshold) {
   std::vector<const diagnosis::CandidateResult*> ranked;
   for (const auto& c : d.candidates) {
-    if (c.cause != diagnosis::Cause::kNone) ranked.push_back(&c);
+    if (!c.causes.empty()) ranked.push_back(&c);
   }
   std::sort(ranked.begin(), ranked.end(), [](const auto* a, const auto* b) {
     return a->delta_bic < b->delta_bic;
   });
+  if (d.status == diagnosis::DiagnosisStatus::kRefused ||
+      d.status == diagnosis::DiagnosisStatus::kUnexplained) {
+    std::string s = fmt::format("{}: {}.", diagnosis::StatusName(d.status),
+                                d.reason);
+    for (const auto& l : d.structure)
+      s += fmt::format(" {}: {:.3g} {} (chi2 per observation {:.1f}).",
+                       l.where, l.rms, l.unit, l.chi2_per_observation);
+    return s;
+  }
   if (d.cause == "none") {
     std::string s = fmt::format(
         "No cause beyond noise: no extension of the model beats the nominal "
@@ -99,23 +108,23 @@ std::string Summary(const diagnosis::DiagnosisReport& d, double threshold) {
         threshold);
     if (!ranked.empty()) {
       s += fmt::format(" Best candidate: {} (delta BIC {:.1f}).",
-                       diagnosis::CauseName(ranked[0]->cause),
+                       ranked[0]->name,
                        ranked[0]->delta_bic);
     }
     return s;
   }
   std::string s;
   for (const auto* c : ranked) {
-    if (diagnosis::CauseName(c->cause) != d.cause) continue;
+    if (c->name != d.cause) continue;
     s = fmt::format(
         "{}: its BIC is lower than the nominal model's by {:.1f} (delta "
         "BIC {:+.1f}; a cause is named below -{:g})",
         d.cause, -c->delta_bic, c->delta_bic, threshold);
   }
   for (const auto* c : ranked) {
-    if (diagnosis::CauseName(c->cause) == d.cause) continue;
+    if (c->name == d.cause) continue;
     s += fmt::format("; the next best candidate, {}, has delta BIC {:+.1f}",
-                     diagnosis::CauseName(c->cause), c->delta_bic);
+                     c->name, c->delta_bic);
     break;
   }
   s += ". Fitted: ";
@@ -133,14 +142,6 @@ std::string Summary(const diagnosis::DiagnosisReport& d, double threshold) {
 json Residuals(const diagnosis::PreparedRun& run,
                const diagnosis::DiagnosisReport& d, const PartSpec& part) {
   const diagnosis::Observations& obs = run.observations;
-  std::vector<double> effect(obs.size(), 0.0);
-  for (const auto& c : d.candidates) {
-    if (diagnosis::CauseName(c.cause) == d.cause &&
-        c.cause != diagnosis::Cause::kNone && !c.params.empty()) {
-      effect = diagnosis::EffectOnObservations(c.cause, c.params, obs,
-                                               run.context, part);
-    }
-  }
   const char* keys[4] = {"E_X", "E_Y", "E_Z", "E_TTP"};
   json out = {{"cycles", json::array()},
               {"before", json::object()},
@@ -154,12 +155,13 @@ json Residuals(const diagnosis::PreparedRun& run,
         out[part_name][key].push_back(nullptr);
     }
   }
-  for (size_t i = 0; i < obs.size(); ++i) {
-    const int g = obs.group[i], c = obs.cycle[i];
+  for (size_t i = 0; i < obs.figures(); ++i) {
+    const int g = obs.figure_kind[i], c = obs.figure_cycle[i];
     if (g < 0 || g > 3 || c < 1 || c > part.cycles()) continue;
-    out["before"][keys[g]][c - 1] = obs.value[i];
-    out["after"][keys[g]][c - 1] = obs.value[i] - effect[i];
-    out["sigma"][keys[g]][c - 1] = obs.sigma[i];
+    out["before"][keys[g]][c - 1] = obs.figure_value_um[i];
+    if (i < d.figure_after_um.size())
+      out["after"][keys[g]][c - 1] = d.figure_after_um[i];
+    out["sigma"][keys[g]][c - 1] = obs.figure_sigma_um[i];
   }
   return out;
 }

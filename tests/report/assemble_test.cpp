@@ -7,7 +7,7 @@
 #include <string>
 
 #include "test_dir.h"
-#include "ttp/diagnosis/twin.h"
+#include "ttp/sim/twin.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/report/report.h"
@@ -21,16 +21,15 @@ using nlohmann::json;
 // One twin run with a hidden workpiece expansion, shared by the tests.
 struct TwinFixture {
   Config config;
-  diagnosis::TwinRun twin;
+  sim::TwinRun twin;
   thermal::TalcLog log;
   inspect::InspectionResult measured;
 
   TwinFixture() {
-    diagnosis::TwinOptions o;
-    o.effect = diagnosis::Cause::kWorkpieceExpansion;
-    o.size = 1.0;
+    sim::TwinOptions o;
+    o.workpiece_gain = 1.0;
     o.seed = 7;
-    twin = diagnosis::RunTwin(config, o);
+    twin = sim::RunTwin(config, o);
     log = thermal::ParseTalcLog(twin.log_text, "twin.csv");
     measured.source = "twin measurement";
     measured.features = twin.measured;
@@ -134,7 +133,8 @@ TEST(AssembleReportData, DiagnosisNamesTheHiddenCauseWithEvidence) {
   EXPECT_TRUE(d["extended"]["params"].contains("tau_wp_s"));
   EXPECT_LT(d["extended"]["rms_um"].get<double>(),
             d["baseline"]["rms_um"].get<double>());
-  EXPECT_EQ(d["candidates"].size(), 5u);
+  EXPECT_EQ(d["candidates"].size(), 11u);  // none, 4 causes, 6 pairs
+  EXPECT_EQ(d["status"], "named");
   EXPECT_NE(d["summary"].get<std::string>().find("workpiece_expansion"),
             std::string::npos);
   // Same as the diagnosis run on its own.
@@ -181,6 +181,8 @@ TEST(AssembleReportData, TakesTheCallersDiagnosis) {
       AssembleReportData(Twin().log, Twin().config, Twin().measured, &given);
   EXPECT_EQ(same, TwinData());
   given.report.cause = "none";
+  given.report.status = diagnosis::DiagnosisStatus::kNone;
+  given.report.figure_after_um = given.run.observations.figure_value_um;
   const json none =
       AssembleReportData(Twin().log, Twin().config, Twin().measured, &given);
   EXPECT_EQ(none["diagnosis"]["cause"], "none");
