@@ -1,12 +1,15 @@
 // `ttp diagnose --log LOG MEASUREMENT`: what the simulation gets wrong
-// (diagnosis.md). `ttp twin`: a synthetic run with a hidden effect.
+// (diagnosis.md); one status (named, none, unexplained: exit 0; refused:
+// exit 1; unreadable input: exit 2). `ttp twin`: a synthetic run with
+// hidden effects (sim/).
 #include <filesystem>
 
 #include "command.h"
 #include "planned_cuts.h"
 #include "ttp/diagnosis/diagnose.h"
-#include "ttp/diagnosis/twin.h"
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/sim/twin.h"
 #include "ttp/thermal/talc_log.h"
 
 namespace ttp::app {
@@ -21,7 +24,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     auto log_path = std::make_shared<std::string>();
     auto measurement = std::make_shared<std::string>();
     auto json_out = std::make_shared<std::string>();
-    auto threshold = std::make_shared<double>(10.0);
+    auto threshold =
+        std::make_shared<double>(diagnosis::DiagnosisOptions{}.evidence_threshold);
     cmd->add_option("--log", *log_path, "TALC log (CSV)")->required();
     cmd->add_option(
            "measurement", *measurement,
@@ -33,7 +37,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("--json", *json_out, "also write the diagnosis as JSON");
     cmd->add_option("--evidence", *threshold,
                     "BIC margin over the nominal model needed to name a "
-                    "cause (default 10)")
+                    "cause (default: the calibrated threshold, "
+                    "docs/DIAGNOSIS.md)")
         ->check(FiniteRange(0.0, 1e6));
     auto no_schedule = std::make_shared<bool>(false);
     cmd->add_flag("--no-schedule-check", *no_schedule,
@@ -43,19 +48,46 @@ void Register(CLI::App& root, GlobalOptions& global) {
         [&global, log_path, measurement, json_out, threshold, no_schedule] {
           const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
           const Config config = global.LoadConfig();
-          // A log that did not come from this program is an input error.
-          if (!*no_schedule)
-            thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
-          const diagnosis::MeasuredPiece measured =
-              diagnosis::LoadMeasuredPiece(config, *measurement);
           diagnosis::DiagnosisOptions options;
           options.evidence_threshold = *threshold;
-          const diagnosis::DiagnosisReport report =
-              diagnosis::DiagnoseRun(log, config, measured, options);
+          std::string invalid;
+          if (!options.IsValid(&invalid))
+            throw CLI::ValidationError("--evidence", invalid);
+          const diagnosis::MeasuredPiece measured =
+              diagnosis::LoadMeasuredPiece(config, *measurement);
+          // A log that does not match the program's schedule (or does not
+          // cover its cuts) cannot belong to the measured piece: refused.
+          diagnosis::DiagnosisReport report;
+          bool refused = false;
+          if (!*no_schedule) {
+            try {
+              thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
+            } catch (const InputError& e) {
+              report.status = diagnosis::DiagnosisStatus::kRefused;
+              report.cause.clear();
+              report.reason = std::string("the log does not match the "
+                                          "program that cut the piece: ") +
+                              e.what();
+              refused = true;
+            }
+          }
+          if (!refused) {
+            try {
+              report = diagnosis::DiagnoseRun(log, config, measured, options);
+            } catch (const InputError& e) {
+              // Cuts the log's R-tests do not cover.
+              if (e.field() != "t_s") throw;
+              report.status = diagnosis::DiagnosisStatus::kRefused;
+              report.cause.clear();
+              report.reason = e.what();
+            }
+          }
           if (!global.quiet || json_out->empty())
             TextOut(*json_out) << diagnosis::DiagnosisText(report);
           if (!json_out->empty())
             WriteJson(*json_out, diagnosis::DiagnosisToJson(report));
+          if (report.status == diagnosis::DiagnosisStatus::kRefused)
+            global.exit_code = kExitJudgedFailure;
         });
   }
   {
@@ -64,18 +96,27 @@ void Register(CLI::App& root, GlobalOptions& global) {
         "synthetic run: TALC log, measured piece and truth, with a hidden "
         "effect");
     auto effect = std::make_shared<std::string>("none");
-    auto options = std::make_shared<diagnosis::TwinOptions>();
+    auto options = std::make_shared<sim::TwinOptions>();
+    auto size = std::make_shared<double>(0.0);
     auto compensation = std::make_shared<std::string>("off");
     auto out_dir = std::make_shared<std::string>();
     cmd->add_option("--effect", *effect,
                     "none, workpiece_expansion, tool_wear, "
                     "clamping_distortion or c_axis_indexing");
-    cmd->add_option("--size", options->size,
+    cmd->add_option("--size", *size,
                     "effect size: workpiece_expansion gain, tool_wear um/m, "
                     "clamping_distortion um, c_axis_indexing urad")
         ->check(FiniteRange(0.0, 1e4));
     cmd->add_option("--seed", options->seed, "random seed (default 1)")
         ->check(CLI::NonNegativeNumber);  // -1 would wrap to 2^64 - 1
+    cmd->add_option("--step-um", options->step_um,
+                    "an effect outside the catalogue: every facet shifted "
+                    "by this much from a cycle on (--step-from-cycle)");
+    cmd->add_option("--step-from-cycle", options->step_from_cycle,
+                    "first cycle of the step (default: drawn, 3..7)");
+    cmd->add_option("--two-lobe-um", options->two_lobe_amplitude_um,
+                    "an effect outside the catalogue: a two-lobe radial "
+                    "distortion of this amplitude");
     cmd->add_option("--compensation", *compensation,
                     "on (the controller compensates with an imperfect model; "
                     "pred_* columns in the log) or off (default)")
@@ -107,26 +148,27 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "parameters, the true figures)")
         ->required();
     cmd->callback(
-        [&global, effect, options, compensation, out_dir, measurement] {
-          diagnosis::TwinOptions o = *options;
+        [&global, effect, options, size, compensation, out_dir, measurement] {
+          sim::TwinOptions o = *options;
           o.compensation = *compensation == "on";
+          if (*effect != "none" && !(*size > 0))
+            throw CLI::ValidationError("--size", "must be > 0 with an effect");
           try {
-            o.effect = diagnosis::CauseFromName(*effect);
+            sim::SetEffect(&o, *effect, *size);
           } catch (const std::invalid_argument& e) {
             throw CLI::ValidationError("--effect", e.what());
           }
-          if (o.effect != diagnosis::Cause::kNone && !(o.size > 0))
-            throw CLI::ValidationError("--size", "must be > 0 with an effect");
+          std::string invalid;
+          if (!o.IsValid(&invalid)) throw CLI::ValidationError("twin", invalid);
           const Config config = global.LoadConfig();
-          const diagnosis::TwinRun run = diagnosis::RunTwin(config, o);
+          const sim::TwinRun run = sim::RunTwin(config, o);
           // All three files or none (an existing run survives a failure).
           StagedFolder staged(*out_dir);
           const std::string written =
               (std::filesystem::path(*out_dir) /
                std::filesystem::path(
-                   diagnosis::WriteTwin(
-                       config, run, o, staged.path().string(),
-                       diagnosis::TwinMeasurementFromName(*measurement)))
+                   sim::WriteTwin(config, run, o, staged.path().string(),
+                                  sim::TwinMeasurementFromName(*measurement)))
                    .filename())
                   .lexically_normal()
                   .string();

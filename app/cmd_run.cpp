@@ -22,7 +22,7 @@
 #include "ttp/cam/programs.h"
 #include "ttp/cam/schedule.h"
 #include "ttp/diagnosis/diagnose.h"
-#include "ttp/diagnosis/twin.h"
+#include "ttp/sim/twin.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/gcode/rs274.h"
 #include "ttp/gcode/writer.h"
@@ -52,7 +52,7 @@ struct RunArgs {
 };
 
 // Sizes well inside the range the battery shows is diagnosable, in each
-// cause's own unit (twin.h).
+// cause's own unit (sim/twin.h).
 double ClearSize(diagnosis::Cause cause) {
   switch (cause) {
     case diagnosis::Cause::kNone:
@@ -82,7 +82,7 @@ struct RunContext {
 
   // Kept between stages.
   std::string program_text[2][2];  // [pre, cycle][fanuc, linuxcnc]
-  diagnosis::TwinRun twin;
+  sim::TwinRun twin;
   diagnosis::Cause hidden = diagnosis::Cause::kNone;
   inspect::Measurement measurement;
   inspect::GradeResult grade;  // of the measurement, as `ttp grade`
@@ -209,24 +209,26 @@ void MeshStage(RunContext& ctx) {
 }
 
 void TwinStage(RunContext& ctx) {
-  diagnosis::TwinOptions options;
+  sim::TwinOptions options;
   options.seed = ctx.args.seed;
+  diagnosis::Cause cause;
   if (ctx.args.cause) {
-    options.effect = *ctx.args.cause;
+    cause = *ctx.args.cause;
   } else {  // a cause drawn from the seed (possibly none)
     std::mt19937_64 rng(ctx.args.seed);
-    options.effect = diagnosis::kAllCauses[rng() % 5];
+    cause = diagnosis::kAllCauses[rng() % 5];
   }
-  options.size = ctx.args.size > 0 ? ctx.args.size : ClearSize(options.effect);
-  ctx.hidden = options.effect;
-  ctx.twin = diagnosis::RunTwin(ctx.config, options);
+  sim::SetEffect(&options, diagnosis::CauseName(cause),
+                 ctx.args.size > 0 ? ctx.args.size : ClearSize(cause));
+  ctx.hidden = cause;
+  ctx.twin = sim::RunTwin(ctx.config, options);
   // As `ttp twin` writes it: the log, the truth (without the pose, which the
   // cloud's random pose replaces) and the finished piece measured on a CMM
   // (the twin's point count and probing noise, 0.2 % strays, any pose).
   const fs::path dir = ctx.out_dir / "twin";
   const fs::path cloud_path =
-      diagnosis::WriteTwin(ctx.config, ctx.twin, options, dir.string(),
-                           diagnosis::TwinMeasurement::kPly);
+      sim::WriteTwin(ctx.config, ctx.twin, options, dir.string(),
+                     sim::TwinMeasurement::kPly);
   ctx.written.emplace_back(dir / "talc.csv",
                            "TALC log of the twin run (8-hour cycle)");
   ctx.written.emplace_back(dir / "truth.json",
@@ -321,11 +323,18 @@ void DiagnoseStage(RunContext& ctx) {
   ctx.Write("diagnosis.txt", diagnosis::DiagnosisText(report),
             "diagnosis (text)");
   const std::string hidden = diagnosis::CauseName(ctx.hidden);
+  const std::string outcome =
+      report.status == diagnosis::DiagnosisStatus::kNamed
+          ? report.cause
+          : diagnosis::StatusName(report.status);
   ctx.summary.push_back(fmt::format(
-      "diagnosis: {} (the twin hid {}: {}); residual RMS {:.3f} -> {:.3f} um",
-      report.cause, hidden,
-      report.cause == hidden ? "named right" : "NOT the hidden cause",
+      "diagnosis: {} ({}; the twin hid {}: {}); residual RMS {:.3f} -> {:.3f} "
+      "um",
+      diagnosis::StatusName(report.status), outcome, hidden,
+      outcome == hidden ? "right" : "NOT the hidden cause",
       report.baseline_rms_um, report.extended_rms_um));
+  if (report.status == diagnosis::DiagnosisStatus::kRefused)
+    ctx.judged_failure = true;
 }
 
 // The main job, in order.

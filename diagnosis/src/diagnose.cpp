@@ -1,13 +1,15 @@
 #include "ttp/diagnosis/diagnose.h"
 
-#include <ceres/ceres.h>
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <limits>
+#include <optional>
+#include <map>
+#include <numeric>
+#include <stdexcept>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
@@ -17,10 +19,10 @@ namespace ttp::diagnosis {
 namespace {
 
 constexpr const char* kFigureNames[4] = {"E_X", "E_Y", "E_Z", "E_TTP"};
-constexpr int kGroups = 5;  // E_X, E_Y, E_Z, E_TTP, facet angles
+constexpr double kInf = std::numeric_limits<double>::infinity();
 
-double FigureValueMm(const CycleFigures& f, int group) {
-  switch (group) {
+double FigureValueMm(const CycleFigures& f, int kind) {
+  switch (kind) {
     case 0:
       return f.e_x_mm;
     case 1:
@@ -31,8 +33,8 @@ double FigureValueMm(const CycleFigures& f, int group) {
       return f.e_ttp_mm;
   }
 }
-double FigureUncertaintyMm(const CycleFigures& f, int group) {
-  switch (group) {
+double FigureUncertaintyMm(const CycleFigures& f, int kind) {
+  switch (kind) {
     case 0:
       return f.u_x_mm;
     case 1:
@@ -44,244 +46,6 @@ double FigureUncertaintyMm(const CycleFigures& f, int group) {
   }
 }
 
-struct FitResult {
-  std::vector<double> params;   // cause parameters
-  std::vector<double> offsets;  // nuisance, per group
-  double chi2 = 0;
-  Eigen::MatrixXd covariance;  // cause parameters (k = 1)
-  bool ok = true;
-};
-
-// Weighted linear least squares y ~ X b on the rows in `use`.
-bool SolveWeighted(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
-                   const Eigen::VectorXd& w, Eigen::VectorXd* b,
-                   Eigen::MatrixXd* cov, double* chi2) {
-  const Eigen::MatrixXd xw = w.asDiagonal() * x;
-  const Eigen::VectorXd yw = w.asDiagonal() * y;
-  const Eigen::MatrixXd n = xw.transpose() * xw;
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(n);
-  if (ldlt.info() != Eigen::Success) return false;
-  *b = ldlt.solve(xw.transpose() * yw);
-  if (cov) *cov = ldlt.solve(Eigen::MatrixXd::Identity(n.rows(), n.cols()));
-  *chi2 = (yw - xw * *b).squaredNorm();
-  return b->allFinite();
-}
-
-class Fitter {
- public:
-  Fitter(const Observations& obs, const EffectContext& context,
-         const PartSpec& part, const DiagnosisOptions& options,
-         std::vector<bool> use)
-      : obs_(obs),
-        context_(context),
-        part_(part),
-        options_(options),
-        use_(std::move(use)) {
-    for (size_t i = 0; i < obs.size(); ++i)
-      if (use_[i]) group_used_[obs.group[i]] = true;
-    for (int g = 0; g < kGroups; ++g)
-      if (group_used_[g]) nuisance_groups_.push_back(g);
-    for (size_t i = 0; i < obs.size(); ++i)
-      if (use_[i]) rows_.push_back(static_cast<int>(i));
-  }
-
-  int NuisanceCount() const {
-    return static_cast<int>(nuisance_groups_.size());
-  }
-  int Rows() const { return static_cast<int>(rows_.size()); }
-
-  Eigen::VectorXd Effect(Cause cause, const std::vector<double>& p) const {
-    const auto v = EffectOnObservations(cause, p, obs_, context_, part_);
-    return Eigen::Map<const Eigen::VectorXd>(v.data(), v.size());
-  }
-
-  // Linear fit: y - base = sum_k p_k column_k + offsets.
-  FitResult FitLinear(const std::vector<Eigen::VectorXd>& columns,
-                      const Eigen::VectorXd& base) const {
-    const int nr = Rows(), nc = static_cast<int>(columns.size()),
-              nn = NuisanceCount();
-    Eigen::MatrixXd x = Eigen::MatrixXd::Zero(nr, nc + nn);
-    Eigen::VectorXd y(nr), w(nr);
-    for (int r = 0; r < nr; ++r) {
-      const int i = rows_[r];
-      for (int c = 0; c < nc; ++c) x(r, c) = columns[c][i];
-      for (int g = 0; g < nn; ++g)
-        x(r, nc + g) = obs_.group[i] == nuisance_groups_[g] ? 1.0 : 0.0;
-      y[r] = obs_.value[i] - base[i];
-      w[r] = 1.0 / obs_.sigma[i];
-    }
-    FitResult fit;
-    Eigen::VectorXd b;
-    Eigen::MatrixXd cov;
-    fit.ok = SolveWeighted(x, y, w, &b, &cov, &fit.chi2);
-    if (!fit.ok) {
-      fit.chi2 = std::numeric_limits<double>::infinity();
-      return fit;
-    }
-    fit.params.assign(b.data(), b.data() + nc);
-    fit.offsets.assign(kGroups, 0.0);
-    for (int g = 0; g < nn; ++g) fit.offsets[nuisance_groups_[g]] = b[nc + g];
-    fit.covariance = cov.topLeftCorner(nc, nc);
-    return fit;
-  }
-
-  FitResult Fit(Cause cause) const {
-    const size_t n = obs_.size();
-    const int np = static_cast<int>(CauseParameterNames(cause).size());
-    if (cause == Cause::kWorkpieceExpansion) return FitWorkpiece();
-    std::vector<Eigen::VectorXd> columns;
-    for (int k = 0; k < np; ++k) {
-      std::vector<double> p(np, 0.0);
-      p[k] = 1.0;
-      columns.push_back(Effect(cause, p));
-    }
-    FitResult fit = FitLinear(columns, Eigen::VectorXd::Zero(n));
-    if (cause == Cause::kToolWear && fit.ok && fit.params[0] < 0) {
-      // A cutter does not grow: the constrained optimum is no wear.
-      FitResult zero = FitLinear({}, Eigen::VectorXd::Zero(n));
-      zero.params = {0.0};
-      zero.covariance = fit.covariance;
-      return zero;
-    }
-    return fit;
-  }
-
-  // Nonlinear in tau_wp_s: a grid for the start, then Ceres on
-  // (log tau, gain, offsets); gain and offsets enter linearly.
-  FitResult FitWorkpiece() const {
-    FitResult best;
-    best.chi2 = std::numeric_limits<double>::infinity();
-    double best_tau = options_.tau_grid_s.front();
-    for (double tau : options_.tau_grid_s) {
-      const Eigen::VectorXd base = Effect(Cause::kWorkpieceExpansion, {tau, 0});
-      const Eigen::VectorXd one = Effect(Cause::kWorkpieceExpansion, {tau, 1});
-      FitResult f = FitLinear({one - base}, base);
-      if (f.ok && f.chi2 < best.chi2) {
-        best = f;
-        best_tau = tau;
-      }
-    }
-    if (!std::isfinite(best.chi2)) return best;
-    const int nn = NuisanceCount();
-    std::vector<double> x = {std::log(best_tau), best.params[0]};
-    for (int g : nuisance_groups_) x.push_back(best.offsets[g]);
-    auto residuals = [this, nn](const double* p, double* out) {
-      const Eigen::VectorXd e =
-          Effect(Cause::kWorkpieceExpansion, {std::exp(p[0]), p[1]});
-      for (int r = 0; r < Rows(); ++r) {
-        const int i = rows_[r];
-        double offset = 0;
-        for (int g = 0; g < nn; ++g)
-          if (obs_.group[i] == nuisance_groups_[g]) offset = p[2 + g];
-        out[r] = (obs_.value[i] - e[i] - offset) / obs_.sigma[i];
-      }
-    };
-    struct Cost {
-      decltype(residuals) f;
-      bool operator()(double const* const* p, double* out) const {
-        f(p[0], out);
-        return true;
-      }
-    };
-    auto* cost =
-        new ceres::DynamicNumericDiffCostFunction<Cost>(new Cost{residuals});
-    cost->AddParameterBlock(static_cast<int>(x.size()));
-    cost->SetNumResiduals(Rows());
-    ceres::Problem problem;
-    problem.AddResidualBlock(cost, nullptr, x.data());
-    problem.SetParameterLowerBound(x.data(), 0, std::log(60.0));
-    problem.SetParameterUpperBound(x.data(), 0, std::log(40000.0));
-    ceres::Solver::Options so;
-    so.max_num_iterations = 50;
-    so.logging_type = ceres::SILENT;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
-    // Covariance from the Jacobian at the solution.
-    Eigen::MatrixXd jac(Rows(), x.size());
-    std::vector<double> r0(Rows()), r1(Rows());
-    residuals(x.data(), r0.data());
-    double chi2 = 0;
-    for (double v : r0) chi2 += v * v;
-    for (size_t k = 0; k < x.size(); ++k) {
-      std::vector<double> xp = x;
-      const double h = 1e-6 * std::max(1.0, std::abs(x[k]));
-      xp[k] += h;
-      residuals(xp.data(), r1.data());
-      for (int r = 0; r < Rows(); ++r) jac(r, k) = (r1[r] - r0[r]) / h;
-    }
-    FitResult fit;
-    fit.chi2 = chi2;
-    fit.params = {std::exp(x[0]), x[1]};
-    fit.offsets.assign(kGroups, 0.0);
-    for (int g = 0; g < nn; ++g) fit.offsets[nuisance_groups_[g]] = x[2 + g];
-    const Eigen::MatrixXd info = jac.transpose() * jac;
-    Eigen::MatrixXd cov =
-        info.completeOrthogonalDecomposition().pseudoInverse();
-    fit.covariance = cov.topLeftCorner(2, 2);
-    // tau's uncertainty from log tau's.
-    fit.covariance(0, 0) *= fit.params[0] * fit.params[0];
-    fit.covariance(0, 1) *= fit.params[0];
-    fit.covariance(1, 0) *= fit.params[0];
-    if (chi2 > best.chi2) {  // keep the grid's answer if Ceres did worse
-      best.params = {best_tau, best.params[0]};
-      best.covariance = fit.covariance;
-      return best;
-    }
-    return fit;
-  }
-
- private:
-  const Observations& obs_;
-  const EffectContext& context_;
-  const PartSpec& part_;
-  const DiagnosisOptions& options_;
-  std::vector<bool> use_;
-  bool group_used_[kGroups] = {false, false, false, false, false};
-  std::vector<int> nuisance_groups_;
-  std::vector<int> rows_;
-};
-
-std::vector<ParamEstimate> ReportParams(Cause cause, const FitResult& fit) {
-  std::vector<ParamEstimate> out;
-  const auto names = CauseParameterNames(cause);
-  auto sd = [&](int k) {
-    return k < fit.covariance.rows()
-               ? std::sqrt(std::max(0.0, fit.covariance(k, k)))
-               : 0.0;
-  };
-  if (cause == Cause::kClampingDistortion || cause == Cause::kCAxisIndexing) {
-    // Amplitude and phase of a cos + b sin = A cos(x - phase).
-    const double a = fit.params[0], b = fit.params[1];
-    const double amp = std::hypot(a, b);
-    const double phase = std::atan2(b, a);
-    const double s = std::max(sd(0), sd(1));
-    const std::string unit =
-        cause == Cause::kClampingDistortion ? "_um" : "_urad";
-    out.push_back({"amplitude" + unit, amp, s});
-    out.push_back({"phase_deg", phase * 180 / M_PI,
-                   amp > 0 ? s / amp * 180 / M_PI : 180.0});
-    for (int k = 0; k < 2; ++k) out.push_back({names[k], fit.params[k], sd(k)});
-    return out;
-  }
-  for (size_t k = 0; k < names.size(); ++k)
-    out.push_back({names[k], fit.params[k], sd(static_cast<int>(k))});
-  return out;
-}
-
-// What a fitted model predicts for the observations: the cause's effect
-// plus the nuisance offset of each observation's group.
-std::vector<double> ModelPrediction(Cause cause, const FitResult& fit,
-                                    const Observations& obs,
-                                    const EffectContext& context,
-                                    const PartSpec& part) {
-  if (!fit.ok) return std::vector<double>(obs.size(), 0.0);
-  std::vector<double> out =
-      EffectOnObservations(cause, fit.params, obs, context, part);
-  if (!fit.offsets.empty())
-    for (size_t i = 0; i < obs.size(); ++i) out[i] += fit.offsets[obs.group[i]];
-  return out;
-}
-
 double Rms(const std::vector<double>& v) {
   if (v.empty()) return 0;
   double s = 0;
@@ -289,14 +53,580 @@ double Rms(const std::vector<double>& v) {
   return std::sqrt(s / v.size());
 }
 
+// One column or base of a model over all observations (figures, then
+// angles), in the observations' units.
+using Column = Eigen::VectorXd;
+
+Column Stack(const ObservationEffect& e) {
+  Column c(e.figure_um.size() + e.angle_urad.size());
+  for (size_t i = 0; i < e.figure_um.size(); ++i) c[i] = e.figure_um[i];
+  for (size_t i = 0; i < e.angle_urad.size(); ++i)
+    c[e.figure_um.size() + i] = e.angle_urad[i];
+  return c;
+}
+
+// A candidate model: causes with, for c_axis_indexing, its harmonics.
+struct ModelSpec {
+  std::vector<Cause> causes;
+  int c_harmonics = 0;
+  std::string Name() const {
+    if (causes.empty()) return "none";
+    std::vector<std::string> names;
+    for (Cause c : causes) names.push_back(CauseName(c));
+    std::sort(names.begin(), names.end());
+    std::string s;
+    for (const auto& n : names) s += (s.empty() ? "" : "+") + n;
+    return s;
+  }
+};
+
+// Columns of the linear causes on all observations, and the workpiece
+// expansion's columns per time constant (cached).
+class ColumnCache {
+ public:
+  ColumnCache(const Observations& obs, const EffectContext& context,
+              const PartSpec& part, int max_harmonics)
+      : obs_(obs), context_(context), part_(part) {
+    tool_wear_ = Stack(EffectOnObservations(Cause::kToolWear, {1.0}, obs,
+                                            context, part));
+    for (int k = 0; k < 2; ++k) {
+      std::vector<double> p(2, 0.0);
+      p[k] = 1.0;
+      clamping_.push_back(Stack(EffectOnObservations(
+          Cause::kClampingDistortion, p, obs, context, part)));
+    }
+    for (int k = 0; k < 2 * max_harmonics; ++k) {
+      std::vector<double> p(2 * max_harmonics, 0.0);
+      p[k] = 1.0;
+      c_axis_.push_back(Stack(
+          EffectOnObservations(Cause::kCAxisIndexing, p, obs, context, part)));
+    }
+    wp_base_ = Stack(EffectOnObservations(Cause::kWorkpieceExpansion,
+                                          {1000.0, 0.0}, obs, context, part));
+    observed_ = Column(obs.size());
+    for (size_t i = 0; i < obs.figures(); ++i)
+      observed_[i] = obs.figure_value_um[i];
+    for (size_t i = 0; i < obs.angles(); ++i)
+      observed_[obs.figures() + i] = obs.angle_value_urad[i];
+  }
+  const Column& ToolWear() const { return tool_wear_; }
+  const std::vector<Column>& Clamping() const { return clamping_; }
+  std::vector<Column> CAxis(int harmonics) const {
+    return std::vector<Column>(c_axis_.begin(),
+                               c_axis_.begin() + 2 * harmonics);
+  }
+  const Column& WorkpieceBase() const { return wp_base_; }
+  const Column& Observed() const { return observed_; }
+  // Effect of gain 1 minus the base at tau.
+  Column Workpiece(double tau_s) const {
+    return Stack(EffectOnObservations(Cause::kWorkpieceExpansion,
+                                      {tau_s, 1.0}, obs_, context_, part_)) -
+           wp_base_;
+  }
+
+ private:
+  const Observations& obs_;
+  const EffectContext& context_;
+  const PartSpec& part_;
+  Column tool_wear_, wp_base_, observed_;
+  std::vector<Column> clamping_, c_axis_;
+};
+
+// The generalised least-squares problem on a subset of the observations:
+// rows whitened with the Cholesky factor of their covariance, nuisance
+// offsets per figure kind and for the angles.
+class Problem {
+ public:
+  Problem(const Observations& obs, const std::vector<bool>& use) : obs_(obs) {
+    const int nf = static_cast<int>(obs.figures());
+    for (int i = 0; i < static_cast<int>(obs.size()); ++i)
+      if (use[i]) (i < nf ? fig_ : ang_).push_back(i);
+    lf_ = Factor(obs.figure_covariance_um2, fig_, 0);
+    la_ = Factor(obs.angle_covariance_urad2, ang_, nf);
+    bool kind_used[5] = {false, false, false, false, false};
+    for (int i : fig_) kind_used[obs.figure_kind[i]] = true;
+    if (!ang_.empty()) kind_used[4] = true;
+    for (int g = 0; g < 5; ++g)
+      if (kind_used[g]) {
+        Column c = Column::Zero(obs.size());
+        for (int i = 0; i < static_cast<int>(obs.size()); ++i)
+          c[i] = (i < nf ? obs.figure_kind[i] : 4) == g ? 1.0 : 0.0;
+        nuisance_.push_back(Whiten(c));
+        nuisance_kinds_.push_back(g);
+      }
+    Column y(obs.size());
+    for (int i = 0; i < nf; ++i) y[i] = obs.figure_value_um[i];
+    for (size_t i = 0; i < obs.angles(); ++i)
+      y[nf + i] = obs.angle_value_urad[i];
+    y_ = Whiten(y);
+  }
+  int Rows() const { return static_cast<int>(fig_.size() + ang_.size()); }
+  // Figure kind (0..3) or 4 (angles) of each whitened row: the covariance
+  // couples only rows of one kind, so whitened rows stay in their kind.
+  std::vector<int> RowKinds() const {
+    std::vector<int> out;
+    for (int i : fig_) out.push_back(obs_.figure_kind[i]);
+    for (size_t k = 0; k < ang_.size(); ++k) out.push_back(4);
+    return out;
+  }
+  int Nuisance() const { return static_cast<int>(nuisance_.size()); }
+  bool ok() const { return ok_; }
+  const Observations& obs() const { return obs_; }
+
+  Eigen::VectorXd Whiten(const Column& full) const {
+    Eigen::VectorXd out(Rows());
+    Eigen::VectorXd f(fig_.size()), a(ang_.size());
+    for (size_t r = 0; r < fig_.size(); ++r) f[r] = full[fig_[r]];
+    for (size_t r = 0; r < ang_.size(); ++r) a[r] = full[ang_[r]];
+    if (f.size()) out.head(f.size()) = lf_.triangularView<Eigen::Lower>().solve(f);
+    if (a.size()) out.tail(a.size()) = la_.triangularView<Eigen::Lower>().solve(a);
+    return out;
+  }
+
+  struct Solution {
+    bool ok = false;
+    double chi2 = kInf;
+    Eigen::VectorXd b;        // cause coefficients
+    Eigen::MatrixXd cov;      // of b
+    std::vector<double> offsets = std::vector<double>(5, 0.0);
+  };
+  // y - base ~ sum_k b_k columns_k + offsets, all whitened.
+  Solution Solve(const std::vector<Eigen::VectorXd>& columns,
+                 const Eigen::VectorXd& base) const {
+    const int nc = static_cast<int>(columns.size()), nn = Nuisance();
+    Eigen::MatrixXd x(Rows(), nc + nn);
+    for (int c = 0; c < nc; ++c) x.col(c) = columns[c];
+    for (int g = 0; g < nn; ++g) x.col(nc + g) = nuisance_[g];
+    const Eigen::VectorXd y = y_ - base;
+    Solution s;
+    const Eigen::MatrixXd n = x.transpose() * x;
+    Eigen::LDLT<Eigen::MatrixXd> ldlt(n);
+    if (ldlt.info() != Eigen::Success) return s;
+    const Eigen::VectorXd beta = ldlt.solve(x.transpose() * y);
+    if (!beta.allFinite()) return s;
+    s.ok = true;
+    s.chi2 = (y - x * beta).squaredNorm();
+    s.b = beta.head(nc);
+    s.cov = ldlt.solve(Eigen::MatrixXd::Identity(nc + nn, nc + nn))
+                .topLeftCorner(nc, nc);
+    for (int g = 0; g < nn; ++g) s.offsets[nuisance_kinds_[g]] = beta[nc + g];
+    return s;
+  }
+
+ private:
+  Eigen::MatrixXd Factor(const Eigen::MatrixXd& cov,
+                         const std::vector<int>& rows, int first) {
+    const int n = static_cast<int>(rows.size());
+    Eigen::MatrixXd sub(n, n);
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b)
+        sub(a, b) = cov(rows[a] - first, rows[b] - first);
+    Eigen::LLT<Eigen::MatrixXd> llt(sub);
+    if (llt.info() != Eigen::Success) {
+      ok_ = false;
+      Eigen::MatrixXd d = sub.diagonal().cwiseSqrt().asDiagonal();
+      return d;
+    }
+    return llt.matrixL();
+  }
+
+  const Observations& obs_;
+  std::vector<int> fig_, ang_;
+  Eigen::MatrixXd lf_, la_;
+  std::vector<Eigen::VectorXd> nuisance_;
+  std::vector<int> nuisance_kinds_;
+  Eigen::VectorXd y_;
+  bool ok_ = true;
+};
+
+// A fitted candidate.
+struct Fit {
+  ModelSpec spec;
+  bool ok = false;
+  double chi2 = kInf;
+  int parameters = 0;  // cause parameters + nuisance offsets
+  std::vector<std::vector<double>> params;  // per cause
+  std::vector<Eigen::MatrixXd> covariance;  // per cause
+  std::vector<double> offsets = std::vector<double>(5, 0.0);
+  std::string note;
+};
+
+class Fitter {
+ public:
+  Fitter(const ColumnCache& cache, const Problem& problem,
+         const DiagnosisOptions& options)
+      : cache_(cache), problem_(problem), options_(options) {}
+
+  Fit Run(const ModelSpec& spec) const {
+    bool has_wp = false;
+    for (Cause c : spec.causes) has_wp |= c == Cause::kWorkpieceExpansion;
+    if (!has_wp) return Linear(spec, 0.0);
+    // Profile over log tau: the grid, then golden-section refinement
+    // between the best point's neighbours.
+    const auto& grid = options_.tau_grid_s;
+    int best = -1;
+    Fit best_fit;
+    for (int k = 0; k < static_cast<int>(grid.size()); ++k) {
+      Fit f = Linear(spec, grid[k]);
+      if (f.ok && f.chi2 < best_fit.chi2) {
+        best_fit = f;
+        best = k;
+      }
+    }
+    if (best < 0) return best_fit;
+    if (grid.size() >= 3) {
+      double lo = std::log(grid[std::max(0, best - 1)]);
+      double hi = std::log(grid[std::min<int>(grid.size() - 1, best + 1)]);
+      const double g = (std::sqrt(5.0) - 1) / 2;
+      double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+      Fit f1 = Linear(spec, std::exp(x1)), f2 = Linear(spec, std::exp(x2));
+      for (int it = 0; it < 14; ++it) {
+        if (f1.chi2 < f2.chi2) {
+          hi = x2;
+          x2 = x1;
+          f2 = f1;
+          x1 = hi - g * (hi - lo);
+          f1 = Linear(spec, std::exp(x1));
+        } else {
+          lo = x1;
+          x1 = x2;
+          f1 = f2;
+          x2 = lo + g * (hi - lo);
+          f2 = Linear(spec, std::exp(x2));
+        }
+      }
+      for (const Fit* f : {&f1, &f2})
+        if (f->ok && f->chi2 < best_fit.chi2) best_fit = *f;
+    }
+    // tau's uncertainty from the profile's curvature in log tau.
+    for (size_t c = 0; c < spec.causes.size(); ++c) {
+      if (spec.causes[c] != Cause::kWorkpieceExpansion || !best_fit.ok)
+        continue;
+      const double tau = best_fit.params[c][0], h = 0.05;
+      const Fit lo = Linear(spec, tau * std::exp(-h)),
+                hi = Linear(spec, tau * std::exp(h));
+      const double d2 = (lo.chi2 - 2 * best_fit.chi2 + hi.chi2) / (h * h);
+      best_fit.covariance[c](0, 0) =
+          d2 > 0 ? tau * tau * 2.0 / d2 : tau * tau;
+    }
+    // A time constant at the end of the range searched is not a result: the
+    // data want a lag outside it (or no lag-shaped effect at all).
+    if (best == 0 || best == static_cast<int>(grid.size()) - 1) {
+      for (size_t c = 0; c < spec.causes.size(); ++c)
+        if (spec.causes[c] == Cause::kWorkpieceExpansion &&
+            (best_fit.params[c][0] <= grid.front() * 1.2 ||
+             best_fit.params[c][0] >= grid.back() / 1.2))
+          best_fit.note = fmt::format(
+              "tau_wp_s at the end of the range searched ({:.0f} s)",
+              best_fit.params[c][0]);
+    }
+    return best_fit;
+  }
+
+  // Every coefficient enters linearly once tau is fixed.
+  Fit Linear(const ModelSpec& spec, double tau_s) const {
+    Fit fit;
+    fit.spec = spec;
+    std::vector<Eigen::VectorXd> columns;
+    std::vector<int> first;
+    Eigen::VectorXd base = Eigen::VectorXd::Zero(problem_.Rows());
+    for (Cause c : spec.causes) {
+      first.push_back(static_cast<int>(columns.size()));
+      switch (c) {
+        case Cause::kWorkpieceExpansion:
+          base += problem_.Whiten(cache_.WorkpieceBase());
+          columns.push_back(problem_.Whiten(cache_.Workpiece(tau_s)));
+          break;
+        case Cause::kToolWear:
+          columns.push_back(problem_.Whiten(cache_.ToolWear()));
+          break;
+        case Cause::kClampingDistortion:
+          for (const Column& col : cache_.Clamping())
+            columns.push_back(problem_.Whiten(col));
+          break;
+        case Cause::kCAxisIndexing:
+          for (const Column& col : cache_.CAxis(spec.c_harmonics))
+            columns.push_back(problem_.Whiten(col));
+          break;
+        case Cause::kNone:
+          break;
+      }
+    }
+    first.push_back(static_cast<int>(columns.size()));
+    const Problem::Solution s = problem_.Solve(columns, base);
+    if (!s.ok) return fit;
+    fit.ok = true;
+    fit.chi2 = s.chi2;
+    fit.offsets = s.offsets;
+    fit.parameters = static_cast<int>(columns.size()) + problem_.Nuisance() +
+                     (tau_s > 0 ? 1 : 0);
+    for (size_t k = 0; k < spec.causes.size(); ++k) {
+      const int a = first[k], n = first[k + 1] - a;
+      std::vector<double> p(s.b.data() + a, s.b.data() + a + n);
+      Eigen::MatrixXd cov = s.cov.block(a, a, n, n);
+      if (spec.causes[k] == Cause::kWorkpieceExpansion) {
+        p.insert(p.begin(), tau_s);
+        Eigen::MatrixXd c2 = Eigen::MatrixXd::Zero(2, 2);
+        c2(1, 1) = cov(0, 0);
+        cov = c2;
+      }
+      if (spec.causes[k] == Cause::kToolWear && p[0] < 0)
+        fit.note = "wear_um_per_m < 0 (a cutter does not grow)";
+      fit.params.push_back(p);
+      fit.covariance.push_back(cov);
+    }
+    return fit;
+  }
+
+ private:
+  const ColumnCache& cache_;
+  const Problem& problem_;
+  const DiagnosisOptions& options_;
+};
+
+// The prediction of a fitted model on every observation: the causes'
+// effects plus the nuisance offsets.
+Column Prediction(const Fit& fit, const ColumnCache& cache,
+                  const Observations& obs) {
+  Column out = Column::Zero(obs.size());
+  if (!fit.ok) return out;
+  for (size_t k = 0; k < fit.spec.causes.size(); ++k) {
+    const auto& p = fit.params[k];
+    switch (fit.spec.causes[k]) {
+      case Cause::kWorkpieceExpansion:
+        out += cache.WorkpieceBase() + p[1] * cache.Workpiece(p[0]);
+        break;
+      case Cause::kToolWear:
+        out += p[0] * cache.ToolWear();
+        break;
+      case Cause::kClampingDistortion:
+        out += p[0] * cache.Clamping()[0] + p[1] * cache.Clamping()[1];
+        break;
+      case Cause::kCAxisIndexing: {
+        const auto cols = cache.CAxis(fit.spec.c_harmonics);
+        for (size_t c = 0; c < cols.size(); ++c) out += p[c] * cols[c];
+        break;
+      }
+      case Cause::kNone:
+        break;
+    }
+  }
+  const size_t nf = obs.figures();
+  for (size_t i = 0; i < obs.size(); ++i)
+    out[i] += fit.offsets[i < nf ? obs.figure_kind[i] : 4];
+  return out;
+}
+
+double Bic(const Fit& f, int n) {
+  return f.chi2 + f.parameters * std::log(static_cast<double>(std::max(n, 2)));
+}
+
+// Every candidate fitted on one problem, and the decision on it.
+struct Selection {
+  std::vector<Fit> fits;  // [0] = none
+  int chosen = 0;
+  DiagnosisStatus status = DiagnosisStatus::kNone;
+  double chi2_per_dof = 0;
+  std::string reason;
+};
+
+Selection Select(const ColumnCache& cache, const Problem& problem,
+                 const DiagnosisOptions& options) {
+  const Fitter fitter(cache, problem, options);
+  const int n = problem.Rows();
+  Selection sel;
+  sel.fits.push_back(fitter.Run(ModelSpec{}));
+  // C-axis indexing: the number of harmonics by evidence.
+  Fit c_axis;
+  double c_bic = kInf;
+  for (int k = 1; k <= options.max_c_harmonics; ++k) {
+    const Fit f = fitter.Run(ModelSpec{{Cause::kCAxisIndexing}, k});
+    if (f.ok && Bic(f, n) < c_bic) {
+      c_bic = Bic(f, n);
+      c_axis = f;
+    }
+  }
+  const int harmonics = c_axis.ok ? c_axis.spec.c_harmonics : 1;
+  sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kWorkpieceExpansion}}));
+  sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kToolWear}}));
+  sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kClampingDistortion}}));
+  sel.fits.push_back(c_axis.ok ? c_axis
+                               : fitter.Run(ModelSpec{{Cause::kCAxisIndexing},
+                                                      1}));
+  const int singles = static_cast<int>(sel.fits.size());
+  if (options.pairs) {
+    const Cause all[4] = {Cause::kWorkpieceExpansion, Cause::kToolWear,
+                          Cause::kClampingDistortion, Cause::kCAxisIndexing};
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        sel.fits.push_back(fitter.Run(ModelSpec{{all[a], all[b]}, harmonics}));
+  }
+  const double none_bic = Bic(sel.fits[0], n);
+  int best_single = 0, best_pair = 0;
+  for (int k = 1; k < static_cast<int>(sel.fits.size()); ++k) {
+    const Fit& f = sel.fits[k];
+    if (!f.ok || !f.note.empty()) continue;
+    int& best = k < singles ? best_single : best_pair;
+    if (best == 0 || Bic(f, n) < Bic(sel.fits[best], n)) best = k;
+  }
+  int chosen = 0;
+  if (best_single > 0 && Bic(sel.fits[best_single], n) <
+                             none_bic - options.evidence_threshold)
+    chosen = best_single;
+  if (best_pair > 0) {
+    const double reference = chosen > 0 ? Bic(sel.fits[chosen], n) : none_bic;
+    if (Bic(sel.fits[best_pair], n) < reference - options.evidence_threshold)
+      chosen = best_pair;
+  }
+  sel.chosen = chosen;
+  const Fit& f = sel.fits[chosen];
+  const int dof = std::max(1, n - f.parameters);
+  sel.chi2_per_dof = f.chi2 / dof;
+  // Structure left in one figure kind (or the angles) that the global
+  // chi2 dilutes: its whitened chi2 beyond the limit's quantile.
+  std::string local;
+  {
+    const Column residual = Column(problem.Whiten(cache.Observed())) -
+                            problem.Whiten(Prediction(f, cache, problem.obs()));
+    const std::vector<int> kinds = problem.RowKinds();
+    double chi2[5] = {0, 0, 0, 0, 0};
+    int count[5] = {0, 0, 0, 0, 0};
+    for (size_t r = 0; r < kinds.size(); ++r) {
+      chi2[kinds[r]] += residual[r] * residual[r];
+      ++count[kinds[r]];
+    }
+    const char* names[5] = {"E_X", "E_Y", "E_Z", "E_TTP", "facet angles"};
+    for (int g = 0; g < 5; ++g) {
+      if (count[g] < 3) continue;
+      // Wilson-Hilferty: chi2_k quantile at z standard deviations.
+      const double k = count[g], z = options.local_z;
+      const double limit =
+          k * std::pow(1 - 2 / (9 * k) + z * std::sqrt(2 / (9 * k)), 3);
+      if (chi2[g] > limit && local.empty())
+        local = fmt::format("{} keeps chi2 {:.1f} over {} observations "
+                            "(limit {:.1f})",
+                            names[g], chi2[g], count[g], limit);
+    }
+  }
+  if (sel.chi2_per_dof > options.max_chi2_per_dof || !local.empty()) {
+    sel.status = DiagnosisStatus::kUnexplained;
+    sel.reason = fmt::format(
+        "{} leaves chi2 per degree of freedom {:.2f} (limit {:.2f}){}: the "
+        "residual holds structure that no known cause explains",
+        chosen == 0 ? "the nominal model" : "the best model, " + f.spec.Name(),
+        sel.chi2_per_dof, options.max_chi2_per_dof,
+        local.empty() ? "" : "; " + local);
+  } else if (chosen == 0) {
+    sel.status = DiagnosisStatus::kNone;
+    sel.reason = fmt::format(
+        "no cause beats the nominal model by the evidence threshold (delta "
+        "BIC < -{:g}) and the nominal model leaves what the error budget "
+        "predicts (chi2 per degree of freedom {:.2f})",
+        options.evidence_threshold, sel.chi2_per_dof);
+  } else {
+    sel.status = DiagnosisStatus::kNamed;
+    sel.reason = fmt::format(
+        "{} beats the nominal model by delta BIC {:.1f} (threshold {:g}) and "
+        "leaves chi2 per degree of freedom {:.2f}",
+        f.spec.Name(), Bic(f, n) - none_bic, options.evidence_threshold,
+        sel.chi2_per_dof);
+  }
+  return sel;
+}
+
+std::vector<ParamEstimate> ReportParams(const Fit& fit) {
+  std::vector<ParamEstimate> out;
+  for (size_t k = 0; k < fit.spec.causes.size(); ++k) {
+    const Cause cause = fit.spec.causes[k];
+    const auto& p = fit.params[k];
+    const Eigen::MatrixXd& cov = fit.covariance[k];
+    auto sd = [&](int i) {
+      return i < cov.rows() ? std::sqrt(std::max(0.0, cov(i, i))) : 0.0;
+    };
+    const std::vector<std::string> names =
+        cause == Cause::kCAxisIndexing ? CAxisParameterNames(fit.spec.c_harmonics)
+                                       : CauseParameterNames(cause);
+    if (cause == Cause::kClampingDistortion || cause == Cause::kCAxisIndexing) {
+      // Amplitude and phase of a cos + b sin = A cos(x - phase) per harmonic.
+      const bool clamp = cause == Cause::kClampingDistortion;
+      for (size_t h = 0; h + 1 < p.size(); h += 2) {
+        const double a = p[h], b = p[h + 1];
+        const double amp = std::hypot(a, b);
+        const double s = std::max(sd(h), sd(h + 1));
+        const std::string tag = clamp ? "" : std::to_string(h / 2 + 1);
+        out.push_back({"amplitude" + tag + (clamp ? "_um" : "_urad"), amp, s});
+        out.push_back({"phase" + tag + "_deg", std::atan2(b, a) * 180 / M_PI,
+                       amp > 0 ? s / amp * 180 / M_PI : 180.0});
+      }
+      if (!clamp)
+        out.push_back({"harmonics", static_cast<double>(fit.spec.c_harmonics),
+                       0.0});
+    }
+    for (size_t i = 0; i < names.size() && i < p.size(); ++i)
+      out.push_back({names[i], p[i], sd(static_cast<int>(i))});
+  }
+  return out;
+}
+
 }  // namespace
 
-std::vector<double> EffectOnObservations(Cause cause,
-                                         const std::vector<double>& params,
-                                         const Observations& obs,
-                                         const EffectContext& context,
-                                         const PartSpec& part) {
-  std::vector<double> out(obs.size(), 0.0);
+std::string Observations::FigureLabel(size_t i) const {
+  return fmt::format("{}@{}", kFigureNames[figure_kind[i]], figure_cycle[i]);
+}
+std::string Observations::AngleLabel(size_t i) const {
+  return "angle " + angle_feature[i].ToString();
+}
+
+bool DiagnosisOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(evidence_threshold >= 0))
+    return fail("evidence_threshold: must be >= 0");
+  if (!(max_chi2_per_dof > 0)) return fail("max_chi2_per_dof: must be > 0");
+  if (!(local_z > 0)) return fail("local_z: must be > 0");
+  if (!(min_sigma_um > 0)) return fail("min_sigma_um: must be > 0");
+  if (!(min_sigma_urad > 0)) return fail("min_sigma_urad: must be > 0");
+  if (!(estimator_sigma_scale >= 0))
+    return fail("estimator_sigma_scale: must be >= 0");
+  if (!(form_fraction >= 0)) return fail("form_fraction: must be >= 0");
+  if (max_c_harmonics < 1 || max_c_harmonics > 12)
+    return fail("max_c_harmonics: must be 1..12");
+  if (!(mismatch_slope_limit > 0))
+    return fail("mismatch_slope_limit: must be > 0");
+  if (tau_grid_s.empty()) return fail("tau_grid_s: empty");
+  for (size_t k = 0; k < tau_grid_s.size(); ++k) {
+    if (!(tau_grid_s[k] > 0) || !std::isfinite(tau_grid_s[k]))
+      return fail("tau_grid_s: every time constant must be > 0 and finite");
+    if (k > 0 && !(tau_grid_s[k] > tau_grid_s[k - 1]))
+      return fail("tau_grid_s: must be increasing");
+  }
+  return true;
+}
+
+const char* StatusName(DiagnosisStatus status) {
+  switch (status) {
+    case DiagnosisStatus::kNamed:
+      return "named";
+    case DiagnosisStatus::kNone:
+      return "none";
+    case DiagnosisStatus::kUnexplained:
+      return "unexplained";
+    case DiagnosisStatus::kRefused:
+      return "refused";
+  }
+  return "?";
+}
+
+ObservationEffect EffectOnObservations(Cause cause,
+                                       const std::vector<double>& params,
+                                       const Observations& obs,
+                                       const EffectContext& context,
+                                       const PartSpec& part) {
+  ObservationEffect out;
+  out.figure_um.assign(obs.figures(), 0.0);
+  out.angle_urad.assign(obs.angles(), 0.0);
   if (cause == Cause::kNone) return out;
   const EffectDeltas deltas = PredictEffect(cause, params, context);
   FeatureResults results;
@@ -308,121 +638,204 @@ std::vector<double> EffectOnObservations(Cause cause,
     results[id] = r;
   }
   const std::vector<CycleFigures> figures = ComputeFigures(part, results);
-  for (size_t i = 0; i < obs.size(); ++i) {
-    if (obs.group[i] < 4) {
-      const int c = obs.cycle[i];
-      if (c >= 1 && c <= static_cast<int>(figures.size())) {
-        const double v = FigureValueMm(figures[c - 1], obs.group[i]) * 1e3;
-        out[i] = std::isfinite(v) ? v : 0.0;
-      }
-    } else {
-      auto it = deltas.find(obs.facet[i].ToString());
-      if (it != deltas.end()) out[i] = it->second.angle_rad * 1e6;
+  for (size_t i = 0; i < obs.figures(); ++i) {
+    const int c = obs.figure_cycle[i];
+    if (c >= 1 && c <= static_cast<int>(figures.size())) {
+      const double v = FigureValueMm(figures[c - 1], obs.figure_kind[i]) * 1e3;
+      out.figure_um[i] = std::isfinite(v) ? v : 0.0;
     }
+  }
+  for (size_t i = 0; i < obs.angles(); ++i) {
+    auto it = deltas.find(obs.angle_feature[i].ToString());
+    if (it != deltas.end()) out.angle_urad[i] = it->second.angle_rad * 1e6;
   }
   return out;
 }
 
+namespace {
+
+// Where the residual after a model is largest, relative to its sigma.
+std::vector<StructureLocation> LocateStructure(const Observations& obs,
+                                               const Column& residual,
+                                               int cycles) {
+  std::vector<StructureLocation> out;
+  const size_t nf = obs.figures();
+  auto add = [&](const std::string& where, const std::string& unit,
+                 auto select) {
+    std::vector<double> r;
+    double chi2 = 0;
+    for (size_t i = 0; i < obs.size(); ++i) {
+      if (!select(i)) continue;
+      const double sigma =
+          i < nf ? obs.figure_sigma_um[i] : obs.angle_sigma_urad[i - nf];
+      r.push_back(residual[i]);
+      chi2 += std::pow(residual[i] / sigma, 2);
+    }
+    if (r.empty()) return;
+    out.push_back({where, Rms(r), unit, chi2 / r.size()});
+  };
+  for (int g = 0; g < 4; ++g)
+    add(kFigureNames[g], "um",
+        [&](size_t i) { return i < nf && obs.figure_kind[i] == g; });
+  add("facet angles", "urad", [&](size_t i) { return i >= nf; });
+  for (Segment seg :
+       {Segment::kX1, Segment::kX2, Segment::kY1, Segment::kY2})
+    add(fmt::format("facet angles {}", SegmentName(seg)), "urad",
+        [&](size_t i) {
+          return i >= nf && obs.angle_feature[i - nf].segment == seg;
+        });
+  for (int c = 1; c <= cycles; ++c)
+    add(fmt::format("figures of cycle {}", c), "um", [&](size_t i) {
+      return i < nf && obs.figure_cycle[i] == c;
+    });
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a.chi2_per_observation > b.chi2_per_observation;
+  });
+  return out;
+}
+
+}  // namespace
+
 DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
                          const PartSpec& part,
                          const DiagnosisOptions& options) {
+  std::string invalid;
+  if (!options.IsValid(&invalid))
+    throw std::invalid_argument("DiagnosisOptions." + invalid);
   DiagnosisReport report;
   const int n = static_cast<int>(obs.size());
+  const int nf = static_cast<int>(obs.figures());
   report.observations = n;
   if (n == 0)
     throw InputError("measurement", 0, "",
                      "no residual observations (no figures or angles)");
-  std::vector<double> raw_um, raw_urad;
-  for (int i = 0; i < n; ++i)
-    (obs.group[i] < 4 ? raw_um : raw_urad).push_back(obs.value[i]);
-  report.raw_rms_um = Rms(raw_um);
-  report.raw_rms_urad = Rms(raw_urad);
+  report.raw_rms_um = Rms(obs.figure_value_um);
+  report.raw_rms_urad = Rms(obs.angle_value_urad);
 
-  const Fitter fitter(obs, context, part, options, std::vector<bool>(n, true));
-  double none_bic = 0;
-  for (Cause cause : kAllCauses) {
-    const FitResult fit = fitter.Fit(cause);
+  const ColumnCache cache(obs, context, part, options.max_c_harmonics);
+  Column y(n);
+  for (int i = 0; i < nf; ++i) y[i] = obs.figure_value_um[i];
+  for (int i = nf; i < n; ++i) y[i] = obs.angle_value_urad[i - nf];
+  auto split_rms = [&](const Column& r, double* um, double* urad) {
+    std::vector<double> a(r.data(), r.data() + nf), b(r.data() + nf,
+                                                      r.data() + n);
+    *um = Rms(a);
+    *urad = Rms(b);
+  };
+
+  const Problem problem(obs, std::vector<bool>(n, true));
+  const Selection sel = Select(cache, problem, options);
+  const double none_bic = Bic(sel.fits[0], n);
+  for (const Fit& f : sel.fits) {
     CandidateResult c;
-    c.cause = cause;
-    c.params = fit.params;
-    c.parameters = static_cast<int>(fit.params.size()) + fitter.NuisanceCount();
-    c.chi2 = fit.chi2;
-    c.bic = fit.chi2 + c.parameters * std::log(static_cast<double>(n));
-    if (cause == Cause::kNone) none_bic = c.bic;
+    c.name = f.spec.Name();
+    c.causes = f.spec.causes;
+    c.cause = f.spec.causes.empty() ? Cause::kNone : f.spec.causes.front();
+    c.params = f.params;
+    c.parameters = f.parameters;
+    c.chi2 = f.chi2;
+    c.bic = Bic(f, n);
     c.delta_bic = c.bic - none_bic;
-    if (fit.ok && cause != Cause::kNone)
-      c.report_params = ReportParams(cause, fit);
-    const auto effect = ModelPrediction(cause, fit, obs, context, part);
-    std::vector<double> um, urad;
-    for (int i = 0; i < n; ++i)
-      (obs.group[i] < 4 ? um : urad).push_back(obs.value[i] - effect[i]);
-    c.rms_um = Rms(um);
-    c.rms_urad = Rms(urad);
+    c.note = f.note;
+    if (f.ok) c.report_params = ReportParams(f);
+    split_rms(y - Prediction(f, cache, obs), &c.rms_um, &c.rms_urad);
     report.candidates.push_back(c);
   }
-  int best = 0;
-  for (int k = 1; k < static_cast<int>(report.candidates.size()); ++k)
-    if (report.candidates[k].bic < report.candidates[best].bic) best = k;
-  if (-report.candidates[best].delta_bic < options.evidence_threshold) best = 0;
-  const CandidateResult& chosen = report.candidates[best];
+  const Fit& chosen = sel.fits[sel.chosen];
+  report.status = sel.status;
+  report.reason = sel.reason;
+  report.chi2_per_dof = sel.chi2_per_dof;
   report.baseline_rms_um = report.candidates[0].rms_um;
   report.baseline_rms_urad = report.candidates[0].rms_urad;
-  report.cause = CauseName(chosen.cause);
-  report.params = chosen.report_params;
-  report.extended_rms_um = chosen.rms_um;
-  report.extended_rms_urad = chosen.rms_urad;
+  const Column after = y - Prediction(chosen, cache, obs);
+  report.figure_after_um.assign(after.data(), after.data() + nf);
+  if (sel.status == DiagnosisStatus::kNamed) {
+    report.cause = chosen.spec.Name();
+    report.params = report.candidates[sel.chosen].report_params;
+    report.extended_rms_um = report.candidates[sel.chosen].rms_um;
+    report.extended_rms_urad = report.candidates[sel.chosen].rms_urad;
+  } else {
+    report.cause = StatusName(sel.status);
+    report.extended_rms_um = report.baseline_rms_um;
+    report.extended_rms_urad = report.baseline_rms_urad;
+    report.figure_after_um.assign(after.data(), after.data() + nf);
+  }
+  report.structure = LocateStructure(obs, after, part.cycles());
 
-  // Gain on held-out cycles: fit without cycle k, predict cycle k.
-  if (chosen.cause != Cause::kNone) {
-    std::vector<double> held_base, held_ext;
+  // Gain on held-out cycles: the whole selection repeated without cycle
+  // k, its chosen model and the nominal one predicting cycle k.
+  if (sel.status == DiagnosisStatus::kNamed) {
+    std::vector<double> base_um, ext_um, base_urad, ext_urad;
     for (int k = 1; k <= part.cycles(); ++k) {
       std::vector<bool> use(n);
       bool any = false;
       for (int i = 0; i < n; ++i) {
-        use[i] = obs.cycle[i] != k;
+        const int cycle = i < nf ? obs.figure_cycle[i] : obs.angle_cycle[i - nf];
+        use[i] = cycle != k;
         any = any || !use[i];
       }
       if (!any) continue;
-      const Fitter loo(obs, context, part, options, use);
-      const FitResult fit = loo.Fit(chosen.cause);
-      const FitResult nominal = loo.Fit(Cause::kNone);
-      if (!fit.ok || !nominal.ok) continue;
-      const auto effect =
-          ModelPrediction(chosen.cause, fit, obs, context, part);
-      const auto base =
-          ModelPrediction(Cause::kNone, nominal, obs, context, part);
+      const Problem fold(obs, use);
+      const Selection fs = Select(cache, fold, options);
+      const Column pb = Prediction(fs.fits[0], cache, obs);
+      const Column pe = Prediction(fs.fits[fs.chosen], cache, obs);
       for (int i = 0; i < n; ++i) {
         if (use[i]) continue;
-        held_base.push_back((obs.value[i] - base[i]) / obs.sigma[i]);
-        held_ext.push_back((obs.value[i] - effect[i]) / obs.sigma[i]);
+        (i < nf ? base_um : base_urad).push_back(y[i] - pb[i]);
+        (i < nf ? ext_um : ext_urad).push_back(y[i] - pe[i]);
       }
     }
-    report.heldout_baseline_rms = Rms(held_base);
-    report.heldout_extended_rms = Rms(held_ext);
-    if (report.heldout_baseline_rms > 0)
-      report.gain_pct = 100.0 * (1.0 - report.heldout_extended_rms /
-                                           report.heldout_baseline_rms);
+    report.heldout_baseline_rms_um = Rms(base_um);
+    report.heldout_extended_rms_um = Rms(ext_um);
+    report.heldout_baseline_rms_urad = Rms(base_urad);
+    report.heldout_extended_rms_urad = Rms(ext_urad);
+    const bool angles_only =
+        chosen.spec.causes.size() == 1 &&
+        chosen.spec.causes[0] == Cause::kCAxisIndexing;
+    const double b = angles_only ? report.heldout_baseline_rms_urad
+                                 : report.heldout_baseline_rms_um;
+    const double e = angles_only ? report.heldout_extended_rms_urad
+                                 : report.heldout_extended_rms_um;
+    if (b > 0) report.gain_pct = 100.0 * (1.0 - e / b);
   }
   return report;
 }
 
 namespace {
-// The noise the cause models are judged against: the fit's own scatter
-// (rms / sqrt(points) for the distance, over the spread of the points
-// across the feature for the angle), not the instrument's error limit,
-// which is common to the cycles and cancels in the figures' differences
-// (and the per-figure offsets of every model absorb what is left).
-void UseFitScatter(const PartSpec& part, FeatureKind kind, FeatureResult* r) {
-  if (!r->present || !(r->rms_mm > 0) || r->points < 3) return;
-  const FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
-  r->var_d_mm2 = s.d_mm * s.d_mm;
-  r->var_angle_rad2 = s.angle_rad * s.angle_rad;
+// The instrument's error of a feature: the scatter of its points (rms /
+// sqrt(points), over their spread for the angle) when it was fitted to
+// points, else the variances it comes with (probe, dial, DMIS); plus
+// the form error, a fraction of the fit's residual RMS that does not
+// average out over the points. The instrument's error limit is common to
+// the cycles and cancels in the figures' differences (and the per-figure
+// offsets of every model absorb what is left).
+void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
+                        double form_fraction, FeatureResult* r) {
+  if (!r->present) return;
+  const bool fitted = r->rms_mm > 0 && r->points >= 3;
+  // The inspection's plane covariance also holds the datum alignment and
+  // the instrument's error limit, common to every feature: the per-figure
+  // offsets absorb those, so a fitted feature is judged by its own
+  // scatter.
+  if (fitted) {
+    const FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
+    r->var_d_mm2 = s.d_mm * s.d_mm;
+    r->var_angle_rad2 = s.angle_rad * s.angle_rad;
+  }
+  if (fitted) {
+    const FitScatter form =
+        FeatureFitScatter(part, kind, form_fraction * r->rms_mm, 1);
+    // (On the distance only: a form error that does not average out
+    // shifts the plane more than it turns it.)
+    r->var_d_mm2 += form.d_mm * form.d_mm;
+  }
 }
 }  // namespace
 
 MeasuredPiece MeasuredPieceFromFeatures(const PartSpec& part,
                                         const FeatureResults& features) {
   MeasuredPiece m;
+  const double form_fraction = DiagnosisOptions{}.form_fraction;
   for (const auto& [id, r] : features) {
     if (!r.present) continue;
     FeatureResult& f = m.features[id] = r;
@@ -430,7 +843,7 @@ MeasuredPiece MeasuredPieceFromFeatures(const PartSpec& part,
     Segment s;
     int j;
     if (!ParseFeatureId(id, &kind, &s, &j)) continue;
-    UseFitScatter(part, kind, &f);
+    SetFeatureVariance(part, kind, form_fraction, &f);
     if (kind == FeatureKind::kFacet && std::isfinite(r.angle_rad))
       m.facet_angle_rad[id] = r.angle_rad;
   }
@@ -478,6 +891,9 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                        thermal::Simulation simulation,
                        const MeasuredPiece& measured,
                        const DiagnosisOptions& options) {
+  std::string invalid;
+  if (!options.IsValid(&invalid))
+    throw std::invalid_argument("DiagnosisOptions." + invalid);
   PreparedRun run;
   run.simulation = std::move(simulation);
   const PartSpec& part = config.part;
@@ -486,34 +902,18 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   for (const auto& cut : run.simulation.cuts)
     states.push_back(MakeCutState(config, cut.feature, cut.t_s, cut.c_rad));
   run.context = MakeEffectContext(config, states);
-  // Machine temperature history from the estimated E_R0T.
+  // Machine temperature history from the estimated E_R0T (extrapolated
+  // through the estimator's model beyond the last R-test).
   const double t_end = log.LastTimeS();
   run.context.grid_t0_s = 0;
   run.context.grid_step_s = 10;
   const double first = estimator.FirstRTestS();
-  const double last = estimator.LastRTestS();
   for (double t = 0; t <= t_end + 10; t += 10) {
-    const double tc = std::clamp(t, first, last);
-    // The R-test sphere radius of this log, as the check takes it.
+    const double tc = std::max(t, first);
     run.context.machine_dT_K.push_back(
         TemperatureChangeK(estimator.MachineErrorsAt(tc).er0t_mm,
                            kTableAlphaPerK, log.sphere_distance_mm));
   }
-
-  // Uncertainty of the simulated figures: the estimator's leave-one-out
-  // error of the error each figure follows (a figure is a difference of two
-  // cut times), combined with the measurement's own.
-  auto loo = [&](const char* name) {
-    for (size_t k = 0; k < 7; ++k)
-      if (std::string(kErrorNames[k]) == name)
-        return estimator.models()[k].loo_rms *
-               options.estimator_sigma_scale;  // um or um/m
-    return 0.0;
-  };
-  const double est_um[4] = {
-      loo("EX0C"), loo("EY0C"), loo("EZ0T"),
-      loo("ER0T") * part.facet_final_distance_mm / log.sphere_distance_mm};
-  const double est_urad = loo("EC0C");
 
   // Every measured feature must have been cut in the log: otherwise the
   // log does not cover the measured piece (or belongs to another piece).
@@ -527,18 +927,56 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   for (const auto& [id, r] : measured.features)
     if (r.present) check_cut(id);
   for (const auto& [id, a] : measured.facet_angle_rad) check_cut(id);
+  for (const CycleFigures& m : measured.figures) {
+    if (m.cycle < 1 ||
+        m.cycle > static_cast<int>(run.simulation.figures.size()))
+      continue;
+    const CycleFigures& s = run.simulation.figures[m.cycle - 1];
+    for (int g = 0; g < 4; ++g)
+      if (std::isfinite(FigureValueMm(m, g)) &&
+          !std::isfinite(FigureValueMm(s, g)))
+        uncut.push_back(fmt::format("{} of cycle {}", kFigureNames[g], m.cycle));
+  }
   if (!uncut.empty()) {
     std::string list;
     for (size_t k = 0; k < uncut.size() && k < 6; ++k)
       list += (k ? ", " : "") + uncut[k];
     if (uncut.size() > 6) list += fmt::format(" and {} more", uncut.size() - 6);
-    throw InputError(
-        log.source, 0, "cut",
-        fmt::format("the log has no cut of {} that the measurement {} holds: "
-                    "the log does not cover the piece's cut times, or log "
-                    "and measurement do not belong together",
-                    list, measured.source.empty() ? "" : measured.source));
+    run.refusal = fmt::format(
+        "the log {} has no cut of {} that the measurement {} holds: the log "
+        "does not cover the piece's cut times, or log and measurement do not "
+        "belong together",
+        log.source, list, measured.source);
+    return run;
   }
+
+  // Cut time of each cycle (its features are cut within a minute).
+  std::map<int, std::pair<double, int>> cycle_time;
+  for (const auto& cut : run.simulation.cuts) {
+    FeatureKind kind;
+    Segment seg;
+    int j;
+    if (!ParseFeatureId(cut.feature, &kind, &seg, &j)) continue;
+    auto& [sum, count] = cycle_time[CycleForIndex(part, j)];
+    sum += cut.t_s;
+    ++count;
+  }
+  auto time_of = [&](int cycle) {
+    auto it = cycle_time.find(cycle);
+    return it == cycle_time.end() ? 0.0
+                                  : it->second.first / it->second.second;
+  };
+
+  // The estimator's error of the error each figure follows (a figure is a
+  // combination of one cycle's cuts): blocked cross-validation, scaled.
+  const double ttp_scale =
+      part.facet_final_distance_mm / log.sphere_distance_mm;
+  auto est_sigma_um = [&](int kind, double t) {
+    const int e = kind;  // EX0C, EY0C, EZ0T, ER0T
+    const double s = estimator.ErrorSigmaAt(e, t) * options.estimator_sigma_scale;
+    return kind == 3 ? s * ttp_scale : s;
+  };
+  const double corr_s = estimator.CorrelationTimeS();
 
   Observations& obs = run.observations;
   for (const CycleFigures& m : measured.figures) {
@@ -548,21 +986,14 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
     const CycleFigures& s = run.simulation.figures[m.cycle - 1];
     for (int g = 0; g < 4; ++g) {
       const double mv = FigureValueMm(m, g), sv = FigureValueMm(s, g);
-      if (std::isfinite(mv) && !std::isfinite(sv))
-        throw InputError(
-            log.source, 0, "cut",
-            fmt::format("the measurement {} has {} of cycle {} but the log "
-                        "lacks a cut it needs: the log does not cover the "
-                        "piece's cut times",
-                        measured.source, kFigureNames[g], m.cycle));
       if (!std::isfinite(mv) || !std::isfinite(sv)) continue;
-      obs.labels.push_back(fmt::format("{}@{}", kFigureNames[g], m.cycle));
-      obs.value.push_back((mv - sv) * 1e3);
-      const double u_meas = FigureUncertaintyMm(m, g) * 1e3;
-      obs.sigma.push_back(
-          std::max(options.min_sigma_um, std::hypot(u_meas, est_um[g])));
-      obs.cycle.push_back(m.cycle);
-      obs.group.push_back(g);
+      obs.figure_cycle.push_back(m.cycle);
+      obs.figure_kind.push_back(g);
+      obs.figure_t_s.push_back(time_of(m.cycle));
+      obs.figure_value_um.push_back((mv - sv) * 1e3);
+      const double u = FigureUncertaintyMm(m, g) * 1e3;
+      obs.figure_sigma_um.push_back(
+          std::max(options.min_sigma_um, std::isfinite(u) ? u : 0.0));
     }
   }
   for (const auto& [id, angle] : measured.facet_angle_rad) {
@@ -570,19 +1001,54 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
     if (it == run.simulation.results.end() || !it->second.present) continue;
     const std::optional<FeatureId> facet = FeatureId::Parse(id);
     if (!facet || !facet->IsTestFeature()) continue;
-    obs.labels.push_back("angle " + id);
-    obs.facet.resize(obs.labels.size() - 1);
-    obs.facet.push_back(*facet);
-    obs.value.push_back((angle - it->second.angle_rad) * 1e6);
-    double u_meas = 0;
+    const int j = facet->index;
+    obs.angle_feature.push_back(*facet);
+    obs.angle_cycle.push_back(CycleForIndex(part, j));
+    obs.angle_t_s.push_back(time_of(CycleForIndex(part, j)));
+    obs.angle_value_urad.push_back((angle - it->second.angle_rad) * 1e6);
+    double u = 0;
     auto mf = measured.features.find(id);
-    if (mf != measured.features.end())
-      u_meas = std::sqrt(mf->second.var_angle_rad2) * 1e6;
-    obs.sigma.push_back(
-        std::max(options.min_sigma_urad, std::hypot(u_meas, est_urad)));
-    obs.cycle.push_back(CycleForIndex(part, facet->index));
-    obs.group.push_back(4);
+    if (mf != measured.features.end() &&
+        std::isfinite(mf->second.var_angle_rad2))
+      u = std::sqrt(mf->second.var_angle_rad2) * 1e6;
+    obs.angle_sigma_urad.push_back(std::max(options.min_sigma_urad, u));
   }
+  // Covariances: the measurement's variance on the diagonal; the
+  // estimator's error common to a figure kind's observations, fully
+  // correlated within a cycle and decaying over the R-test spacing across
+  // cycles.
+  auto rho = [&](double a, double b) {
+    return std::exp(-std::abs(a - b) / std::max(corr_s, 1.0));
+  };
+  const size_t nf = obs.figures(), na = obs.angles();
+  obs.figure_covariance_um2 = Eigen::MatrixXd::Zero(nf, nf);
+  for (size_t i = 0; i < nf; ++i) {
+    const double si = est_sigma_um(obs.figure_kind[i], obs.figure_t_s[i]);
+    for (size_t j = 0; j < nf; ++j) {
+      if (obs.figure_kind[i] != obs.figure_kind[j]) continue;
+      const double sj = est_sigma_um(obs.figure_kind[j], obs.figure_t_s[j]);
+      obs.figure_covariance_um2(i, j) =
+          si * sj * rho(obs.figure_t_s[i], obs.figure_t_s[j]);
+    }
+    obs.figure_covariance_um2(i, i) += std::pow(obs.figure_sigma_um[i], 2);
+  }
+  obs.angle_covariance_urad2 = Eigen::MatrixXd::Zero(na, na);
+  for (size_t i = 0; i < na; ++i) {
+    const double si = estimator.ErrorSigmaAt(6, obs.angle_t_s[i]) *
+                      options.estimator_sigma_scale;
+    for (size_t j = 0; j < na; ++j) {
+      const double sj = estimator.ErrorSigmaAt(6, obs.angle_t_s[j]) *
+                        options.estimator_sigma_scale;
+      obs.angle_covariance_urad2(i, j) =
+          si * sj * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
+    }
+    obs.angle_covariance_urad2(i, i) += std::pow(obs.angle_sigma_urad[i], 2);
+  }
+  // The total standard uncertainty of each observation (for displays).
+  for (size_t i = 0; i < nf; ++i)
+    obs.figure_sigma_um[i] = std::sqrt(obs.figure_covariance_um2(i, i));
+  for (size_t i = 0; i < na; ++i)
+    obs.angle_sigma_urad[i] = std::sqrt(obs.angle_covariance_urad2(i, i));
   return run;
 }
 
@@ -593,34 +1059,83 @@ DiagnosisReport DiagnoseRun(const thermal::TalcLog& log, const Config& config,
                           config.part, measured, options);
 }
 
+namespace {
+DiagnosisReport Refused(const std::string& reason) {
+  DiagnosisReport r;
+  r.status = DiagnosisStatus::kRefused;
+  r.cause.clear();
+  r.reason = reason;
+  return r;
+}
+
+// The slope of the measured E_X, E_Y changes over the simulated ones (per
+// kind offsets removed): 1 when the log describes the run that cut the
+// piece. NaN when the simulation barely varies (nothing to compare).
+double MismatchSlope(const PreparedRun& run, double* sd) {
+  const Observations& obs = run.observations;
+  double sxx = 0, sxy = 0, var_ref = 0;
+  for (int g = 0; g < 2; ++g) {
+    std::vector<double> x, y, w;
+    for (size_t i = 0; i < obs.figures(); ++i) {
+      if (obs.figure_kind[i] != g) continue;
+      const int c = obs.figure_cycle[i];
+      const double sim = FigureValueMm(run.simulation.figures[c - 1], g) * 1e3;
+      x.push_back(sim);
+      y.push_back(sim + obs.figure_value_um[i]);
+      w.push_back(1.0 / std::pow(obs.figure_sigma_um[i], 2));
+    }
+    if (x.size() < 3) continue;
+    double sw = 0, mx = 0, my = 0;
+    for (size_t k = 0; k < x.size(); ++k) {
+      sw += w[k];
+      mx += w[k] * x[k];
+      my += w[k] * y[k];
+    }
+    mx /= sw;
+    my /= sw;
+    for (size_t k = 0; k < x.size(); ++k) {
+      sxx += w[k] * (x[k] - mx) * (x[k] - mx);
+      sxy += w[k] * (x[k] - mx) * (y[k] - my);
+      var_ref += (x[k] - mx) * (x[k] - mx);
+    }
+  }
+  if (!(sxx > 100.0)) return std::numeric_limits<double>::quiet_NaN();
+  *sd = 1.0 / std::sqrt(sxx);
+  return sxy / sxx;
+}
+}  // namespace
+
 DiagnosisReport DiagnosePrepared(const PreparedRun& run,
                                  const thermal::TalcLog& log,
                                  const PartSpec& part,
                                  const MeasuredPiece& measured,
                                  const DiagnosisOptions& options) {
+  if (!run.refusal.empty()) return Refused(run.refusal);
   DiagnosisReport report =
       Diagnose(run.observations, run.context, part, options);
   report.estimator = run.simulation.estimator_description;
-  // Even the best model must leave residuals of the size of their
-  // uncertainties; far beyond, the measured piece is not the one this log
-  // cut (or something beyond every known cause happened): no diagnosis.
-  double best = std::numeric_limits<double>::infinity();
-  int dof = 1;
-  for (const CandidateResult& c : report.candidates)
-    if (c.chi2 < best) {
-      best = c.chi2;
-      dof = std::max(1, report.observations - c.parameters);
+  // The log of another run: the measured piece's E_X and E_Y (which no
+  // known cause changes much) do not follow the simulated ones.
+  if (report.status == DiagnosisStatus::kUnexplained) {
+    double sd = 0;
+    const double slope = MismatchSlope(run, &sd);
+    report.simulation_slope = slope;
+    report.simulation_slope_sd = sd;
+    if (std::isfinite(slope) &&
+        std::abs(slope - 1) > options.mismatch_slope_limit &&
+        std::abs(slope - 1) > 5 * sd) {
+      DiagnosisReport refused = Refused(fmt::format(
+          "the measured E_X and E_Y of {} follow the ones simulated from {} "
+          "with slope {:.2f} +- {:.2f} instead of 1 (and no model fits: {}): "
+          "the measurement and the log do not belong together",
+          measured.source.empty() ? "the piece" : measured.source, log.source,
+          slope, sd, report.reason));
+      refused.candidates = report.candidates;
+      refused.observations = report.observations;
+      refused.estimator = report.estimator;
+      return refused;
     }
-  if (best / dof > options.max_chi2_per_dof)
-    throw InputError(
-        measured.source, 0, "",
-        fmt::format("the measured piece does not match the simulation from "
-                    "{}: chi2 per degree of freedom {:.1f} even with the best "
-                    "cause (limit {:.1f}; RMS {:.2f} um): the measurement and "
-                    "the log do not belong together, or an effect beyond the "
-                    "known causes is present",
-                    log.source, best / dof, options.max_chi2_per_dof,
-                    report.baseline_rms_um));
+  }
   return report;
 }
 
@@ -636,60 +1151,106 @@ nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
     nlohmann::json cp = nlohmann::json::object();
     for (const auto& p : c.report_params)
       cp[p.name] = {{"value", p.value}, {"uncertainty", p.uncertainty}};
-    candidates.push_back({{"cause", CauseName(c.cause)},
-                          {"bic", c.bic},
-                          {"delta_bic", c.delta_bic},
-                          {"chi2", c.chi2},
-                          {"parameters", c.parameters},
-                          {"rms_um", c.rms_um},
-                          {"rms_urad", c.rms_urad},
-                          {"params", cp}});
+    nlohmann::json entry = {{"cause", c.name},
+                            {"bic", c.bic},
+                            {"delta_bic", c.delta_bic},
+                            {"chi2", c.chi2},
+                            {"parameters", c.parameters},
+                            {"rms_um", c.rms_um},
+                            {"rms_urad", c.rms_urad},
+                            {"params", cp}};
+    if (!c.note.empty()) entry["note"] = c.note;
+    candidates.push_back(entry);
   }
-  return {{"cause", r.cause},
-          {"baseline",
-           {{"rms_um", r.baseline_rms_um}, {"rms_urad", r.baseline_rms_urad}}},
-          {"extended",
-           {{"rms_um", r.extended_rms_um},
-            {"rms_urad", r.extended_rms_urad},
-            {"params", params},
-            {"uncertainty", uncertainty}}},
-          {"gain_pct", r.gain_pct},
-          {"gain",
-           {{"method",
-             "leave one cycle out: fit without cycle k, predict cycle k; "
-             "RMS of residual/sigma over all held-out observations"},
-            {"heldout_baseline_rms", r.heldout_baseline_rms},
-            {"heldout_extended_rms", r.heldout_extended_rms}}},
-          {"evidence",
-           "BIC = chi2 + k ln n on residuals / uncertainty (figures E_X, "
-           "E_Y, E_Z, E_TTP and facet angles; nuisance offset per figure); "
-           "a cause is named when its BIC is lower than the nominal "
-           "model's by the threshold"},
-          {"observations", r.observations},
-          {"estimator", r.estimator},
-          {"candidates", candidates}};
+  nlohmann::json structure = nlohmann::json::array();
+  for (const auto& s : r.structure)
+    structure.push_back({{"where", s.where},
+                         {"rms", s.rms},
+                         {"unit", s.unit},
+                         {"chi2_per_observation", s.chi2_per_observation}});
+  nlohmann::json j = {
+      {"status", StatusName(r.status)},
+      {"reason", r.reason},
+      {"baseline",
+       {{"rms_um", r.baseline_rms_um}, {"rms_urad", r.baseline_rms_urad}}},
+      {"extended",
+       {{"rms_um", r.extended_rms_um},
+        {"rms_urad", r.extended_rms_urad},
+        {"params", params},
+        {"uncertainty", uncertainty}}},
+      {"gain_pct", r.gain_pct},
+      {"gain",
+       {{"method",
+         "leave one cycle out: the whole selection repeated without cycle "
+         "k, its chosen model and the nominal model predicting cycle k; RMS "
+         "of the held-out residuals (figures um, facet angles urad); "
+         "gain_pct from the figures (from the angles for c_axis_indexing "
+         "alone)"},
+        {"heldout_baseline_rms_um", r.heldout_baseline_rms_um},
+        {"heldout_extended_rms_um", r.heldout_extended_rms_um},
+        {"heldout_baseline_rms_urad", r.heldout_baseline_rms_urad},
+        {"heldout_extended_rms_urad", r.heldout_extended_rms_urad}}},
+      {"evidence",
+       "BIC = chi2 + k ln n, chi2 of the residuals whitened with their "
+       "covariance (measurement, form, the estimator's cross-validated "
+       "error common to a cycle and correlated across cycles; figures E_X, "
+       "E_Y, E_Z, E_TTP and facet angles; nuisance offset per figure); a "
+       "cause is named when its BIC is lower than the nominal model's by "
+       "the threshold and it leaves chi2 per degree of freedom within the "
+       "limit"},
+      {"chi2_per_dof", r.chi2_per_dof},
+      {"observations", r.observations},
+      {"estimator", r.estimator},
+      {"candidates", candidates}};
+  if (r.status != DiagnosisStatus::kRefused) j["cause"] = r.cause;
+  if (r.status == DiagnosisStatus::kUnexplained) {
+    nlohmann::json where = nlohmann::json::array();
+    for (const auto& l : structure)
+      if (l["chi2_per_observation"].get<double>() > 2.0) where.push_back(l);
+    j["unexplained"] = where.empty() ? structure : where;
+  }
+  j["residual_by_location"] = structure;
+  if (std::isfinite(r.simulation_slope))
+    j["simulation_slope"] = {{"value", r.simulation_slope},
+                             {"uncertainty", r.simulation_slope_sd}};
+  return j;
 }
 
 std::string DiagnosisText(const DiagnosisReport& r) {
-  std::string s = fmt::format("cause: {}\n", r.cause);
+  std::string s = fmt::format("status: {}\n", StatusName(r.status));
+  if (r.status != DiagnosisStatus::kRefused)
+    s += fmt::format("cause: {}\n", r.cause);
+  s += fmt::format("  ({})\n", r.reason);
+  if (r.status == DiagnosisStatus::kRefused) return s;
   for (const auto& p : r.params)
     s += fmt::format("  {} = {:.4g} +- {:.2g}\n", p.name, p.value,
                      p.uncertainty);
+  if (r.status == DiagnosisStatus::kUnexplained) {
+    s += "where the unexplained structure lives (RMS after the best model, "
+         "chi2 per observation):\n";
+    for (const auto& l : r.structure)
+      s += fmt::format("  {:<24} {:8.3f} {:<4} {:7.1f}\n", l.where, l.rms,
+                       l.unit, l.chi2_per_observation);
+  }
   s += fmt::format(
       "residual RMS (figures, um): measured - simulated {:.3f}, nominal "
       "model {:.3f}, extended {:.3f}\n"
       "residual RMS (facet angles, urad): measured - simulated {:.3f}, "
       "nominal model {:.3f}, extended {:.3f}\n"
-      "gain on held-out cycles: {:.1f} %\n"
+      "held-out cycles: figures {:.3f} -> {:.3f} um, angles {:.3f} -> {:.3f} "
+      "urad; gain {:.1f} %\n"
       "(models: nominal simulation + a fitted offset per figure; "
       "{} observations)\n\n",
       r.raw_rms_um, r.baseline_rms_um, r.extended_rms_um, r.raw_rms_urad,
-      r.baseline_rms_urad, r.extended_rms_urad, r.gain_pct, r.observations);
-  s += "candidate               k      chi2    delta BIC   rms_um  rms_urad\n";
+      r.baseline_rms_urad, r.extended_rms_urad, r.heldout_baseline_rms_um,
+      r.heldout_extended_rms_um, r.heldout_baseline_rms_urad,
+      r.heldout_extended_rms_urad, r.gain_pct, r.observations);
+  s += "candidate                                  k      chi2    delta BIC  "
+       " rms_um  rms_urad\n";
   for (const auto& c : r.candidates)
-    s += fmt::format("{:<22} {:>3} {:>9.1f} {:>12.1f} {:>8.3f} {:>9.3f}\n",
-                     CauseName(c.cause), c.parameters, c.chi2, c.delta_bic,
-                     c.rms_um, c.rms_urad);
+    s += fmt::format("{:<40} {:>3} {:>9.1f} {:>12.1f} {:>8.3f} {:>9.3f}{}\n",
+                     c.name, c.parameters, c.chi2, c.delta_bic, c.rms_um,
+                     c.rms_urad, c.note.empty() ? "" : "  (" + c.note + ")");
   return s;
 }
 

@@ -45,9 +45,18 @@ std::vector<std::string> CauseParameterNames(Cause cause) {
     case Cause::kClampingDistortion:
       return {"cos3_um", "sin3_um"};
     case Cause::kCAxisIndexing:
-      return {"cos_urad", "sin_urad"};
+      return CAxisParameterNames(1);
   }
   return {};
+}
+
+std::vector<std::string> CAxisParameterNames(int harmonics) {
+  std::vector<std::string> out;
+  for (int k = 1; k <= harmonics; ++k) {
+    out.push_back("cos" + std::to_string(k) + "_urad");
+    out.push_back("sin" + std::to_string(k) + "_urad");
+  }
+  return out;
 }
 
 CutState MakeCutState(const Config& config, const std::string& feature,
@@ -156,17 +165,30 @@ EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
         if (s.is_facet) d.d_mm = params[0] * 1e-3 * s.cut_length_mid_m;
         break;
       case Cause::kClampingDistortion:
-        if (s.is_facet)
-          d.d_mm = 1e-3 * (params[0] * std::cos(3 * s.phi_w_rad) +
-                           params[1] * std::sin(3 * s.phi_w_rad));
+        // Radial spring-back u(phi) = cos3 cos 3phi + sin3 sin 3phi: the
+        // facet moves by u at its centre and turns about Z by -u'(phi)/R,
+        // the slope of the three lobes across it.
+        if (s.is_facet) {
+          const double c3 = std::cos(3 * s.phi_w_rad),
+                       s3 = std::sin(3 * s.phi_w_rad);
+          d.d_mm = 1e-3 * (params[0] * c3 + params[1] * s3);
+          const double du_dphi_mm = 1e-3 * 3 * (-params[0] * s3 + params[1] * c3);
+          d.angle_rad = -du_dphi_mm / s.radius_mm;
+        }
         break;
       case Cause::kCAxisIndexing:
-        // The table stops at c + dc: the facet is cut turned by dc about Z
-        // (sense of the table); its distance from the axis is unchanged.
-        if (s.is_facet)
-          d.angle_rad =
-              context.c_sense * 1e-6 *
-              (params[0] * std::cos(s.c_rad) + params[1] * std::sin(s.c_rad));
+        // The table stops at c + dc(c), dc a sum of harmonics of c: the
+        // facet is cut turned by dc about Z (sense of the table); its
+        // distance from the axis is unchanged.
+        if (s.is_facet) {
+          double dc_urad = 0;
+          for (size_t k = 0; k + 1 < params.size(); k += 2) {
+            const double h = static_cast<double>(k / 2 + 1);
+            dc_urad += params[k] * std::cos(h * s.c_rad) +
+                       params[k + 1] * std::sin(h * s.c_rad);
+          }
+          d.angle_rad = context.c_sense * 1e-6 * dc_urad;
+        }
         break;
     }
     out[s.feature] = d;

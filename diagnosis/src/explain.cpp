@@ -6,7 +6,6 @@
 #include <cmath>
 #include <limits>
 
-#include "ttp/diagnosis/effects.h"
 
 namespace ttp::diagnosis {
 namespace {
@@ -15,15 +14,25 @@ std::string ParamText(const ParamEstimate& p) {
   return fmt::format("{} = {:.3g} +- {:.2g}", p.name, p.value, p.uncertainty);
 }
 
-// The cause and its evidence against the others, best candidate first.
+// The cause and its evidence against the others, best candidate first; for
+// a diagnosis that names nothing for a reason (refused, unexplained), the
+// status, why and where the structure lives.
 std::string Summary(const DiagnosisReport& d, double threshold) {
   std::vector<const CandidateResult*> ranked;
   for (const auto& c : d.candidates) {
-    if (c.cause != Cause::kNone) ranked.push_back(&c);
+    if (!c.causes.empty()) ranked.push_back(&c);
   }
   std::sort(ranked.begin(), ranked.end(), [](const auto* a, const auto* b) {
     return a->delta_bic < b->delta_bic;
   });
+  if (d.status == DiagnosisStatus::kRefused ||
+      d.status == DiagnosisStatus::kUnexplained) {
+    std::string s = fmt::format("{}: {}.", StatusName(d.status), d.reason);
+    for (const auto& l : d.structure)
+      s += fmt::format(" {}: {:.3g} {} (chi2 per observation {:.1f}).",
+                       l.where, l.rms, l.unit, l.chi2_per_observation);
+    return s;
+  }
   if (d.cause == "none") {
     std::string s = fmt::format(
         "No cause beyond noise: no extension of the model beats the nominal "
@@ -31,22 +40,22 @@ std::string Summary(const DiagnosisReport& d, double threshold) {
         threshold);
     if (!ranked.empty()) {
       s += fmt::format(" Best candidate: {} (delta BIC {:.1f}).",
-                       CauseName(ranked[0]->cause), ranked[0]->delta_bic);
+                       ranked[0]->name, ranked[0]->delta_bic);
     }
     return s;
   }
   std::string s;
   for (const auto* c : ranked) {
-    if (CauseName(c->cause) != d.cause) continue;
+    if (c->name != d.cause) continue;
     s = fmt::format(
         "{}: its BIC is lower than the nominal model's by {:.1f} (delta "
         "BIC {:+.1f}; a cause is named below -{:g})",
         d.cause, -c->delta_bic, c->delta_bic, threshold);
   }
   for (const auto* c : ranked) {
-    if (CauseName(c->cause) == d.cause) continue;
+    if (c->name == d.cause) continue;
     s += fmt::format("; the next best candidate, {}, has delta BIC {:+.1f}",
-                     CauseName(c->cause), c->delta_bic);
+                     c->name, c->delta_bic);
     break;
   }
   s += ". Fitted: ";
@@ -60,16 +69,12 @@ std::string Summary(const DiagnosisReport& d, double threshold) {
   return s;
 }
 
+// Before: the observations (measured - simulated); after: what the
+// diagnosis left of them (its figure_after_um: minus the chosen effect and
+// the nuisance offsets).
 ResidualTable Residuals(const PreparedRun& run, const DiagnosisReport& d,
                         const PartSpec& part) {
   const Observations& obs = run.observations;
-  std::vector<double> effect(obs.size(), 0.0);
-  for (const auto& c : d.candidates) {
-    if (CauseName(c.cause) == d.cause && c.cause != Cause::kNone &&
-        !c.params.empty()) {
-      effect = EffectOnObservations(c.cause, c.params, obs, run.context, part);
-    }
-  }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   ResidualTable t;
   for (int c = 1; c <= part.cycles(); ++c) t.cycles.push_back(c);
@@ -78,12 +83,13 @@ ResidualTable Residuals(const PreparedRun& run, const DiagnosisReport& d,
     t.after_um[g].assign(part.cycles(), nan);
     t.sigma_um[g].assign(part.cycles(), nan);
   }
-  for (size_t i = 0; i < obs.size(); ++i) {
-    const int g = obs.group[i], c = obs.cycle[i];
+  for (size_t i = 0; i < obs.figures(); ++i) {
+    const int g = obs.figure_kind[i], c = obs.figure_cycle[i];
     if (g < 0 || g > 3 || c < 1 || c > part.cycles()) continue;
-    t.before_um[g][c - 1] = obs.value[i];
-    t.after_um[g][c - 1] = obs.value[i] - effect[i];
-    t.sigma_um[g][c - 1] = obs.sigma[i];
+    t.before_um[g][c - 1] = obs.figure_value_um[i];
+    if (i < d.figure_after_um.size())
+      t.after_um[g][c - 1] = d.figure_after_um[i];
+    t.sigma_um[g][c - 1] = obs.figure_sigma_um[i];
   }
   return t;
 }

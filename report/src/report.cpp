@@ -379,7 +379,7 @@ std::string DiagnosisSection(const json& data) {
       "wrong</h2>\n";
   const json* d = Find(data, "diagnosis");
   if (d == nullptr) return html + NotAvailable("no diagnosis") + "</section>\n";
-  const std::string cause = (*d)["cause"].get<std::string>();
+  const std::string cause = d->value("cause", std::string("refused"));
   const json& base = (*d)["baseline"];
   const json& ext = (*d)["extended"];
   auto urad = [](const json& j) {

@@ -228,14 +228,20 @@ void CheckResiduals(const Checker& c, const json& r, const std::string& path) {
 void CheckDiagnosis(const Checker& c, const json& d) {
   c.Object(d, "diagnosis");
   c.OnlyKeys(d, "diagnosis",
-             {"cause", "summary", "baseline", "extended", "gain_pct", "gain",
-              "evidence", "threshold", "observations", "estimator",
-              "candidates", "residuals"});
-  c.String(c.Required(d, "diagnosis", "cause"), "diagnosis.cause");
-  for (const char* key : {"summary", "evidence", "estimator"}) {
+             {"status", "reason", "cause", "summary", "baseline", "extended",
+              "gain_pct", "gain", "evidence", "threshold", "chi2_per_dof",
+              "observations", "estimator", "candidates", "residuals",
+              "unexplained", "residual_by_location", "simulation_slope"});
+  c.String(c.Required(d, "diagnosis", "status"), "diagnosis.status");
+  // No cause when refused (diagnosis.md section 3).
+  if (d["status"] != "refused")
+    c.String(c.Required(d, "diagnosis", "cause"), "diagnosis.cause");
+  if (d.contains("unexplained"))
+    c.Array(d["unexplained"], "diagnosis.unexplained");
+  for (const char* key : {"summary", "evidence", "estimator", "reason"}) {
     if (d.contains(key)) c.String(d[key], Checker::Join("diagnosis", key));
   }
-  for (const char* key : {"threshold", "observations"}) {
+  for (const char* key : {"threshold", "observations", "chi2_per_dof"}) {
     if (d.contains(key)) c.Number(d[key], Checker::Join("diagnosis", key));
   }
   const json& baseline = c.Required(d, "diagnosis", "baseline");
@@ -266,11 +272,14 @@ void CheckDiagnosis(const Checker& c, const json& d) {
     const json& gain = d["gain"];
     c.Object(gain, "diagnosis.gain");
     c.OnlyKeys(gain, "diagnosis.gain",
-               {"method", "heldout_baseline_rms", "heldout_extended_rms"});
+               {"method", "heldout_baseline_rms_um", "heldout_extended_rms_um",
+                "heldout_baseline_rms_urad", "heldout_extended_rms_urad"});
     if (gain.contains("method")) {
       c.String(gain["method"], "diagnosis.gain.method");
     }
-    for (const char* key : {"heldout_baseline_rms", "heldout_extended_rms"}) {
+    for (const char* key :
+         {"heldout_baseline_rms_um", "heldout_extended_rms_um",
+          "heldout_baseline_rms_urad", "heldout_extended_rms_urad"}) {
       if (gain.contains(key)) {
         c.Number(gain[key], Checker::Join("diagnosis.gain", key));
       }

@@ -27,7 +27,8 @@ void ExpectReportKeys(const nlohmann::json& d) {
   EXPECT_TRUE(d["extended"]["params"].is_object());
   EXPECT_TRUE(d["gain_pct"].is_number());
   ASSERT_TRUE(d["candidates"].is_array());
-  EXPECT_EQ(d["candidates"].size(), 5u);
+  EXPECT_EQ(d["candidates"].size(), 11u);  // none, 4 causes, 6 pairs
+  ASSERT_TRUE(d.contains("status"));
   for (const auto& c : d["candidates"]) {
     EXPECT_TRUE(c["cause"].is_string());
     EXPECT_TRUE(c["delta_bic"].is_number());
@@ -35,6 +36,7 @@ void ExpectReportKeys(const nlohmann::json& d) {
   }
   const std::regex unit(".*_(s|um|urad|deg|K_per_K|um_per_m)$");
   for (const auto& [name, v] : d["extended"]["params"].items()) {
+    if (name == "harmonics") continue;  // a count
     EXPECT_TRUE(std::regex_match(name, unit)) << name;
     EXPECT_TRUE(v.is_number());
     EXPECT_TRUE(d["extended"]["uncertainty"][name].is_number()) << name;
@@ -102,10 +104,12 @@ TEST(CliDiagnosis, TwinRoundTripThroughACloud) {
   const nlohmann::json d = test::ReadJson(dir / "d.json");
   ExpectReportKeys(d);
   EXPECT_EQ(d["cause"], truth["cause"]);
-  EXPECT_NEAR(
-      d["extended"]["params"]["amplitude_um"].get<double>(),
-      truth["params"]["amplitude_um"].get<double>(),
-      3 * d["extended"]["uncertainty"]["amplitude_um"].get<double>() + 0.1);
+  // The twin's lobes fall off with height above the bolts: the fitted
+  // amplitude is the one at the facets, below the bolts' own.
+  const double fitted = d["extended"]["params"]["amplitude_um"].get<double>();
+  const double bolts = truth["params"]["clamping_amplitude_um"].get<double>();
+  EXPECT_GT(fitted, 0.4 * bolts);
+  EXPECT_LT(fitted, 1.1 * bolts);
   // Same input, same output.
   const auto again = test::RunTtp(
       "twin --effect clamping_distortion --size 2 "
@@ -166,8 +170,10 @@ TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
     }
   }
   const std::string short_log = (dir / "short.csv").string();
+  // Refused (exit 1): the log and the measurement cannot belong together.
   r = test::RunTtp("diagnose --log " + short_log + " " + measured);
-  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("status: refused"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find(short_log), std::string::npos) << r.output;
   // Caught by the schedule check (the log ends before the last cut) ...
   EXPECT_NE(r.output.find("before the program's last cut"), std::string::npos)
@@ -175,15 +181,16 @@ TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
   // ... and, without it, by the diagnosis (the log has no cut of them).
   r = test::RunTtp("diagnose --no-schedule-check --log " + short_log + " " +
                    measured);
-  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("cover"), std::string::npos) << r.output;
-  // Run-a's piece against run-b's log: they do not belong together.
+  // Run-a's piece against run-b's log: no cause is named (refused when the
+  // E_X/E_Y slope test tells them apart, else unexplained).
   r = test::RunTtp("diagnose --log " + (kSamples / "run-b/talc.csv").string() +
                    " " + measured);
-  EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_NE(r.output.find(measured), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("do not belong together"), std::string::npos)
+  EXPECT_TRUE(r.output.find("status: refused") != std::string::npos ||
+              r.output.find("status: unexplained") != std::string::npos)
       << r.output;
+  EXPECT_EQ(r.output.find("status: named"), std::string::npos) << r.output;
   // A measurement that is not JSON of a piece.
   { std::ofstream(dir / "junk.json") << "{\"hello\": 1}"; }
   r = test::RunTtp("diagnose --log " + a + "/talc.csv " +

@@ -55,12 +55,20 @@ TEST(Effects, EachCauseShowsWhereTheSpecSays) {
     EXPECT_GT(wear.at(s.feature).d_mm, last_wear);
     last_wear = wear.at(s.feature).d_mm;
     EXPECT_NEAR(wear.at(s.feature).d_mm, 2e-3 * s.cut_length_mid_m, 1e-12);
-    // Clamping: three lobes in the facet's angle, distances only.
+    // Clamping: three lobes in the facet's angle, and the turn about Z
+    // their slope across the facet implies (-du/dphi / R).
     EXPECT_NEAR(
         clamp.at(s.feature).d_mm,
         1e-3 * (std::cos(3 * s.phi_w_rad) + 0.5 * std::sin(3 * s.phi_w_rad)),
         1e-12);
-    EXPECT_EQ(clamp.at(s.feature).angle_rad, 0);
+    const double h = 1e-6;
+    auto u = [&](double phi) {
+      return 1e-3 * (std::cos(3 * phi) + 0.5 * std::sin(3 * phi));
+    };
+    EXPECT_NEAR(clamp.at(s.feature).angle_rad,
+                -(u(s.phi_w_rad + h) - u(s.phi_w_rad - h)) / (2 * h) /
+                    s.radius_mm,
+                1e-9);
     // C indexing: normals turned, distances unchanged.
     EXPECT_EQ(index.at(s.feature).d_mm, 0);
     EXPECT_NEAR(
@@ -69,6 +77,27 @@ TEST(Effects, EachCauseShowsWhereTheSpecSays) {
         1e-15);
   }
   EXPECT_EQ(PredictEffect(Cause::kNone, {}, ctx).at("X1-1").d_mm, 0);
+}
+
+// C indexing: a sum of harmonics of the table angle, their number from the
+// parameters' count.
+TEST(Effects, CAxisIndexingIsASumOfHarmonics) {
+  const Config config;
+  const EffectContext ctx = Context(config);
+  const std::vector<double> p = {10, 0, 0, 20, 0, 0, 5, -5};  // 1, 2, 4
+  const auto index = PredictEffect(Cause::kCAxisIndexing, p, ctx);
+  for (const CutState& s : ctx.cuts) {
+    if (!s.is_facet) continue;
+    const double c = s.c_rad;
+    EXPECT_NEAR(index.at(s.feature).angle_rad,
+                ctx.c_sense * 1e-6 *
+                    (10 * std::cos(c) + 20 * std::sin(2 * c) +
+                     5 * std::cos(4 * c) - 5 * std::sin(4 * c)),
+                1e-15);
+  }
+  EXPECT_EQ(CAxisParameterNames(2),
+            (std::vector<std::string>{"cos1_urad", "sin1_urad", "cos2_urad",
+                                      "sin2_urad"}));
 }
 
 TEST(Effects, NamesRoundTripAndUnknownIsRejected) {

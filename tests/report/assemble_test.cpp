@@ -7,7 +7,7 @@
 #include <string>
 
 #include "test_dir.h"
-#include "ttp/diagnosis/twin.h"
+#include "ttp/sim/twin.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/report/report.h"
@@ -21,7 +21,7 @@ using nlohmann::json;
 // One twin run with a hidden workpiece expansion, shared by the tests.
 struct TwinFixture {
   Config config;
-  diagnosis::TwinRun twin;
+  sim::TwinRun twin;
   thermal::TalcLog log;
   inspect::Measurement measurement;
   inspect::InspectionResult& measured = measurement.result;
@@ -31,11 +31,10 @@ struct TwinFixture {
   diagnosis::DiagnosisExplanation explained;
 
   TwinFixture() {
-    diagnosis::TwinOptions o;
-    o.effect = diagnosis::Cause::kWorkpieceExpansion;
-    o.size = 1.0;
+    sim::TwinOptions o;
+    o.workpiece_gain = 1.0;
     o.seed = 7;
-    twin = diagnosis::RunTwin(config, o);
+    twin = sim::RunTwin(config, o);
     log = thermal::ParseTalcLog(twin.log_text, "twin.csv");
     measured.source = "twin measurement";
     measured.features = twin.measured;
@@ -172,7 +171,8 @@ TEST(AssembleReportData, DiagnosisNamesTheHiddenCauseWithEvidence) {
   EXPECT_TRUE(d["extended"]["params"].contains("tau_wp_s"));
   EXPECT_LT(d["extended"]["rms_um"].get<double>(),
             d["baseline"]["rms_um"].get<double>());
-  EXPECT_EQ(d["candidates"].size(), 5u);
+  EXPECT_EQ(d["candidates"].size(), 11u);  // none, 4 causes, 6 pairs
+  EXPECT_EQ(d["status"], "named");
   EXPECT_NE(d["summary"].get<std::string>().find("workpiece_expansion"),
             std::string::npos);
   // Same as the diagnosis run on its own (the report renders the one it
@@ -212,6 +212,8 @@ TEST(AssembleReportData, ResidualsAreMeasuredMinusSimulated) {
 TEST(AssembleReportData, RendersTheCallersDiagnosis) {
   diagnosis::PreparedDiagnosis given = Twin().diagnosed;
   given.report.cause = "none";
+  given.report.status = diagnosis::DiagnosisStatus::kNone;
+  given.report.figure_after_um = given.run.observations.figure_value_um;
   const diagnosis::DiagnosisExplanation explained = diagnosis::ExplainDiagnosis(
       given.run, given.report, Twin().config.part, 10.0);
   ReportInputs in = Twin().Inputs();

@@ -97,6 +97,7 @@ inline nlohmann::json SyntheticReportData(unsigned seed = 2026) {
                  {"rtests", rtests},
                  {"cuts", cuts}};
   data["diagnosis"] = {
+      {"status", "named"},
       {"cause", "workpiece_expansion"},
       {"summary",
        "The piece grew more than the cast-iron table: its aluminium follows "
@@ -110,8 +111,8 @@ inline nlohmann::json SyntheticReportData(unsigned seed = 2026) {
       {"gain_pct", 68.5},
       {"gain",
        {{"method", "leave one cycle out"},
-        {"heldout_baseline_rms", 3.1},
-        {"heldout_extended_rms", 0.98}}},
+        {"heldout_baseline_rms_um", 3.1},
+        {"heldout_extended_rms_um", 0.98}}},
       {"evidence", "BIC = chi2 + k ln n"},
       {"threshold", 10.0},
       {"candidates",

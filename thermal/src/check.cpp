@@ -69,7 +69,7 @@ std::vector<CycleFigures> SimulatedFigureUncertainty(
   const double d_half = log.sphere_distance_mm;
   for (int group : groups) {
     for (int e = 0; e < 7; ++e) {
-      const double sigma = estimator.models()[e].loo_rms;
+      const double sigma = estimator.models()[e].cv_rms_um_or_urad;
       if (!(sigma > 0)) continue;
       std::array<double, 7> micro{};
       micro[e] = sigma;

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/series.h"
@@ -18,10 +19,44 @@ struct InputSpec {
   double scale;  // to the model's unit
   bool relative_to_start;
 };
-const InputSpec kInputs[] = {{"c_rpm/1000", kCRpm, 1e-3, false},
-                             {"T_env-T_env(0)", kTEnv, 1.0, true},
-                             {"T_ws-T_ws(0)", kTWs, 1.0, true},
-                             {"dT_cool", kDTCool, 1.0, false}};
+struct InputSpecPower {
+  InputSpec spec;
+  int power;  // heat from friction grows with speed (1) or its square (2)
+};
+const InputSpecPower kInputs[] = {
+    {{"c_rpm/1000", kCRpm, 1e-3, false}, 1},
+    {{"(c_rpm/1000)^2", kCRpm, 1e-3, false}, 2},
+    {{"spindle_rpm/1000", kSpindleRpm, 1e-3, false}, 1},
+    {{"(spindle_rpm/1000)^2", kSpindleRpm, 1e-3, false}, 2},
+    {{"T_env-T_env(0)", kTEnv, 1.0, true}, 1},
+    {{"T_ws-T_ws(0)", kTWs, 1.0, true}, 1},
+    {{"dT_cool", kDTCool, 1.0, false}, 1}};
+
+// A weak prior on the lags' initial states (a pseudo-observation of 0 with
+// this weight, in the error's unit): states the R-tests barely see (a lag
+// that decays before the first R-test) stay small instead of exploding.
+constexpr double kInitialStateRidge = 0.01;
+// Below this many R-tests the cross-validation chooses the model's
+// structure again in every fold.
+constexpr int kReselectBelowRTests = 40;
+// Shortest lag of an input that is on only between R-tests (the spindle).
+constexpr double kPulsedMinTauS = 1200;
+
+// Kernel-smoothed (h > 0; h = inf: mean) or linearly interpolated (h = 0)
+// residuals at t.
+double Smooth(const std::vector<double>& t, const std::vector<double>& r,
+              double h, double x) {
+  if (t.empty()) return 0.0;
+  if (h == 0) return Interpolate(t, r, x);
+  double sw = 0, swr = 0;
+  for (size_t k = 0; k < t.size(); ++k) {
+    const double w =
+        std::isinf(h) ? 1.0 : std::exp(-0.5 * std::pow((t[k] - x) / h, 2));
+    sw += w;
+    swr += w * r[k];
+  }
+  return sw > 1e-300 ? swr / sw : 0.0;
+}
 
 // Candidate input subsets of up to max_inputs of n inputs.
 void Subsets(int n, int max_size, int first, std::vector<int>& current,
@@ -37,6 +72,29 @@ void Subsets(int n, int max_size, int first, std::vector<int>& current,
 
 }  // namespace
 
+bool EstimatorOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (tau_grid_s.empty()) return fail("tau_grid_s: empty");
+  for (double t : tau_grid_s)
+    if (!(t > 0) || !std::isfinite(t))
+      return fail("tau_grid_s: every time constant must be > 0 and finite");
+  if (max_inputs < 0) return fail("max_inputs: must be >= 0");
+  if (!(grid_step_s > 0) || !std::isfinite(grid_step_s))
+    return fail("grid_step_s: must be > 0 and finite");
+  if (bandwidth_grid_s.empty()) return fail("bandwidth_grid_s: empty");
+  for (double h : bandwidth_grid_s)
+    if (!(h >= 0)) return fail("bandwidth_grid_s: every bandwidth >= 0");
+  if (cv_block_rtests < 1) return fail("cv_block_rtests: must be >= 1");
+  if (!(cut_time_error_fraction >= 0))
+    return fail("cut_time_error_fraction: must be >= 0");
+  for (double s : rtest_noise_um_or_urad)
+    if (!(s >= 0)) return fail("rtest_noise_um_or_urad: every value >= 0");
+  return true;
+}
+
 MachineErrorEstimator MachineErrorEstimator::Fit(
     const TalcLog& log, const EstimatorOptions& options) {
   return FitWithout(log, -1, options);
@@ -44,6 +102,9 @@ MachineErrorEstimator MachineErrorEstimator::Fit(
 
 MachineErrorEstimator MachineErrorEstimator::FitWithout(
     const TalcLog& log, int skip, const EstimatorOptions& options) {
+  std::string invalid;
+  if (!options.IsValid(&invalid))
+    throw std::invalid_argument("EstimatorOptions." + invalid);
   MachineErrorEstimator est;
   est.options_ = options;
   est.compensation_ = log.compensation;
@@ -89,13 +150,14 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
   const double dt = options.grid_step_s;
   const int steps = static_cast<int>(std::ceil((t1 - t0) / dt)) + 1;
   est.grid_t0_ = t0;
-  for (const InputSpec& spec : kInputs) {
+  for (const InputSpecPower& sp : kInputs) {
+    const InputSpec& spec = sp.spec;
     std::vector<double> t, v;
     for (const auto& row : log.rows) {
       if (!row.Has(spec.column)) continue;
       if (!t.empty() && row.t_s == t.back()) continue;
       t.push_back(row.t_s);
-      v.push_back(row.values[spec.column] * spec.scale);
+      v.push_back(std::pow(row.values[spec.column] * spec.scale, sp.power));
     }
     if (t.size() < 2) continue;
     const double base = spec.relative_to_start ? v.front() : 0.0;
@@ -103,6 +165,8 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     if (*mx - *mn < 1e-9) continue;  // constant: carries no information
     Signal s;
     s.name = spec.name;
+    s.pulsed = spec.column == kSpindleRpm;
+    s.column = spec.column;
     for (double tau : options.tau_grid_s) {
       std::vector<double> f(steps);
       const double a = 1.0 - std::exp(-dt / tau);
@@ -120,27 +184,14 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
 
   // Per error: BIC over input subsets and time constants.
   const int n = static_cast<int>(est.rtest_t_.size());
-  const int n_inputs = static_cast<int>(est.signals_.size());
-  const int n_tau = static_cast<int>(options.tau_grid_s.size());
-  std::vector<std::vector<int>> subsets;
-  std::vector<int> current;
-  Subsets(n_inputs, options.max_inputs, 0, current, subsets);
-  // Input values at the R-tests: [input][tau][k].
-  std::vector<std::vector<std::vector<double>>> at(n_inputs);
-  for (int i = 0; i < n_inputs; ++i) {
-    at[i].resize(n_tau);
-    for (int j = 0; j < n_tau; ++j) {
-      for (int k = 0; k < n; ++k) {
-        at[i][j].push_back(est.InputAt(i, j, est.rtest_t_[k]));
-      }
-    }
-  }
   est.models_.resize(7);
   est.model_input_index_.resize(7);
   est.model_tau_index_.resize(7);
+  est.choice_.resize(7);
   est.residual_.assign(n, {});
+  std::vector<int> all(n);
+  for (int k = 0; k < n; ++k) all[k] = k;
   for (int e = 0; e < 7; ++e) {
-    double best_bandwidth = 0;
     // With compensation on the fit targets the R-test residual (machine minus
     // pred_): pred_ already follows the fast dynamics of the inputs (C-axis
     // stops for every R-test and cut), so what is left is smoother.
@@ -148,45 +199,13 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     for (int k = 0; k < n; ++k) {
       y[k] = (est.rtest_y_[k] - est.PredictedAt(est.rtest_t_[k])).ToMicro()[e];
     }
-    double best_bic = std::numeric_limits<double>::infinity();
-    for (const auto& subset : subsets) {
-      const int m = static_cast<int>(subset.size());
-      if (n <= 2 * m + 2) continue;  // keep the fit overdetermined
-      std::vector<int> taus(m, 0);
-      while (true) {
-        Eigen::MatrixXd x(n, m + 1);
-        x.col(0).setOnes();
-        for (int c = 0; c < m; ++c) {
-          for (int k = 0; k < n; ++k) x(k, c + 1) = at[subset[c]][taus[c]][k];
-        }
-        const Eigen::VectorXd beta = x.colPivHouseholderQr().solve(y);
-        const double rss = std::max((y - x * beta).squaredNorm(), 1e-12);
-        const double bic = n * std::log(rss / n) + (1 + 2 * m) * std::log(n);
-        if (bic < best_bic - 1e-9) {
-          best_bic = bic;
-          ErrorModel model;
-          model.offset = beta[0];
-          model.bic = bic;
-          model.rms_residual = std::sqrt(rss / n);
-          for (int c = 0; c < m; ++c) {
-            model.inputs.push_back(est.signals_[subset[c]].name);
-            model.tau_s.push_back(options.tau_grid_s[taus[c]]);
-            model.gains.push_back(beta[c + 1]);
-          }
-          est.models_[e] = model;
-          est.model_input_index_[e] = subset;
-          est.model_tau_index_[e] = taus;
-        }
-        int c = 0;  // next combination of time constants
-        while (c < m && ++taus[c] == n_tau) taus[c++] = 0;
-        if (c == m) break;
-      }
-    }
+    est.SelectModel(e, y, all);
     for (int k = 0; k < n; ++k) {
       est.residual_[k][e] = y[k] - est.ModelAt(e, est.rtest_t_[k]);
     }
     // Residual smoother: the bandwidth with the least leave-one-out error.
     double best = std::numeric_limits<double>::infinity();
+    double best_bandwidth = 0;
     for (double h : options.bandwidth_grid_s) {
       est.models_[e].bandwidth_s = h;
       double ss = 0;
@@ -196,13 +215,211 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
       }
       if (ss < best - 1e-12) {
         best = ss;
-        est.models_[e].loo_rms = std::sqrt(ss / n);
+        est.models_[e].loo_rms_um_or_urad = std::sqrt(ss / n);
         best_bandwidth = h;
       }
     }
     est.models_[e].bandwidth_s = best_bandwidth;
   }
+  if (skip < 0) est.CrossValidate();
   return est;
+}
+
+// Error e's model chosen on the R-tests `rows` (y indexed like rtest_t_):
+// inputs, time constants and whether the lags' initial state is free, by
+// BIC.
+MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
+    int e, const std::vector<double>& y, const std::vector<int>& rows) const {
+  const int n = static_cast<int>(rows.size());
+  const int n_inputs = static_cast<int>(signals_.size());
+  const int n_tau = static_cast<int>(options_.tau_grid_s.size());
+  std::vector<std::vector<int>> subsets;
+  std::vector<int> current;
+  Subsets(n_inputs, options_.max_inputs, 0, current, subsets);
+  double best_bic = std::numeric_limits<double>::infinity();
+  Choice best;
+  Eigen::VectorXd yv(n);
+  for (int r = 0; r < n; ++r) yv[r] = y[rows[r]];
+  for (int state = 0; state < (options_.free_initial_state ? 2 : 1); ++state) {
+    const bool free_state = state == 1;
+    for (const auto& subset : subsets) {
+      const int m = static_cast<int>(subset.size());
+      if (free_state && m == 0) continue;
+      // One term per physical input (speed or its square, not both: they
+      // are nearly collinear at the R-tests and extrapolate wildly).
+      bool distinct = true;
+      for (int a = 0; a < m; ++a)
+        for (int b = a + 1; b < m; ++b)
+          distinct &= signals_[subset[a]].column != signals_[subset[b]].column;
+      if (!distinct) continue;
+      const int k_params = 1 + 2 * m + (free_state ? m : 0);
+      // Keep the fit overdetermined; a free initial state only with R-tests
+      // enough to see it (three per parameter).
+      if (n < k_params + 3 || (free_state && n < 3 * k_params)) continue;
+      std::vector<int> taus(m, 0);
+      while (true) {
+        // The spindle turns only during cuts, which no R-test sees: only
+        // its slow lags (the heat it leaves) are observable.
+        bool observable = true;
+        for (int k = 0; k < m; ++k)
+          observable &= !(signals_[subset[k]].pulsed &&
+                          options_.tau_grid_s[taus[k]] < kPulsedMinTauS);
+        Choice c;
+        c.subset = subset;
+        c.taus = taus;
+        c.free_state = free_state;
+        if (!observable) {
+          int k = 0;
+          while (k < m && ++taus[k] == n_tau) taus[k++] = 0;
+          if (k == m) break;
+          continue;
+        }
+        const Eigen::MatrixXd x = Design(c, rows);
+        Eigen::VectorXd ya = Eigen::VectorXd::Zero(x.rows());
+        ya.head(n) = yv;
+        const Eigen::VectorXd beta = x.colPivHouseholderQr().solve(ya);
+        const double rss =
+            std::max((yv - x.topRows(n) * beta).squaredNorm(), 1e-12);
+        const double bic = n * std::log(rss / n) + k_params * std::log(n);
+        if (bic < best_bic - 1e-9 && beta.allFinite()) {
+          best_bic = bic;
+          c.beta = beta;
+          c.bic = bic;
+          c.rms = std::sqrt(rss / n);
+          best = c;
+        }
+        int k = 0;  // next combination of time constants
+        while (k < m && ++taus[k] == n_tau) taus[k++] = 0;
+        if (k == m) break;
+      }
+    }
+  }
+  if (!std::isfinite(best_bic)) {  // too few R-tests: offset only
+    best = Choice{};
+    best.beta = Eigen::VectorXd::Constant(1, yv.mean());
+    best.rms = std::sqrt((yv.array() - yv.mean()).square().mean());
+  }
+  return best;
+}
+
+// Columns at the R-tests `rows`: offset, the lagged inputs, their decays
+// from the log's start (free initial state), then one weak-prior row per
+// initial state.
+Eigen::MatrixXd MachineErrorEstimator::Design(
+    const Choice& c, const std::vector<int>& rows) const {
+  const int n = static_cast<int>(rows.size());
+  const int m = static_cast<int>(c.subset.size());
+  const int ridge = c.free_state ? m : 0;
+  Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n + ridge, 1 + m + ridge);
+  x.col(0).head(n).setOnes();
+  for (int r = 0; r < n; ++r) x.row(r) = Row(c, rtest_t_[rows[r]]).transpose();
+  for (int k = 0; k < ridge; ++k) x(n + k, 1 + m + k) = kInitialStateRidge;
+  return x;
+}
+
+Eigen::VectorXd MachineErrorEstimator::Row(const Choice& c, double t) const {
+  const int m = static_cast<int>(c.subset.size());
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(1 + m + (c.free_state ? m : 0));
+  x[0] = 1;
+  for (int k = 0; k < m; ++k) {
+    x[1 + k] = InputAt(c.subset[k], c.taus[k], t);
+    if (c.free_state)
+      x[1 + m + k] = std::exp(-(t - grid_t0_) / options_.tau_grid_s[c.taus[k]]);
+  }
+  return x;
+}
+
+void MachineErrorEstimator::SelectModel(int e, const Eigen::VectorXd& y,
+                                        const std::vector<int>& rows) {
+  const std::vector<double> yv(y.data(), y.data() + y.size());
+  const Choice c = Choose(e, yv, rows);
+  ErrorModel& model = models_[e];
+  model = ErrorModel{};
+  model.unit = e < 4 ? "um" : "urad";
+  model.offset_um_or_urad = c.beta[0];
+  model.bic = c.bic;
+  model.rms_residual_um_or_urad = c.rms;
+  model.free_initial_state = c.free_state;
+  const int m = static_cast<int>(c.subset.size());
+  for (int k = 0; k < m; ++k) {
+    model.inputs.push_back(signals_[c.subset[k]].name);
+    model.tau_s.push_back(options_.tau_grid_s[c.taus[k]]);
+    model.gains_um_or_urad_per_input_unit.push_back(c.beta[1 + k]);
+    model.initial_state_um_or_urad.push_back(c.free_state ? c.beta[1 + m + k]
+                                                          : 0.0);
+  }
+  model_input_index_[e] = c.subset;
+  model_tau_index_[e] = c.taus;
+  choice_[e] = c;
+}
+
+// Blocked cross-validation: every block of consecutive R-tests is held
+// out, the model refitted without it (its structure chosen again when the
+// R-tests are few enough for that to be cheap; else its coefficients) and
+// evaluated there, residual smoother included.
+void MachineErrorEstimator::CrossValidate() {
+  const int n = static_cast<int>(rtest_t_.size());
+  const int block = std::max(1, options_.cv_block_rtests);
+  const bool reselect = n <= kReselectBelowRTests;
+  for (int e = 0; e < 7; ++e) {
+    std::vector<double> y(n);
+    for (int k = 0; k < n; ++k)
+      y[k] = (rtest_y_[k] - PredictedAt(rtest_t_[k])).ToMicro()[e];
+    double ss = 0;
+    int count = 0;
+    for (int b0 = 0; b0 < n; b0 += block) {
+      const int b1 = std::min(n, b0 + block);
+      std::vector<int> kept;
+      for (int k = 0; k < n; ++k)
+        if (k < b0 || k >= b1) kept.push_back(k);
+      if (kept.size() < 2) continue;
+      Choice c = choice_[e];
+      if (reselect) {
+        c = Choose(e, y, kept);
+      } else {
+        const Eigen::MatrixXd x = Design(c, kept);
+        Eigen::VectorXd ya = Eigen::VectorXd::Zero(x.rows());
+        for (size_t r = 0; r < kept.size(); ++r) ya[r] = y[kept[r]];
+        c.beta = x.colPivHouseholderQr().solve(ya);
+      }
+      if (!c.beta.allFinite()) continue;
+      std::vector<double> tk, rk;
+      for (int k : kept) {
+        tk.push_back(rtest_t_[k]);
+        rk.push_back(y[k] - Row(c, rtest_t_[k]).dot(c.beta));
+      }
+      for (int k = b0; k < b1; ++k) {
+        const double t = rtest_t_[k];
+        const double pred = Row(c, t).dot(c.beta) +
+                            Smooth(tk, rk, models_[e].bandwidth_s, t);
+        ss += (pred - y[k]) * (pred - y[k]);
+        ++count;
+      }
+    }
+    models_[e].cv_rms_um_or_urad =
+        count > 0 ? std::sqrt(ss / count) : models_[e].loo_rms_um_or_urad;
+  }
+}
+
+double MachineErrorEstimator::MeanRTestSpacingS() const {
+  const size_t n = rtest_t_.size();
+  return n > 1 ? (rtest_t_.back() - rtest_t_.front()) / (n - 1) : 0.0;
+}
+
+double MachineErrorEstimator::CorrelationTimeS() const {
+  return std::max(MeanRTestSpacingS(), options_.grid_step_s);
+}
+
+double MachineErrorEstimator::ErrorSigmaAt(int e, double t_s) const {
+  const double cv = models_[e].cv_rms_um_or_urad;
+  const double noise = options_.rtest_noise_um_or_urad[e];
+  const double s =
+      std::max(std::sqrt(std::max(cv * cv - noise * noise, 0.0)),
+               options_.cut_time_error_fraction * cv);
+  const double outside = std::max(
+      {0.0, rtest_t_.front() - t_s, t_s - rtest_t_.back()});
+  const double spacing = std::max(MeanRTestSpacingS(), 1.0);
+  return s * std::sqrt(1.0 + std::pow(outside / spacing, 2));
 }
 
 double MachineErrorEstimator::InputAt(int input, int tau, double t_s) const {
@@ -212,10 +429,12 @@ double MachineErrorEstimator::InputAt(int input, int tau, double t_s) const {
 
 double MachineErrorEstimator::ModelAt(int e, double t_s) const {
   const ErrorModel& m = models_[e];
-  double y = m.offset;
-  for (size_t c = 0; c < m.gains.size(); ++c) {
-    y += m.gains[c] *
-         InputAt(model_input_index_[e][c], model_tau_index_[e][c], t_s);
+  double y = m.offset_um_or_urad;
+  for (size_t c = 0; c < m.inputs.size(); ++c) {
+    y += m.gains_um_or_urad_per_input_unit[c] *
+             InputAt(model_input_index_[e][c], model_tau_index_[e][c], t_s) +
+         m.initial_state_um_or_urad[c] *
+             std::exp(-(t_s - grid_t0_) / m.tau_s[c]);
   }
   return y;
 }
@@ -223,26 +442,13 @@ double MachineErrorEstimator::ModelAt(int e, double t_s) const {
 // Residual correction at t, R-test `skip` left out (-1: none).
 double MachineErrorEstimator::ResidualAt(int e, double t_s, int skip) const {
   const int n = static_cast<int>(rtest_t_.size());
-  const double h = models_[e].bandwidth_s;
-  if (h == 0) {
-    std::vector<double> t, r;
-    for (int k = 0; k < n; ++k) {
-      if (k == skip) continue;
-      t.push_back(rtest_t_[k]);
-      r.push_back(residual_[k][e]);
-    }
-    return Interpolate(t, r, t_s);
-  }
-  double sw = 0, swr = 0;
+  std::vector<double> t, r;
   for (int k = 0; k < n; ++k) {
     if (k == skip) continue;
-    const double w =
-        std::isinf(h) ? 1.0
-                      : std::exp(-0.5 * std::pow((rtest_t_[k] - t_s) / h, 2));
-    sw += w;
-    swr += w * residual_[k][e];
+    t.push_back(rtest_t_[k]);
+    r.push_back(residual_[k][e]);
   }
-  return sw > 1e-300 ? swr / sw : 0.0;
+  return Smooth(t, r, models_[e].bandwidth_s, t_s);
 }
 
 CAxisErrors MachineErrorEstimator::MachineErrorsAt(double t_s) const {
@@ -264,8 +470,9 @@ CAxisErrors MachineErrorEstimator::PredictedAt(double t_s) const {
 
 std::string MachineErrorEstimator::Describe() const {
   std::string s = fmt::format(
-      "ARX(1,1) smoother: per error c + sum g_i * lag_tau_i(u_i), least "
-      "squares on {} R-tests, inputs and tau by BIC, plus R-test residuals "
+      "ARX(1,1) smoother: per error c + sum g_i * lag_tau_i(u_i) + free "
+      "initial states, least squares on {} R-tests, inputs (speeds linear "
+      "and squared, temperatures) and tau by BIC, plus R-test residuals "
       "smoothed (Gaussian kernel, bandwidth per error by leave-one-out; 0 = "
       "linear interpolation){}",
       rtest_t_.size(),
@@ -284,19 +491,24 @@ nlohmann::json MachineErrorEstimator::ToJson() const {
     const ErrorModel& m = models_[e];
     nlohmann::json terms = nlohmann::json::array();
     for (size_t c = 0; c < m.inputs.size(); ++c) {
-      terms.push_back({{"input", m.inputs[c]},
-                       {"tau_s", m.tau_s[c]},
-                       {"gain", m.gains[c]}});
+      terms.push_back(
+          {{"input", m.inputs[c]},
+           {"tau_s", m.tau_s[c]},
+           {"gain_" + m.unit + "_per_input_unit",
+            m.gains_um_or_urad_per_input_unit[c]},
+           {"initial_state_" + m.unit, m.initial_state_um_or_urad[c]}});
     }
     models[kErrorNames[e]] = {
-        {"offset", m.offset},
+        {"unit", m.unit},
+        {"offset_" + m.unit, m.offset_um_or_urad},
         {"terms", terms},
         {"bic", m.bic},
-        {"rms_residual", m.rms_residual},
+        {"rms_residual_" + m.unit, m.rms_residual_um_or_urad},
         {"residual_bandwidth_s", std::isinf(m.bandwidth_s)
                                      ? nlohmann::json("inf")
                                      : nlohmann::json(m.bandwidth_s)},
-        {"loo_rms", m.loo_rms}};
+        {"loo_rms_" + m.unit, m.loo_rms_um_or_urad},
+        {"cv_rms_" + m.unit, m.cv_rms_um_or_urad}};
   }
   j["models"] = models;
   return j;

@@ -144,14 +144,15 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
   }
   const double d_half = log.sphere_distance_mm;
   for (const CutRecord& cut : log.cuts) {
-    if (cut.t_s < est.FirstRTestS() || cut.t_s > est.LastRTestS()) {
+    // After the last R-test the estimator extrapolates through its model
+    // (with an uncertainty that grows, ErrorSigmaAt); before the first one
+    // nothing anchors it.
+    if (cut.t_s < est.FirstRTestS()) {
       throw InputError(
           log.source, cut.line, "t_s",
-          fmt::format("cut of {} at t_s {} lies outside the R-tests "
-                      "({:.1f} .. {:.1f} s): the log does not cover the cut "
-                      "times",
-                      cut.feature, cut.t_s, est.FirstRTestS(),
-                      est.LastRTestS()));
+          fmt::format("cut of {} at t_s {} lies before the first R-test "
+                      "({:.1f} s): the log does not cover the cut times",
+                      cut.feature, cut.t_s, est.FirstRTestS()));
     }
     CutGeometry g;
     try {

@@ -1,11 +1,16 @@
 // What the simulation gets wrong (diagnosis.md): residual = measured -
 // simulated (figures E_X, E_Y, E_Z, E_TTP per cycle and facet normal
-// angles), every cause fitted by weighted least squares together with
-// nuisance offsets (the reference cycle's machine state is uncertain, so
-// each figure may be off by a constant), chosen by BIC; a cause is named
-// only when its BIC beats the nominal model by the evidence threshold.
+// angles), every cause and pair of causes fitted by generalised least
+// squares (whitened with the residuals' covariance) together with nuisance
+// offsets (the reference cycle's machine state is uncertain, so each figure
+// may be off by a constant), chosen by BIC. A cause is named only when its
+// BIC beats the nominal model by the evidence threshold and it leaves a
+// residual of the size the error budget predicts; otherwise the outcome is
+// `none` or `unexplained` (diagnosis.md section 3).
 #pragma once
 
+#include <Eigen/Core>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -46,34 +51,68 @@ MeasuredPiece MeasuredPieceFromInspection(
 // and field.
 MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path);
 
-// Residual observations: measured - simulated.
+// Residual observations: measured - simulated, figures in um and facet
+// normal angles in urad, each with its covariance (the error budget:
+// measurement, form and the estimator's error between R-tests, which is
+// common to a cycle's cuts and correlated across cycles).
 struct Observations {
-  std::vector<std::string> labels;  // "E_X@3", "angle X1-3"
-  std::vector<FeatureId> facet;     // group 4 (angles): the facet
-  std::vector<double> value;        // um (figures) or urad (angles)
-  std::vector<double> sigma;        // standard uncertainty, same unit
-  std::vector<int> cycle;           // 0 = reference features
-  std::vector<int> group;           // 0..3 E_X,E_Y,E_Z,E_TTP; 4 angles
-  size_t size() const { return value.size(); }
+  // Figures E_X, E_Y, E_Z, E_TTP (figure_kind 0..3) per cycle.
+  std::vector<int> figure_cycle, figure_kind;
+  std::vector<double> figure_t_s;  // the cycle's cut time
+  std::vector<double> figure_value_um, figure_sigma_um;
+  Eigen::MatrixXd figure_covariance_um2;
+  // Facet normal angles (rotation about Z).
+  std::vector<FeatureId> angle_feature;  // the facet (X1-3)
+  std::vector<int> angle_cycle;
+  std::vector<double> angle_t_s;
+  std::vector<double> angle_value_urad, angle_sigma_urad;
+  Eigen::MatrixXd angle_covariance_urad2;
+
+  size_t figures() const { return figure_value_um.size(); }
+  size_t angles() const { return angle_value_urad.size(); }
+  size_t size() const { return figures() + angles(); }
+  std::string FigureLabel(size_t i) const;  // "E_X@3"
+  std::string AngleLabel(size_t i) const;   // "angle X1-3"
 };
 
 struct DiagnosisOptions {
-  // BIC of the best cause must beat the nominal model's by this much
-  // (Kass & Raftery: > 10 is very strong evidence).
-  double evidence_threshold = 10.0;
+  // BIC of the chosen model must beat the nominal model's (and, for a pair
+  // of causes, the best single cause's) by this much. Calibrated by
+  // simulation (docs/DIAGNOSIS.md): at most 1 % of runs without a cause
+  // get one named.
+  double evidence_threshold = 12.0;
+  // Goodness of fit: the chosen model (or the nominal one) must leave
+  // chi2 / degrees of freedom below this, else the residual holds
+  // structure no known cause explains (`unexplained`).
+  double max_chi2_per_dof = 2.0;
+  // The same per figure kind (and for the angles): its whitened chi2 must
+  // stay below the chi2 quantile this many standard deviations out.
+  double local_z = 4.5;
   // Lower bounds of the residual uncertainties (um, urad).
-  double min_sigma_um = 0.05, min_sigma_urad = 0.3;
-  // The estimator's leave-one-R-test-out error includes the R-test's own
-  // noise; between R-tests the smoother averages several of them, so its
-  // error at a cut time is smaller. Scale applied to that error.
-  double estimator_sigma_scale = 0.5;
-  // DiagnoseRun refuses (InputError) when even the best model leaves
-  // chi2 / degrees of freedom above this: the measurement does not belong
-  // to the log (twin battery: at most ~1.2; mismatched samples: ~5.6).
-  double max_chi2_per_dof = 3.0;
+  double min_sigma_um = 0.02, min_sigma_urad = 0.3;
+  // Scale on the estimator's blocked cross-validation error (which holds
+  // the held-out R-test's own noise and a gap twice the spacing).
+  double estimator_sigma_scale = 1.0;
+  // Form error of a fitted feature as a fraction of its fit's residual RMS.
+  double form_fraction = 0.1;
+  // C-axis indexing: harmonics 1..K per turn, K chosen by evidence.
+  int max_c_harmonics = 4;
+  // Two causes at once are tried.
+  bool pairs = true;
+  // `refused` when the measured E_X/E_Y follow the simulated ones with a
+  // slope this far from 1 (and more than 5 standard deviations) while the
+  // nominal model does not fit: the log describes another run.
+  double mismatch_slope_limit = 0.4;
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
+
+  // False with a message naming the field when the options cannot be used.
+  bool IsValid(std::string* error) const;
 };
+
+// Every diagnosis ends in exactly one of these (diagnosis.md section 3).
+enum class DiagnosisStatus { kNamed, kNone, kUnexplained, kRefused };
+const char* StatusName(DiagnosisStatus status);
 
 struct ParamEstimate {
   std::string name;
@@ -81,32 +120,61 @@ struct ParamEstimate {
 };
 
 struct CandidateResult {
-  Cause cause = Cause::kNone;
-  std::vector<double> params;                // in CauseParameterNames order
+  std::string name;          // "tool_wear", "clamping_distortion+tool_wear"
+  Cause cause = Cause::kNone;  // the first (or only) cause
+  std::vector<Cause> causes;   // empty for none
+  std::vector<std::vector<double>> params;   // per cause
   std::vector<ParamEstimate> report_params;  // with units, uncertainty
   double chi2 = 0, bic = 0, delta_bic = 0;   // delta to the nominal model
   int parameters = 0;                        // incl. nuisance offsets
   double rms_um = 0, rms_urad = 0;  // residual after effect and offsets
+  // Why the candidate cannot be named although it fits (e.g. a time
+  // constant at its bound); empty when it can.
+  std::string note;
+};
+
+// Where unexplained structure lives: one figure kind, cycle or the facet
+// angles, with its RMS after the best model and its share of chi2.
+struct StructureLocation {
+  std::string where;  // "E_TTP", "cycle 6", "facet angles", ...
+  double rms = 0;     // in `unit`
+  std::string unit;   // "um" or "urad"
+  double chi2_per_observation = 0;
 };
 
 struct DiagnosisReport {
-  std::string cause = "none";
+  DiagnosisStatus status = DiagnosisStatus::kNone;
+  std::string cause = "none";  // empty when refused
+  std::string reason;          // one sentence: why this status
   std::vector<ParamEstimate> params;
   // Residual RMS after fitting the nominal model (nuisance offsets only)
   // and the extension (cause + offsets); raw = measured - simulated.
   double raw_rms_um = 0, raw_rms_urad = 0;
   double baseline_rms_um = 0, extended_rms_um = 0;
   double baseline_rms_urad = 0, extended_rms_urad = 0;
-  // Leave one cycle out: residual RMS on held-out cycles (whitened, all
-  // observations), baseline vs extension.
-  double gain_pct = 0;
-  double heldout_baseline_rms = 0, heldout_extended_rms = 0;
+  double chi2_per_dof = 0;  // of the chosen model
+  // Held-out cycles (the whole selection repeated without each cycle):
+  // RMS of the held-out residuals, nominal vs the fold's chosen model.
+  double heldout_baseline_rms_um = 0, heldout_extended_rms_um = 0;
+  double heldout_baseline_rms_urad = 0, heldout_extended_rms_urad = 0;
+  double gain_pct = 0;  // on figures (um); on angles for angle-only causes
   int observations = 0;
   std::vector<CandidateResult> candidates;
+  // Where the residual after the chosen model lives, largest chi2 per
+  // observation first (for `unexplained`: where the structure is).
+  std::vector<StructureLocation> structure;
+  // Figures after the chosen model (measured - simulated - effect -
+  // offsets), in Observations' figure order, um.
+  std::vector<double> figure_after_um;
   std::string estimator;
+  // Unexplained runs: the slope of the measured E_X, E_Y over the
+  // simulated ones (1 when the log describes the piece's run; NaN when not
+  // computed).
+  double simulation_slope = std::numeric_limits<double>::quiet_NaN();
+  double simulation_slope_sd = 0;
 };
 
-// Diagnosis on prepared residuals.
+// Diagnosis on prepared residuals (named, none or unexplained).
 DiagnosisReport Diagnose(const Observations& observations,
                          const EffectContext& context, const PartSpec& part,
                          const DiagnosisOptions& options = {});
@@ -116,6 +184,9 @@ struct PreparedRun {
   thermal::Simulation simulation;
   EffectContext context;
   Observations observations;
+  // Set when the measurement and the log cannot belong together (a
+  // measured feature the log never cut): the diagnosis is `refused`.
+  std::string refusal;
 };
 PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                        const MeasuredPiece& measured,
@@ -133,9 +204,9 @@ struct PreparedDiagnosis {
   DiagnosisReport report;
 };
 
-// Diagnose on a prepared run, with the estimator's description, refusing a
-// measurement the best model cannot explain (options.max_chi2_per_dof):
-// InputError naming the measurement.
+// Diagnose on a prepared run, with the estimator's description: `refused`
+// when the run carries a refusal or the measured figures follow another
+// run's (DiagnosisOptions::mismatch_slope_limit).
 DiagnosisReport DiagnosePrepared(const PreparedRun& run,
                                  const thermal::TalcLog& log,
                                  const PartSpec& part,
@@ -146,12 +217,15 @@ DiagnosisReport DiagnoseRun(const thermal::TalcLog& log, const Config& config,
                             const MeasuredPiece& measured,
                             const DiagnosisOptions& options = {});
 
-// Effect of a cause on the observations (same layout), um / urad.
-std::vector<double> EffectOnObservations(Cause cause,
-                                         const std::vector<double>& params,
-                                         const Observations& observations,
-                                         const EffectContext& context,
-                                         const PartSpec& part);
+// Effect of a cause on the observations (same layout).
+struct ObservationEffect {
+  std::vector<double> figure_um, angle_urad;
+};
+ObservationEffect EffectOnObservations(Cause cause,
+                                       const std::vector<double>& params,
+                                       const Observations& observations,
+                                       const EffectContext& context,
+                                       const PartSpec& part);
 
 nlohmann::json DiagnosisToJson(const DiagnosisReport& report);
 std::string DiagnosisText(const DiagnosisReport& report);

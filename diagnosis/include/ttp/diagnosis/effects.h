@@ -74,10 +74,13 @@ using EffectDeltas = std::map<std::string, FeatureDelta>;
 //    = gain x machine temperature change through a first-order lag tau_wp_s)
 //  tool_wear: wear_um_per_m (cutter radius loss per metre cut)
 //  clamping_distortion: cos3_um, sin3_um (facet distance change
-//    cos3 cos(3 phi) + sin3 sin(3 phi); amplitude/phase for reports)
-//  c_axis_indexing: cos_urad, sin_urad (C stop error
-//    cos cos(c) + sin sin(c), turning facet normals about Z)
+//    cos3 cos(3 phi) + sin3 sin(3 phi), and the facet's turn about Z that
+//    the lobes' slope implies; amplitude/phase for reports)
+//  c_axis_indexing: cos1_urad, sin1_urad, cos2_urad, ... (C stop error
+//    sum_k cos_k cos(k c) + sin_k sin(k c), harmonics 1..K with K =
+//    params / 2, turning facet normals about Z)
 std::vector<std::string> CauseParameterNames(Cause cause);
+std::vector<std::string> CAxisParameterNames(int harmonics);
 EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
                            const EffectContext& context);
 

@@ -2,11 +2,15 @@
 // and the log's inputs (talc-log.md section 2, test-piece.md section 6).
 //
 // Estimator: per error, the thesis' ARX(1, 1) in continuous-time form
-//   y(t) = c + sum_i g_i * L_tau_i[u_i](t),
-// L_tau a first-order lag (the ARX pole) of input u_i (C-axis speed in
-// 1000/min, T_env, T_ws - their start values, dT_cool). Gains and offset are
-// fitted by linear least squares on the R-tests of the run; the inputs and
-// each input's time constant (a grid) are chosen by BIC. The model is used
+//   y(t) = c + sum_i g_i * L_tau_i[u_i](t) + sum_i h_i exp(-(t - t0)/tau_i),
+// L_tau a first-order lag (the ARX pole) of input u_i (C-axis and spindle
+// speed in 1000/min, linear and squared: bearing friction heat grows with
+// the square of the speed; T_env, T_ws - their start values, dT_cool). The
+// exponential terms are the lags' free initial state: a real log starts
+// after pre-machining and a hold, not in steady state. Gains, offset and
+// initial states are fitted by linear least squares on the R-tests of the
+// run; the inputs and each input's time constant (a grid) are chosen by
+// BIC. The model is used
 // as a smoother: its prediction plus the R-test residuals, smoothed with a
 // Gaussian kernel whose bandwidth (0 = linear interpolation through the
 // R-tests) is chosen per error by leave-one-out error, so the estimate
@@ -15,6 +19,8 @@
 // machine's own error: R-test residual + pred_ (thesis 6.4.2).
 #pragma once
 
+#include <Eigen/Core>
+#include <array>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -30,24 +36,53 @@ struct EstimatorOptions {
                                     2400, 4800, 9600, 19200};
   int max_inputs = 2;       // inputs per error model
   double grid_step_s = 10;  // integration step of the lag filters
+  // Fit the lags' initial state (one exp(-(t - t0)/tau) term per input)
+  // instead of assuming the log starts in steady state.
+  bool free_initial_state = true;
+  // Blocked cross-validation of the estimator between R-tests: blocks of
+  // this many consecutive R-tests are held out, the model refitted without
+  // them and evaluated at them.
+  int cv_block_rtests = 2;
+  // The R-tests' own noise (k = 1, um for EX0C..ER0T, urad for EA0C..EC0C;
+  // thesis table 5.4: U95 0.4, 0.5, 0.4, 0.6 um and 2.3, 2.5, 2.6 um/m).
+  // The cross-validation error at a held-out R-test holds it; the error
+  // between R-tests does not (ErrorSigmaAt).
+  std::array<double, 7> rtest_noise_um_or_urad = {0.2,  0.25, 0.2, 0.3,
+                                                  1.15, 1.25, 1.3};
+  // The error at a cut time that the R-tests cannot show (the machine
+  // between R-tests, under the cut's own load), as a fraction of the
+  // cross-validation error: a floor of ErrorSigmaAt, calibrated by
+  // simulation (docs/DIAGNOSIS.md).
+  double cut_time_error_fraction = 0.5;
   // Residual smoothing bandwidths tried (s); 0 = linear interpolation
   // through the R-tests, infinity = model only (plus mean residual). The
   // one with the least leave-one-out error is used, per error.
   std::vector<double> bandwidth_grid_s = {
       0,    300,  600,  1200,
       2400, 4800, 9600, std::numeric_limits<double>::infinity()};
+
+  // False with a message naming the field when the options cannot be used.
+  bool IsValid(std::string* error) const;
 };
 
-// One error's fitted model (values in um or um/m, the log's units).
+// One error's fitted model. Values are in the error's unit: um for EX0C,
+// EY0C, EZ0T, ER0T and urad (= um/m) for EA0C, EB0C, EC0C (`unit`).
 struct ErrorModel {
+  std::string unit;  // "um" or "urad"
   std::vector<std::string> inputs;
   std::vector<double> tau_s;
-  std::vector<double> gains;  // per unit of the input (um per krpm or K)
-  double offset = 0;
+  // Per unit of the input (krpm, krpm^2 or K).
+  std::vector<double> gains_um_or_urad_per_input_unit;
+  bool free_initial_state = false;
+  std::vector<double> initial_state_um_or_urad;  // free initial state
+  double offset_um_or_urad = 0;
   double bic = 0;
-  double rms_residual = 0;  // at the R-tests
-  double bandwidth_s = 0;   // residual smoother chosen by leave-one-out
-  double loo_rms = 0;       // its leave-one-out error (log units)
+  double rms_residual_um_or_urad = 0;  // at the R-tests
+  double bandwidth_s = 0;  // residual smoother chosen by leave-one-out
+  double loo_rms_um_or_urad = 0;  // smoother's leave-one-out error
+  // Blocked cross-validation: RMS error at held-out R-tests with the model
+  // refitted without them (includes the R-test's own noise).
+  double cv_rms_um_or_urad = 0;
 };
 
 class MachineErrorEstimator {
@@ -59,6 +94,18 @@ class MachineErrorEstimator {
   // Same inputs, R-test `skip` left out (for leave-one-out checks).
   static MachineErrorEstimator FitWithout(const TalcLog& log, int skip,
                                           const EstimatorOptions& options);
+
+  // Standard uncertainty of MachineErrorsAt(t) for error e (um or urad):
+  // the blocked cross-validation error with the held-out R-test's own
+  // noise taken out, at least cut_time_error_fraction of the
+  // cross-validation error, growing linearly with the distance
+  // beyond the first or last R-test (extrapolation through the model) in
+  // units of the mean R-test spacing.
+  double ErrorSigmaAt(int error, double t_s) const;
+  // Time over which the estimator's errors stay correlated: the mean
+  // R-test spacing (the smoother interpolates over it).
+  double CorrelationTimeS() const;
+  double MeanRTestSpacingS() const;
 
   // Machine's own errors at t: ARX prediction + interpolated residuals.
   CAxisErrors MachineErrorsAt(double t_s) const;
@@ -82,11 +129,26 @@ class MachineErrorEstimator {
  private:
   struct Signal {
     std::string name;
+    bool pulsed = false;  // on only between R-tests (the spindle)
+    int column = 0;       // the log column it comes from
     std::vector<std::vector<double>> filtered;  // [tau][grid index]
   };
   double InputAt(int input, int tau, double t_s) const;
   double ModelAt(int error, double t_s) const;
   double ResidualAt(int error, double t_s, int skip) const;
+  struct Choice {
+    std::vector<int> subset, taus;  // inputs, tau grid indices
+    bool free_state = false;
+    Eigen::VectorXd beta;  // offset, gains, initial states
+    double bic = 0, rms = 0;
+  };
+  Choice Choose(int e, const std::vector<double>& y,
+                const std::vector<int>& rows) const;
+  Eigen::MatrixXd Design(const Choice& c, const std::vector<int>& rows) const;
+  Eigen::VectorXd Row(const Choice& c, double t_s) const;
+  void SelectModel(int e, const Eigen::VectorXd& y,
+                   const std::vector<int>& rows);
+  void CrossValidate();
 
   bool compensation_ = false;
   EstimatorOptions options_;
@@ -99,6 +161,7 @@ class MachineErrorEstimator {
   std::vector<ErrorModel> models_;  // 7
   std::vector<std::vector<int>> model_input_index_, model_tau_index_;
   std::vector<std::array<double, 7>> residual_;  // per R-test, log units
+  std::vector<Choice> choice_;  // per error
 };
 
 // Leave-one-R-test-out comparison of the ARX smoother and the straight line

@@ -1,16 +1,16 @@
-#include "ttp/diagnosis/twin.h"
+#include "ttp/sim/twin.h"
 
 #include <fmt/format.h>
 
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <random>
 #include <stdexcept>
 
-#include "ttp/diagnosis/diagnose.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/part_mesh.h"
@@ -19,13 +19,27 @@
 #include "ttp/inspect/synth.h"
 #include "ttp/thermal/simulate.h"
 
-namespace ttp::diagnosis {
+namespace ttp::sim {
 namespace {
 
 constexpr double kStepS = 10.0;
 constexpr double kRTestDurS = 95.0;
 // Thesis table 5.4, expanded uncertainty (k = 2): um and um/m.
 constexpr std::array<double, 7> kRTestU95 = {0.4, 0.5, 0.4, 0.6, 2.3, 2.5, 2.6};
+
+// First-order lag of a series sampled every step_s, exact for an input
+// held constant over each step (zero-order hold), starting at `initial`.
+std::vector<double> Lag(const std::vector<double>& input, double step_s,
+                        double tau_s, double initial) {
+  std::vector<double> out(input.size());
+  const double a = std::exp(-step_s / tau_s);
+  double x = initial;
+  for (size_t i = 0; i < input.size(); ++i) {
+    out[i] = x;
+    x = a * x + (1 - a) * input[i];
+  }
+  return out;
+}
 
 struct ErrorDynamics {
   double load_gain = 0, tau1_s = 1, tau2_s = 1;  // second-order load lag
@@ -38,9 +52,9 @@ std::vector<std::array<double, 7>> ErrorHistory(
     const std::vector<double>& env_delta) {
   std::vector<std::array<double, 7>> out(load.size());
   for (int e = 0; e < 7; ++e) {
-    const auto l1 = LagFilter(load, kStepS, dyn[e].tau1_s);
-    const auto l2 = LagFilter(l1, kStepS, dyn[e].tau2_s);
-    const auto le = LagFilter(env_delta, kStepS, dyn[e].tau_env_s);
+    const auto l1 = Lag(load, kStepS, dyn[e].tau1_s, 0.0);
+    const auto l2 = Lag(l1, kStepS, dyn[e].tau2_s, 0.0);
+    const auto le = Lag(env_delta, kStepS, dyn[e].tau_env_s, 0.0);
     for (size_t i = 0; i < load.size(); ++i)
       out[i][e] = dyn[e].load_gain * l2[i] + dyn[e].env_gain * le[i];
   }
@@ -55,21 +69,85 @@ FitNoise CloudFitNoise(const PartSpec& part, double point_noise_um,
                        int cloud_points) {
   // The synthetic CMM (inspect/synth.h) puts 45 % of the points on the 36
   // facets and 25 % on the 9 strips; the inspection keeps those inside the
-  // edge margins: about 1/100 of the cloud per facet, 1/40 per strip.
+  // edge margins: about 1/100 of the cloud per facet, 1/40 per strip. A
+  // plane through N points spread uniformly over a width w: distance
+  // sigma / sqrt(N), angle sigma / sqrt(N) / (w / sqrt(12)).
   FitNoise n;
   n.facet_points = std::max(10, cloud_points / 100);
   n.strip_points = std::max(10, cloud_points / 40);
   const double s = point_noise_um * 1e-3;
-  n.facet = FeatureFitScatter(part, FeatureKind::kFacet, s, n.facet_points);
-  n.strip = FeatureFitScatter(part, FeatureKind::kStrip, s, n.strip_points);
+  const double facet_width_mm =
+      2 * part.facet_final_distance_mm *
+          std::tan(part.facet_step_deg / 2 * M_PI / 180) -
+      2.0;
+  const double strip_length_mm = 0.9 * part.blank_diameter_mm;
+  n.facet_d_mm = s / std::sqrt(n.facet_points);
+  n.facet_angle_rad =
+      n.facet_d_mm / (std::max(2.0, facet_width_mm) / std::sqrt(12.0));
+  n.strip_d_mm = s / std::sqrt(n.strip_points);
+  n.strip_angle_rad = n.strip_d_mm / (strip_length_mm / std::sqrt(12.0));
   return n;
 }
 
+bool TwinOptions::IsValid(std::string* error) const {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (!(rtest_interval_s >= 150 && rtest_interval_s <= 7200))
+    return fail("rtest_interval_s: must be 150..7200 s");
+  if (!(point_noise_um >= 0)) return fail("point_noise_um: must be >= 0");
+  if (cloud_points < 1000) return fail("cloud_points: must be >= 1000");
+  if (!(stray_fraction >= 0 && stray_fraction < 0.5))
+    return fail("stray_fraction: must be 0..0.5");
+  if (!(workpiece_gain >= 0)) return fail("workpiece_gain: must be >= 0");
+  if (!(workpiece_tau_s >= 0)) return fail("workpiece_tau_s: must be >= 0");
+  if (!(tool_wear_um_per_m >= 0))
+    return fail("tool_wear_um_per_m: must be >= 0");
+  if (!(clamping_amplitude_um >= 0))
+    return fail("clamping_amplitude_um: must be >= 0");
+  if (!(c_indexing_amplitude_urad >= 0))
+    return fail("c_indexing_amplitude_urad: must be >= 0");
+  if (!(two_lobe_amplitude_um >= 0))
+    return fail("two_lobe_amplitude_um: must be >= 0");
+  if (step_from_cycle < 0) return fail("step_from_cycle: must be >= 0");
+  return true;
+}
+
+std::string TwinOptions::ExpectedOutcome() const {
+  if (step_um != 0 || two_lobe_amplitude_um > 0) return "unexplained";
+  std::vector<std::string> names;
+  if (c_indexing_amplitude_urad > 0) names.push_back("c_axis_indexing");
+  if (clamping_amplitude_um > 0) names.push_back("clamping_distortion");
+  if (tool_wear_um_per_m > 0) names.push_back("tool_wear");
+  if (workpiece_gain > 0) names.push_back("workpiece_expansion");
+  if (names.empty()) return "none";
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : "+") + n;
+  return s;
+}
+
+void SetEffect(TwinOptions* o, const std::string& name, double size) {
+  if (name == "none") return;
+  if (name == "workpiece_expansion")
+    o->workpiece_gain = size;
+  else if (name == "tool_wear")
+    o->tool_wear_um_per_m = size;
+  else if (name == "clamping_distortion")
+    o->clamping_amplitude_um = size;
+  else if (name == "c_axis_indexing")
+    o->c_indexing_amplitude_urad = size;
+  else
+    throw std::invalid_argument(
+        "unknown effect '" + name +
+        "' (none, workpiece_expansion, tool_wear, clamping_distortion, "
+        "c_axis_indexing)");
+}
+
 TwinRun RunTwin(const Config& config, const TwinOptions& options) {
-  if (options.rtest_interval_s < 150 || options.rtest_interval_s > 7200)
-    throw std::invalid_argument("rtest interval must be 150..7200 s");
-  if (options.point_noise_um < 0 || options.cloud_points < 1000)
-    throw std::invalid_argument("point noise >= 0, cloud points >= 1000");
+  std::string invalid;
+  if (!options.IsValid(&invalid))
+    throw std::invalid_argument("TwinOptions." + invalid);
   const PartSpec& part = config.part;
   std::mt19937_64 rng(options.seed);
   auto uniform = [&](double a, double b) {
@@ -144,9 +222,24 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
              env_drift_k_per_h * t[i] / 3600 + walk;
     env_delta[i] = env[i] - env0;
   }
-  const auto ws_lag = LagFilter(load, kStepS, 2400);
-  const auto cool_lag = LagFilter(load, kStepS, 300);
-  const auto env_ws = LagFilter(env_delta, kStepS, 1800);
+  // Before the log: pre-machining at a drawn load, then a hold; the lags
+  // enter the log in that state, not at rest.
+  const int pre_steps =
+      static_cast<int>(uniform(2400, 5400) / kStepS) +
+      static_cast<int>(uniform(1200, 3600) / kStepS);
+  const int pre_load_steps = pre_steps / 2;
+  const double pre_load = uniform(0.2, 0.8);
+  std::vector<double> load_ext(pre_steps, 0.0), env_ext(pre_steps, 0.0);
+  for (int i = 0; i < pre_load_steps; ++i) load_ext[i] = pre_load;
+  load_ext.insert(load_ext.end(), load.begin(), load.end());
+  env_ext.insert(env_ext.end(), env_delta.begin(), env_delta.end());
+  auto drop_pre = [&](std::vector<double> v) {
+    v.erase(v.begin(), v.begin() + pre_steps);
+    return v;
+  };
+  const auto ws_lag = drop_pre(Lag(load_ext, kStepS, 2400, 0.0));
+  const auto cool_lag = drop_pre(Lag(load_ext, kStepS, 300, 0.0));
+  const auto env_ws = Lag(env_delta, kStepS, 1800, 0.0);
 
   // --- machine: the seven errors' dynamics (um, um/m) ---
   const std::array<std::pair<double, double>, 7> load_range = {
@@ -168,8 +261,10 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     model[e].tau2_s *= 1 + uniform(0.1, 0.3) * sign();
     model[e].env_gain *= 1 + uniform(0.1, 0.3) * sign();
   }
-  auto machine = ErrorHistory(dyn, load, env_delta);
-  auto predicted = ErrorHistory(model, load, env_delta);
+  auto machine = ErrorHistory(dyn, load_ext, env_ext);
+  auto predicted = ErrorHistory(model, load_ext, env_ext);
+  machine.erase(machine.begin(), machine.begin() + pre_steps);
+  predicted.erase(predicted.begin(), predicted.begin() + pre_steps);
   // Changes relative to the first R-test's reference time.
   const int ref = static_cast<int>((kRTestDurS / 2) / kStepS);
   const auto machine_ref = machine[ref], predicted_ref = predicted[ref];
@@ -188,56 +283,161 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     return v;
   };
 
-  // --- the hidden effect's parameters ---
+  // --- the hidden effects, from their physics, per material point ---
   TwinRun run;
-  switch (options.effect) {
-    case Cause::kNone:
-      break;
-    case Cause::kWorkpieceExpansion:
-      run.effect_params = {uniform(1200, 5400), options.size};
-      break;
-    case Cause::kToolWear:
-      run.effect_params = {options.size};
-      break;
-    case Cause::kClampingDistortion:
-    case Cause::kCAxisIndexing: {
-      const double phase = uniform(0, 2 * M_PI);
-      run.effect_params = {options.size * std::cos(phase),
-                           options.size * std::sin(phase)};
-      break;
+  nlohmann::json params = nlohmann::json::object();
+  // Table temperature change from the machine's radial growth (E_R0T at
+  // the R-test sphere radius over the cast-iron table's expansion).
+  const double table_alpha_per_k = 11e-6;
+  std::vector<double> table_dT(steps), piece_dT(steps);
+  for (int i = 0; i < steps; ++i)
+    table_dT[i] =
+        machine[i][3] * 1e-3 /
+        (table_alpha_per_k * config.machine.sphere_distance_mm);
+  // Piece + adapter as one lumped thermal mass: C dT/dt = hA (g T_table -
+  // T), time constant C / hA, integrated with 1 s Euler steps.
+  const double wp_tau_s = options.workpiece_tau_s > 0
+                              ? options.workpiece_tau_s
+                              : uniform(1200, 5400);
+  if (options.workpiece_gain > 0) {
+    double temp = options.workpiece_gain * table_dT[0];
+    piece_dT[0] = temp;
+    for (int i = 1; i < steps; ++i) {
+      for (int sub = 0; sub < static_cast<int>(kStepS); ++sub) {
+        const double f = (sub + 0.5) / kStepS;
+        const double source =
+            options.workpiece_gain *
+            (table_dT[i - 1] * (1 - f) + table_dT[i] * f);
+        temp += (source - temp) / wp_tau_s;
+      }
+      piece_dT[i] = temp;
+    }
+    params["workpiece_gain"] = options.workpiece_gain;
+    params["workpiece_tau_s"] = wp_tau_s;
+  }
+  auto at_scalar = [&](const std::vector<double>& v, double ts) {
+    const double x = std::clamp(ts / kStepS, 0.0, steps - 1.0);
+    const int i = std::min(static_cast<int>(x), steps - 2);
+    const double f = x - i;
+    return v[i] * (1 - f) + v[i + 1] * f;
+  };
+  // Three clamping bolts, the first at a drawn angle; the deformation is
+  // largest at the bottom of the piece (bolts) and falls off upwards.
+  const double bolt_rad = uniform(0, 2 * M_PI / 3);
+  const double clamp_falloff = uniform(0.2, 0.5);  // over the piece height
+  if (options.clamping_amplitude_um > 0) {
+    params["clamping_amplitude_um"] = options.clamping_amplitude_um;
+    params["clamping_bolt_deg"] = bolt_rad * 180 / M_PI;
+  }
+  const double lobe2_rad = uniform(0, M_PI);
+  if (options.two_lobe_amplitude_um > 0)
+    params["two_lobe_amplitude_um"] = options.two_lobe_amplitude_um;
+  // C stop error: encoder eccentricity (once per turn), worm wheel
+  // runout (twice), bearing (four times), amplitudes shared at random.
+  const int kHarmonic[3] = {1, 2, 4};
+  double c_amp[3], c_phase[3];
+  {
+    const double w[3] = {uniform(0.5, 1.0), uniform(0.0, 0.7),
+                         uniform(0.0, 0.5)};
+    const double sum = w[0] + w[1] + w[2];
+    for (int k = 0; k < 3; ++k) {
+      c_amp[k] = options.c_indexing_amplitude_urad * w[k] / sum;
+      c_phase[k] = uniform(0, 2 * M_PI);
     }
   }
-  std::vector<CutState> states;
-  for (const auto& c : cuts)
-    states.push_back(MakeCutState(config, c.feature, c.t_s, c.c_rad));
-  EffectContext context = MakeEffectContext(config, states);
-  context.grid_t0_s = 0;
-  context.grid_step_s = kStepS;
-  const double dT_scale =
-      kTableAlphaPerK * config.machine.sphere_distance_mm * 1e3;  // um/K
-  for (int i = 0; i < steps; ++i)
-    context.machine_dT_K.push_back(machine[i][3] / dT_scale);
-  const EffectDeltas deltas =
-      PredictEffect(options.effect, run.effect_params, context);
-
-  // --- the piece cut under the machine errors and the effect ---
+  if (options.c_indexing_amplitude_urad > 0) {
+    params["c_indexing_amplitude_urad"] = options.c_indexing_amplitude_urad;
+    params["c_harmonics"] = {{"1", c_amp[0]}, {"2", c_amp[1]}, {"4", c_amp[2]}};
+  }
+  const int step_cycle = options.step_from_cycle > 0
+                             ? options.step_from_cycle
+                             : static_cast<int>(uniform(3, 8));
+  if (options.step_um != 0) {
+    params["step_um"] = options.step_um;
+    params["step_from_cycle"] = step_cycle;
+  }
+  if (options.tool_wear_um_per_m > 0)
+    params["tool_wear_um_per_m"] = options.tool_wear_um_per_m;
+  const double table_z_w =
+      -(part.adapter_height_mm + part.height_mm());  // table surface in W
+  double cut_length_m = 0;  // of the finishing cutter, before this cut
+  // --- the piece cut under the machine errors and the effects ---
   const FitNoise noise =
       CloudFitNoise(part, options.point_noise_um, options.cloud_points);
   for (const auto& c : cuts) {
-    const CAxisErrors e_machine = CAxisErrors::FromMicro(at(machine, c.t_s));
+    CAxisErrors e_machine = CAxisErrors::FromMicro(at(machine, c.t_s));
     const CAxisErrors e_pred = CAxisErrors::FromMicro(at(predicted, c.t_s));
+    // The table stops off the commanded angle: a C positioning error.
+    double dc_urad = 0;
+    for (int k = 0; k < 3; ++k)
+      dc_urad += c_amp[k] * std::cos(kHarmonic[k] * c.c_rad + c_phase[k]);
+    e_machine.ec0c_rad += dc_urad * 1e-6;
     const thermal::CutGeometry g =
         thermal::ComputeCutGeometry(config, c.feature, c.c_rad);
+    const bool facet = g.feature.kind == FeatureKind::kFacet;
+    FeatureKind parsed_kind;
+    Segment parsed_segment;
+    int parsed_index = 0;
+    ParseFeatureId(c.feature, &parsed_kind, &parsed_segment, &parsed_index);
+    const int cycle = CycleForIndex(part, parsed_index);
+    const double dT_piece = at_scalar(piece_dT, c.t_s);
+    const double dT_table = at_scalar(table_dT, c.t_s);
+    double u_min = std::numeric_limits<double>::infinity(), u_max = -u_min;
+    for (const auto& uv : g.uv_mm) {
+      u_min = std::min(u_min, uv.x());
+      u_max = std::max(u_max, uv.x());
+    }
+    const double overrun_mm = 1.0;
+    std::vector<double> extra(g.p_w_mm.size(), 0.0);
+    for (size_t i = 0; i < g.p_w_mm.size(); ++i) {
+      const Eigen::Vector3d& p = g.p_w_mm[i];
+      const Eigen::Vector3d& n = g.n_w;
+      const double height = p.z() - table_z_w;
+      const double phi = std::atan2(p.y(), p.x());
+      const Eigen::Vector3d radial(p.x(), p.y(), 0.0);
+      double s = 0;
+      // A material point displaced by delta while cut returns by delta
+      // when the cause goes away: the surface ends at -delta . n.
+      if (options.workpiece_gain > 0) {
+        // The rigid-table model lets the piece ride the table's radial
+        // growth; the piece grows with its own temperature instead.
+        const Eigen::Vector3d delta =
+            radial * (part.alpha_per_k * dT_piece -
+                      table_alpha_per_k * dT_table) +
+            Eigen::Vector3d::UnitZ() * height * part.alpha_per_k * dT_piece;
+        s -= delta.dot(n);
+      }
+      if (options.clamping_amplitude_um > 0) {
+        const double falloff =
+            1 - clamp_falloff * (height - part.adapter_height_mm) /
+                    part.height_mm();
+        const double u_mm = 1e-3 * options.clamping_amplitude_um * falloff *
+                            std::cos(3 * (phi - bolt_rad));
+        s -= u_mm * radial.normalized().dot(n);
+      }
+      if (options.two_lobe_amplitude_um > 0) {
+        const double u_mm = 1e-3 * options.two_lobe_amplitude_um *
+                            std::cos(2 * (phi - lobe2_rad));
+        s -= u_mm * radial.normalized().dot(n);
+      }
+      if (facet && options.tool_wear_um_per_m > 0) {
+        // The flank has lost radius in proportion to the path cut so far:
+        // a thinner cutter leaves the surface further out.
+        const double along_m =
+            cut_length_m + (overrun_mm + g.uv_mm[i].x() - u_min) * 1e-3;
+        s += 1e-3 * options.tool_wear_um_per_m * along_m;
+      }
+      if (facet && options.step_um != 0 && cycle >= step_cycle)
+        s += 1e-3 * options.step_um;
+      extra[i] = s;
+    }
+    cut_length_m += (u_max - u_min + 2 * overrun_mm) * 1e-3;
     FeatureResult r = thermal::CutFeatureResult(
-        part, g, e_machine, e_pred, config.machine.sphere_distance_mm);
-    const FeatureDelta& d = deltas.at(c.feature);
-    r.d_mm += d.d_mm;
-    r.angle_rad += d.angle_rad;
+        part, g, e_machine, e_pred, config.machine.sphere_distance_mm, extra);
     run.true_results[c.feature] = r;
     FeatureResult m = r;
-    const bool facet = g.feature.kind == FeatureKind::kFacet;
-    const FitScatter& scatter = facet ? noise.facet : noise.strip;
-    const double sd = scatter.d_mm, sa = scatter.angle_rad;
+    const double sd = facet ? noise.facet_d_mm : noise.strip_d_mm;
+    const double sa = facet ? noise.facet_angle_rad : noise.strip_angle_rad;
     m.d_mm += sd * gauss(rng);
     m.angle_rad += sa * gauss(rng);
     m.var_d_mm2 = sd * sd;
@@ -321,16 +521,8 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
   run.log_text = std::move(log);
 
   // --- truth, shaped like the samples' truth.json ---
-  nlohmann::json params = nlohmann::json::object();
-  const auto pnames = CauseParameterNames(options.effect);
-  for (size_t k = 0; k < pnames.size(); ++k)
-    params[pnames[k]] = run.effect_params[k];
-  if (options.effect == Cause::kClampingDistortion)
-    params["amplitude_um"] = options.size;
-  if (options.effect == Cause::kCAxisIndexing)
-    params["amplitude_urad"] = options.size;
   nlohmann::json truth;
-  truth["cause"] = CauseName(options.effect);
+  truth["cause"] = options.ExpectedOutcome();
   truth["params"] = params;
   truth["noise_um"] = options.point_noise_um;
   truth["cloud_points"] = options.cloud_points;
@@ -358,9 +550,9 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
                    {"convention", "cloud = W @ R.T + t"}};
   nlohmann::json noise_json = {
       {"point_noise_um", options.point_noise_um},
-      {"facet_d_um", noise.facet.d_mm * 1e3},
-      {"facet_angle_urad", noise.facet.angle_rad * 1e6},
-      {"strip_d_um", noise.strip.d_mm * 1e3},
+      {"facet_d_um", noise.facet_d_mm * 1e3},
+      {"facet_angle_urad", noise.facet_angle_rad * 1e6},
+      {"strip_d_um", noise.strip_d_mm * 1e3},
       {"rtest_u95", kRTestU95}};
   truth["noise"] = noise_json;
   run.truth = truth;
@@ -453,4 +645,73 @@ std::string WriteTwin(const Config& config, const TwinRun& run,
   return out.lexically_normal().string();
 }
 
-}  // namespace ttp::diagnosis
+const char* InstrumentName(Instrument instrument) {
+  switch (instrument) {
+    case Instrument::kCloudFit:
+      return "cloud";
+    case Instrument::kProbe:
+      return "probe";
+    case Instrument::kDial:
+      return "dial";
+    case Instrument::kDmis:
+      return "dmis";
+  }
+  return "?";
+}
+
+FeatureResults MeasureWith(const PartSpec& part, const FeatureResults& truth,
+                           Instrument instrument, double point_noise_um,
+                           std::uint64_t seed) {
+  std::mt19937_64 rng(seed ^ 0x5bd1e995ULL);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  FitNoise cloud = CloudFitNoise(part, point_noise_um, 20000);
+  FeatureResults out;
+  for (const auto& [id, r] : truth) {
+    const bool facet = id[0] != 'Z';
+    FeatureResult m = r;
+    double sd = 0, sa = 0;
+    int points = 0;
+    switch (instrument) {
+      case Instrument::kCloudFit:
+        sd = facet ? cloud.facet_d_mm : cloud.strip_d_mm;
+        sa = facet ? cloud.facet_angle_rad : cloud.strip_angle_rad;
+        points = facet ? cloud.facet_points : cloud.strip_points;
+        break;
+      case Instrument::kProbe: {
+        // Four touches per facet 3 mm apart in width, repeatability
+        // 0.3 um: a plane through them.
+        const double rep_mm = 0.3e-3;
+        points = 4;
+        sd = rep_mm / 2;
+        sa = rep_mm / (3.0 * std::sqrt(5.0) / 2);
+        break;
+      }
+      case Instrument::kDial:
+        // A dial gauge reads distances (0.5 um) and no angle.
+        sd = 0.5e-3;
+        points = 0;
+        break;
+      case Instrument::kDmis:
+        // The CMM's own fit, reported with its stated uncertainty.
+        sd = 0.25e-3;
+        sa = facet ? 20e-6 : 3e-6;
+        points = 0;
+        break;
+    }
+    m.d_mm += sd * gauss(rng);
+    m.var_d_mm2 = sd * sd;
+    if (instrument == Instrument::kDial) {
+      m.angle_rad = std::numeric_limits<double>::quiet_NaN();
+      m.var_angle_rad2 = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      m.angle_rad += sa * gauss(rng);
+      m.var_angle_rad2 = sa * sa;
+    }
+    m.points = points;
+    m.rms_mm = instrument == Instrument::kCloudFit ? point_noise_um * 1e-3 : 0;
+    out[id] = m;
+  }
+  return out;
+}
+
+}  // namespace ttp::sim

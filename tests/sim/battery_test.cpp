@@ -1,0 +1,86 @@
+// The diagnosis battery: every outcome of diagnosis.md section 3 drawn by
+// seed, run through the twin (an independent generator) and the diagnosis.
+// Small here (it also runs under a sanitizer); the large batteries per
+// R-test spacing are in bench/bench_diagnosis.cpp.
+#include "ttp/sim/battery.h"
+
+#include <gtest/gtest.h>
+
+#include <iostream>
+
+namespace ttp::sim {
+namespace {
+
+void Print(const BatteryResult& result) {
+  std::cout << ConfusionText(result);
+  for (const BatteryRun& r : result.runs)
+    if (!r.correct)
+      std::cout << "  " << ScenarioName(r.c.scenario) << " expected "
+                << r.c.expected << " -> " << r.outcome << " ("
+                << InstrumentName(r.c.instrument) << ", R-tests every "
+                << r.c.twin.rtest_interval_s << " s, chi2/dof "
+                << r.chi2_per_dof << ")\n";
+}
+
+// The regression guard: the share of right outcomes and causes named where
+// there is none, at the rates measured when it was written (the target is
+// none at all: docs/DIAGNOSIS.md lists the runs that still get one).
+TEST(Battery, RightOutcomesAndNoInventedCause) {
+  const Config config;
+  for (double spacing : {300.0, 3600.0}) {
+    BatteryOptions options;
+    options.runs = 24;
+    options.seed = 424242;
+    options.rtest_interval_s = spacing;
+    options.cloud_every = 12;
+    const BatteryResult result = RunBattery(config, options);
+    Print(result);
+    EXPECT_LE(result.false_names, spacing < 1000 ? 0 : 1) << spacing;
+    EXPECT_GE(result.correct, spacing < 1000 ? 21 : 19) << spacing;
+  }
+}
+
+TEST(Battery, DrawsDependOnlyOnOptionsAndIndexAndCoverEveryScenario) {
+  BatteryOptions o;
+  o.seed = 5;
+  std::map<Scenario, int> seen;
+  std::map<Instrument, int> instruments;
+  for (int k = 0; k < 200; ++k) {
+    const BatteryCase a = DrawBatteryCase(o, k), b = DrawBatteryCase(o, k);
+    EXPECT_EQ(a.twin.seed, b.twin.seed);
+    EXPECT_EQ(a.expected, b.expected);
+    ++seen[a.scenario];
+    ++instruments[a.instrument];
+    if (a.scenario == Scenario::kMismatched) EXPECT_EQ(a.expected, "refused");
+    if (a.scenario == Scenario::kOutside) EXPECT_EQ(a.expected, "unexplained");
+    if (a.scenario == Scenario::kPair)
+      EXPECT_NE(a.expected.find('+'), std::string::npos);
+  }
+  EXPECT_EQ(seen.size(), 5u);
+  EXPECT_EQ(instruments.size(), 4u);
+  o.seed = 6;
+  EXPECT_NE(DrawBatteryCase(o, 0).twin.seed,
+            DrawBatteryCase(BatteryOptions{}, 0).twin.seed);
+  o.pair_share = 0.9;
+  std::string error;
+  EXPECT_FALSE(o.IsValid(&error));
+}
+
+TEST(Battery, ResultDoesNotDependOnThreads) {
+  const Config config;
+  BatteryOptions options;
+  options.runs = 4;
+  options.seed = 11;
+  options.threads = 1;
+  const BatteryResult one = RunBattery(config, options);
+  options.threads = 2;
+  const BatteryResult two = RunBattery(config, options);
+  ASSERT_EQ(one.runs.size(), two.runs.size());
+  for (size_t k = 0; k < one.runs.size(); ++k) {
+    EXPECT_EQ(one.runs[k].outcome, two.runs[k].outcome);
+    EXPECT_EQ(one.runs[k].chi2_per_dof, two.runs[k].chi2_per_dof);
+  }
+}
+
+}  // namespace
+}  // namespace ttp::sim
