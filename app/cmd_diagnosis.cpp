@@ -74,8 +74,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "effect size: workpiece_expansion gain, tool_wear um/m, "
                     "clamping_distortion um, c_axis_indexing urad")
         ->check(FiniteRange(0.0, 1e4));
-    cmd->add_option("--seed", options->seed, "random seed (default 1)")
-        ->check(CLI::NonNegativeNumber);  // -1 would wrap to 2^64 - 1
+    cmd->add_option("--seed", options->seed, "random seed (default 1)");
     cmd->add_option("--compensation", *compensation,
                     "on (the controller compensates with an imperfect model; "
                     "pred_* columns in the log) or off (default)")
