@@ -107,16 +107,18 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "effect size: workpiece_expansion gain, tool_wear um/m, "
                     "clamping_distortion um, c_axis_indexing urad")
         ->check(FiniteRange(0.0, 1e4));
-    cmd->add_option("--seed", options->seed, "random seed (default 1)")
-        ->check(CLI::NonNegativeNumber);  // -1 would wrap to 2^64 - 1
+    cmd->add_option("--seed", options->seed, "random seed (default 1)");
     cmd->add_option("--step-um", options->step_um,
                     "an effect outside the catalogue: every facet shifted "
-                    "by this much from a cycle on (--step-from-cycle)");
+                    "by this much from a cycle on (--step-from-cycle)")
+        ->check(FiniteRange(-1e3, 1e3));
     cmd->add_option("--step-from-cycle", options->step_from_cycle,
-                    "first cycle of the step (default: drawn, 3..7)");
+                    "first cycle of the step (default: drawn, 3..7)")
+        ->check(CLI::Range(0, 8));
     cmd->add_option("--two-lobe-um", options->two_lobe_amplitude_um,
                     "an effect outside the catalogue: a two-lobe radial "
-                    "distortion of this amplitude");
+                    "distortion of this amplitude")
+        ->check(FiniteRange(0.0, 1e3));
     cmd->add_option("--compensation", *compensation,
                     "on (the controller compensates with an imperfect model; "
                     "pred_* columns in the log) or off (default)")

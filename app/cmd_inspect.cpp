@@ -1,6 +1,6 @@
 // `ttp inspect MEASUREMENT`: any measurement of the piece (cloud, probe
 // results, dial readings, DMIS output, inspection JSON) -> thermal figures
-// (issue 3). `ttp grade MEASUREMENT`: figures -> ISO 14253-1 verdict
+// (measurements.md). `ttp grade MEASUREMENT`: figures -> ISO 14253-1 verdict
 // (exit 0/1/2).
 #include <iostream>
 

@@ -369,8 +369,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("--size", args->size,
                   "size of the hidden effect in its unit (default: a clear "
                   "one)");
-  cmd->add_option("--seed", args->seed, "seed of the twin run (default 1)")
-      ->check(CLI::NonNegativeNumber);  // -1 would wrap to 2^64 - 1
+  cmd->add_option("--seed", args->seed, "seed of the twin run (default 1)");
   cmd->callback([&global, args, cmd] {
     RunContext ctx;
     ctx.config = global.LoadConfig();

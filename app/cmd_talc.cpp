@@ -97,8 +97,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("grid", *grid, "grid file (TOML or JSON)");
     cmd->add_option("--log", *log, "thermal log or TALC log (CSV)");
     cmd->add_option("--json", *json_out, "also write the result as JSON");
-    cmd->add_option("--threads", *threads, "worker threads (0 = one per core)")
-        ->check(CLI::NonNegativeNumber);
+    cmd->add_option("--threads", *threads, "worker threads (0 = one per core)");
     auto* o_plan = cmd->add_option("--plan", *plan,
                                    "N DIR: write N shards, a Slurm job-array "
                                    "script and a GNU parallel command")

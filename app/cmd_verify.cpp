@@ -1,5 +1,5 @@
 // `ttp verify [PROGRAM] [--after PRE]`: cut simulation of a program and the
-// checks of issue 2 (surfaces at their nominal place, no rapid in material,
+// program checks (surfaces at their nominal place, no rapid in material,
 // travel, adapter, only C between cycles). Exit 0 all good, 1 a check failed,
 // 2 bad input.
 #include <fmt/format.h>

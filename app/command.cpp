@@ -96,7 +96,7 @@ const std::set<std::string>& EnumOptions() {
 // wrap-around to 2^64 - 1.
 const std::set<std::string>& NonNegativeOptions() {
   static const std::set<std::string> names = {"--seed", "--points", "--cycles",
-                                              "--runs"};
+                                              "--runs", "--threads"};
   return names;
 }
 

@@ -1,4 +1,4 @@
-// Measurement planning (issue 3, measurements.md): where to touch the
+// Measurement planning (measurements.md): where to touch the
 // finished piece, for a CMM (point list + DMIS program), for on-machine
 // probing (NC program, one linear axis per point) and for a dial gauge
 // (printable sheet + CSV template).

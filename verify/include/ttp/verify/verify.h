@@ -1,4 +1,4 @@
-// Cut simulation of an NC program and the checks of issue 2: the tool is
+// Cut simulation of an NC program and the program checks: the tool is
 // swept through the stock (blank for the pre-machining, the ideal
 // pre-machined piece for the test cycle) along the canonical statements, in
 // the workpiece frame W, on a multi-dexel model (dexel.h): feature probes
