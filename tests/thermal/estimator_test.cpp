@@ -58,7 +58,7 @@ TEST(Estimator, FollowsTheTruthWithDenseRTests) {
   EXPECT_NEAR(est.models()[2].tau_s.at(0), run.tau_s, 900);
 }
 
-// Issue 4 point 2: with R-tests an hour apart, a straight line across the
+// With R-tests an hour apart, a straight line across the
 // start of the warm-up and of the cool-down is off by a micrometre or more;
 // the dynamic model is not.
 TEST(Estimator, DynamicModelBeatsTheLineAtLoadChanges) {

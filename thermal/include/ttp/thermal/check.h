@@ -1,4 +1,4 @@
-// Checking a measured piece against its TALC log (issue 4 point 3):
+// Checking a measured piece against its TALC log:
 // measured and simulated figures side by side per cycle with their expanded
 // uncertainties, and the temperature comparison of thesis 7.10 (piece vs
 // table vs the log's temperatures). Also the log <-> program consistency

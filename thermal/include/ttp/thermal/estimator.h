@@ -184,7 +184,7 @@ LoadChangeComparison CompareAtLoadChanges(const TalcLog& log,
 // c_rpm > 0). Empty when the C axis never turns.
 std::vector<double> LoadChangeTimes(const TalcLog& log);
 
-// Issue 4 point 2 made visible: the R-tests are thinned to one every
+// The dynamic model against a straight line between R-tests: the R-tests are thinned to one every
 // `interval_s` (production practice: every 1-2 h), for every phase of that
 // grid; the estimator is fitted on those, and at every held-out R-test
 // between the two kept R-tests that
