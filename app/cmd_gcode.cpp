@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "command.h"
+#include "ttp/geometry/error.h"
 #include "dialect_option.h"
 #include "ttp/cam/programs.h"
 #include "ttp/gcode/canon_to_program.h"
@@ -140,7 +141,20 @@ void Register(CLI::App& root, GlobalOptions& global) {
                                           opts->program_path),
                          Dialect::kLinuxCnc, config);
     }
-    const Rs274Result rs = RunRs274(ngc, config);
+    Rs274Result rs;
+    try {
+      rs = RunRs274(ngc, config);
+    } catch (const InputError& e) {
+      if (e.source() != "rs274") throw;
+      // rs274 numbers the blocks by the program's own lines; a FANUC
+      // program is checked through its translation, whose lines differ.
+      const bool own_lines = dialect == Dialect::kLinuxCnc;
+      throw InputError(opts->program_path, own_lines ? e.line() : 0, "rs274",
+                       std::string("LinuxCNC's interpreter refuses the "
+                                   "program") +
+                           (own_lines ? "" : " (its LinuxCNC translation)") +
+                           ": " + e.problem());
+    }
     const ToolpathDifference d = CompareToolpaths(ours, rs.statements);
     if (d.same) {
       if (!global.quiet)

@@ -136,5 +136,18 @@ TEST(CliGcode, UnknownDialectOrMissingProfileIsExit2) {
   EXPECT_NE(r.output.find("missing.toml"), std::string::npos) << r.output;
 }
 
+// What LinuxCNC's interpreter refuses is the program's fault: the message
+// names the program file and its line, not rs274.
+TEST(CliGcode, CheckNamesTheProgramWhenRs274RefusesIt) {
+  const fs::path program = Dir() / "no_closing_percent.ngc";
+  std::ofstream(program) << "%\nG21 G90\nG0 X0 Y0 Z10\n";
+  const auto r = test::RunTtp("gcode check " + program.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no_closing_percent.ngc:3"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("percent"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("error: rs274"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace ttp
