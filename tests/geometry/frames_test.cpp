@@ -22,7 +22,7 @@ TEST(Frames, FacetNormalsPointWhereTheCycleNeedsThem) {
   Config c;
   for (int j = 1; j <= 9; ++j) {
     const double c_x = FacetPhiDeg(c.part, Segment::kX1, j) * M_PI / 180;
-    auto dir = [&](Segment s, double table) {
+    auto dir = [&](Segment s, double table) -> Eigen::Vector3d {
       const double phi = FacetPhiDeg(c.part, s, j) * M_PI / 180;
       return WorkpieceToMachineRotation(table, 1) *
              Eigen::Vector3d(std::cos(phi), std::sin(phi), 0);

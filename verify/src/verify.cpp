@@ -366,7 +366,10 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
   std::vector<int> unknown_tools;
   std::vector<Cut> cuts;
 
-  const auto to_w = [&](const Eigen::Vector3d& p_prog, double c) {
+  // The return type is explicit: an Eigen product of a temporary rotation
+  // returned as `auto` would dangle.
+  const auto to_w = [&](const Eigen::Vector3d& p_prog,
+                        double c) -> Eigen::Vector3d {
     return WorkpieceToMachineRotation(c, machine.c_sense).transpose() * p_prog;
   };
 
