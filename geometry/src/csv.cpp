@@ -71,6 +71,20 @@ double CsvTable::Number(const CsvRow& row, int column) const {
   return v;
 }
 
+double ParseFiniteNumber(const std::string& cell, const std::string& source,
+                         int line, const std::string& column) {
+  const char* begin = cell.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (end == begin || *end != '\0')
+    throw InputError(source, line, column, "'" + cell + "' is not a number");
+  if (!std::isfinite(v) || errno == ERANGE)
+    throw InputError(source, line, column,
+                     "'" + cell + "' is not a finite number");
+  return v;
+}
+
 CsvTable ParseCsv(const std::string& text, const std::string& source) {
   CsvTable table;
   table.source = source;

@@ -47,22 +47,6 @@ std::vector<std::string> SplitLine(std::string_view line) {
   return cells;
 }
 
-double ParseCell(const std::string& cell, const std::string& source, int line,
-                 const std::string& column) {
-  const char* begin = cell.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(begin, &end);
-  if (end == begin || *end != '\0') {
-    throw InputError(source, line, column,
-                     fmt::format("'{}' is not a number", cell));
-  }
-  if (!std::isfinite(v) || errno == ERANGE) {
-    throw InputError(source, line, column,
-                     fmt::format("'{}' is not a finite number", cell));
-  }
-  return v;
-}
 
 struct Column {
   int position = 0;
@@ -218,18 +202,18 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
         case ColumnKind::kTime:
           if (cell.empty())
             throw InputError(source, line_no, name, "empty time cell");
-          t = ParseCell(cell, source, line_no, name);
+          t = ParseFiniteNumber(cell, source, line_no, name);
           break;
         case ColumnKind::kInput:
           if (cell.empty())
             throw InputError(source, line_no, name,
                              "empty input cell (speeds and temperatures are "
                              "required in every row)");
-          in[c.slot] = ParseCell(cell, source, line_no, name);
+          in[c.slot] = ParseFiniteNumber(cell, source, line_no, name);
           break;
         case ColumnKind::kOutput:
           out[c.slot] =
-              cell.empty() ? kNaN : ParseCell(cell, source, line_no, name);
+              cell.empty() ? kNaN : ParseFiniteNumber(cell, source, line_no, name);
           break;
         case ColumnKind::kIgnored:
           break;

@@ -65,22 +65,6 @@ std::vector<std::string> SplitCsv(const std::string& line) {
   return cells;
 }
 
-double ParseNumber(const std::string& cell, const std::string& source, int line,
-                   const std::string& column) {
-  const char* begin = cell.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(begin, &end);
-  if (end == begin || *end != '\0') {
-    throw InputError(source, line, column,
-                     fmt::format("'{}' is not a number", cell));
-  }
-  if (!std::isfinite(v) || errno == ERANGE) {
-    throw InputError(source, line, column,
-                     fmt::format("'{}' is not a finite number", cell));
-  }
-  return v;
-}
 
 CAxisErrors ErrorsFrom(const LogRow& row, int first_column) {
   std::array<double, 7> micro;
@@ -266,7 +250,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
     if (cells[t_index].empty()) {
       throw InputError(source, line_no, "t_s", "t_s is required in every row");
     }
-    row.t_s = ParseNumber(cells[t_index], source, line_no, "t_s");
+    row.t_s = ParseFiniteNumber(cells[t_index], source, line_no, "t_s");
     if (std::abs(row.t_s) > limits::kMaxLogTimeS) {
       throw InputError(source, line_no, "t_s",
                        fmt::format("{} s is beyond the limit of {:g} s",
@@ -290,7 +274,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
       const int i = numeric_index[c];
       if (i >= 0 && !cells[i].empty()) {
         row.values[c] =
-            ParseNumber(cells[i], source, line_no, kNumericColumnNames[c]);
+            ParseFiniteNumber(cells[i], source, line_no, kNumericColumnNames[c]);
         CheckMagnitude(c, row.values[c], source, line_no);
       }
     }
@@ -457,7 +441,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
   if (log.header.count("machine")) log.machine = log.header["machine"];
   if (log.header.count("sphere_distance_mm")) {
     const int line = key_line_of("sphere_distance_mm");
-    log.sphere_distance_mm = ParseNumber(log.header["sphere_distance_mm"],
+    log.sphere_distance_mm = ParseFiniteNumber(log.header["sphere_distance_mm"],
                                          source, line, "sphere_distance_mm");
     if (!(log.sphere_distance_mm >= limits::kMinSphereDistanceMm &&
           log.sphere_distance_mm <= limits::kMaxSphereDistanceMm)) {
@@ -471,7 +455,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
   }
   if (log.header.count("sphere_height_mm")) {
     const int line = key_line_of("sphere_height_mm");
-    log.sphere_height_mm = ParseNumber(log.header["sphere_height_mm"], source,
+    log.sphere_height_mm = ParseFiniteNumber(log.header["sphere_height_mm"], source,
                                        line, "sphere_height_mm");
     if (std::abs(*log.sphere_height_mm) > limits::kMaxSphereDistanceMm) {
       throw InputError(

@@ -35,6 +35,11 @@ std::string Trim(const std::string& s);
 std::string Upper(std::string s);
 std::string Lower(std::string s);
 
+// A cell as a finite number; throws InputError(source, line, column) when it
+// is not a number ("'x' is not a number") or not finite, or overflows.
+double ParseFiniteNumber(const std::string& cell, const std::string& source,
+                         int line, const std::string& column);
+
 // Parses CSV text. Rows with a different cell count than the header are an
 // error naming the line. Leading/trailing spaces of cells are trimmed.
 CsvTable ParseCsv(const std::string& text, const std::string& source);
