@@ -28,8 +28,10 @@ fi
 # (-fno-sanitize-recover=undefined: the first undefined behaviour fails
 # the test). Left out: the tests that only drive external programs whose
 # code is not ours and not instrumented (Rs274Test: the rs274 interpreter's
-# canon output; BrowserTest: Chromium drawing the report); everything of
-# ttp that those paths run is covered by the other tests.
+# canon output; BrowserTest: Chromium drawing the report; LinuxCncController:
+# LinuxCNC's task, motion and HAL running the programs, about two minutes
+# that would only repeat the release stage); everything of ttp that those
+# paths run is covered by the other tests.
 if [[ " $stages " == *" sanitize "* ]]; then
   cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DTTP_SANITIZE=address,undefined -DTTP_BUILD_BENCH=OFF \
@@ -39,7 +41,7 @@ if [[ " $stages " == *" sanitize "* ]]; then
     ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --output-on-failure -j"$jobs" --timeout 1800 \
-      -E '^(Rs274Test|BrowserTest)\.')
+      -E '^(Rs274Test|BrowserTest|LinuxCncController)\.')
   stage_done sanitize
 fi
 
