@@ -192,5 +192,84 @@ TEST(DmisTest, RefusesWhatCannotBeThisPiece) {
       InputError);
 }
 
+// The statement checker against real CMM files (NIST I++ test suite: a
+// DMIS 4.0 program of the DaimlerChrysler part, a DMIS 3.0 program and its
+// output file): an oracle for the checker written by others.
+TEST(DmisProgramTest, RealCmmFilesPassTheStandardChecks) {
+  for (const char* name : {"IMTS_M_clean.dmi", "simple_in.dms", "output.dms"}) {
+    const std::string path =
+        std::string(TTP_DATA_DIR) + "/reference/cmm-files/" + name;
+    const DmisProgram p = ParseDmisProgram(ReadTextFile(path), path);
+    for (const DmisFinding& f : CheckDmisStandard(p))
+      ADD_FAILURE() << name << ":" << f.line << ": " << f.check << ": "
+                    << f.problem;
+  }
+  const std::string imts = ReadTextFile(std::string(TTP_DATA_DIR) +
+                                        "/reference/cmm-files/IMTS_M_clean.dmi");
+  const DmisProgram p = ParseDmisProgram(imts, "imts");
+  EXPECT_EQ(p.statements.size(), 111u);
+  // Continuation lines are one statement: the LINE feature of line 86.
+  const auto line = std::find_if(
+      p.statements.begin(), p.statements.end(),
+      [](const DmisStatement& s) { return s.label == "CLIN1" && s.major == "FEAT"; });
+  ASSERT_NE(line, p.statements.end());
+  EXPECT_EQ(line->args.size(), 12u);
+  EXPECT_EQ(line->label_type, "F");
+}
+
+// The same real program with one defect each: every one is found, with
+// its line.
+TEST(DmisProgramTest, DefectsInARealProgramAreFound) {
+  const std::string imts = ReadTextFile(std::string(TTP_DATA_DIR) +
+                                        "/reference/cmm-files/IMTS_M_clean.dmi");
+  const auto findings = [&](const std::string& from, const std::string& to) {
+    std::string t = imts;
+    const auto at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) t.replace(at, from.size(), to);
+    return CheckDmisStandard(ParseDmisProgram(t, "m"));
+  };
+  const auto has = [](const std::vector<DmisFinding>& f, const char* check,
+                      const char* text) {
+    for (const auto& x : f)
+      if (x.check == check && x.problem.find(text) != std::string::npos)
+        return true;
+    return false;
+  };
+  // A misspelled major word; a wrong minor word; a missing argument.
+  EXPECT_TRUE(has(findings("SNSLCT/S(PROBE6)", "SNSSEL/S(PROBE6)"),
+                  "statement", "SNSSEL is not in"));
+  EXPECT_TRUE(has(findings("MEAS/PLANE,F(PLN1),4", "MEAS/PLANE,F(PLN1),X"),
+                  "statement", "MEAS/PLANE,F(PLN1),X matches none"));
+  EXPECT_TRUE(has(findings("F(PLN2)=FEAT/PLANE,CART,0.000,-52.000,15.000,"
+                           "0.000,-1.000,0.000",
+                           "F(PLN2)=FEAT/PLANE,CART,0.000,-52.000,15.000,"
+                           "0.000,-1.000"),
+                  "statement", "FEAT/PLANE"));
+  // A datum used before its feature is measured.
+  EXPECT_TRUE(has(findings("DATDEF/FA(PLN3),DAT(C)", "DATDEF/FA(PLN9),DAT(C)"),
+                  "labels", "FA(PLN9) before it is measured"));
+  EXPECT_TRUE(has(findings("D(CALN1_a)=DATSET/DAT(CALN1A),ZDIR",
+                           "D(CALN1_a)=DATSET/DAT(CALN2A),ZDIR"),
+                  "labels", "DAT(CALN2A) before DATDEF"));
+  // A MEAS block with fewer points than declared; no ENDFIL.
+  EXPECT_TRUE(has(findings("MEAS/CYLNDR,F(CYL2),8", "MEAS/CYLNDR,F(CYL2),9"),
+                  "structure", "declares 9 points"));
+  EXPECT_TRUE(has(findings("CLOSE/DID(OUTFILE)\nENDFIL", "CLOSE/DID(OUTFILE)"),
+                  "structure", "not ENDFIL"));
+}
+
+TEST(DmisProgramTest, UnreadableStatementsNameTheLine) {
+  try {
+    ParseDmisProgram("DMISMN/'x',5.0\nTEXT/OPER,'open\n", "q.dmi");
+    ADD_FAILURE() << "unclosed quote accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 2);
+  }
+  EXPECT_THROW(ParseDmisProgram("DMISMN/'x'\n(A)=FEAT/PLANE\n", "q"),
+               InputError);
+  EXPECT_THROW(ParseDmisProgram("$$ only a comment\n", "q"), InputError);
+}
+
 }  // namespace
 }  // namespace ttp::inspect
