@@ -5,14 +5,23 @@
 // passes, and each defect the issue names makes it fail.
 #include "ttp/plan/dmis_writer.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include <regex>
 #include <sstream>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/part_mesh.h"
+#include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
 #include "ttp/inspect/dmis.h"
+#include "ttp/inspect/measurement.h"
+#include "ttp/sim/twin.h"
+#include "test_dir.h"
 
 namespace ttp::plan {
 namespace {
@@ -191,6 +200,247 @@ TEST(DmisWriterTest, RefusesWhatCannotRun) {
                               }),
                points.end());
   EXPECT_THROW(WriteDmisProgram(part, points), InputError);
+}
+
+// ---------------------------------------------------------------------
+// A CMM written here from what the DMIS statements mean runs the program on
+// a piece cut by the digital twin with a clamping distortion (its true cut
+// geometry), placed on the CMM table off the program's frame. Its output
+// file goes through `ttp inspect`'s loader; the figures must be the twin's.
+class SimulatedCmm {
+ public:
+  SimulatedCmm(const PartSpec& part, const FeatureResults& truth,
+               const Eigen::Isometry3d& w_to_cmm)
+      : part_(part), truth_(truth), pose_(w_to_cmm) {
+    for (const NominalFeature& f : TestFeatures(part)) nominal_[f.id] = f;
+  }
+
+  std::string Run(const std::string& program) {
+    std::string out = "FILNAM/'simulated CMM results'\nUNITS/MM,ANGDEC\n";
+    Eigen::Isometry3d frame = Eigen::Isometry3d::Identity();  // -> CMM
+    bool manual = false;
+    Block block;
+    std::map<std::string, std::vector<double>> nominal;
+    std::map<std::string, std::string> datum_of;
+    for (const auto& s : inspect::ParseDmisProgram(program, "p").statements) {
+      const auto num = [&](size_t k) { return std::stod(s.args.at(k)); };
+      const auto ref = [](const std::string& w) {
+        return w.substr(w.find('(') + 1, w.size() - w.find('(') - 2);
+      };
+      if (s.major == "MODE") manual = s.args[0] == "MAN";
+      if (s.major == "FEAT") {
+        std::vector<double> v;
+        for (const auto& a : s.args)
+          if (!a.empty() && (std::isdigit(a[0]) || a[0] == '-'))
+            v.push_back(std::stod(a));
+        nominal[s.label] = v;
+      }
+      if (s.major == "MEAS") {
+        block = Block{ref(s.args[1]), s.args[0], {}, {}};
+        const auto& v = nominal[block.label];
+        block.nominal_dir = frame.linear() * Eigen::Vector3d(v[3], v[4], v[5]);
+      }
+      if (s.major == "PTMEAS") {
+        const Eigen::Vector3d p(num(1), num(2), num(3)), n(num(4), num(5), num(6));
+        // By hand the operator finds the nominal place on the piece itself;
+        // automatically the CMM goes where the active frame says.
+        const Eigen::Isometry3d to_cmm = manual ? pose_ : frame;
+        const Eigen::Vector3d from = to_cmm * Eigen::Vector3d(p + 5.0 * n);
+        const Eigen::Vector3d dir = to_cmm.linear() * -n;
+        block.points.push_back(Touch(block.label, from, dir));
+      }
+      if (s.major == "ENDMES") actual_[block.label] = Fit(block);
+      if (s.major == "CONST") {  // PLANE, F(MID), MIDPL, FA(a), FA(b)
+        const Actual& a = actual_.at(ref(s.args[3]));
+        const Actual& b = actual_.at(ref(s.args[4]));
+        const auto& v = nominal[ref(s.args[1])];
+        const Eigen::Vector3d want =
+            frame.linear() * Eigen::Vector3d(v[3], v[4], v[5]);
+        Eigen::Vector3d n = Oriented(a.dir, want) + Oriented(b.dir, want);
+        actual_[ref(s.args[1])] = {"PLANE", (a.point + b.point) / 2,
+                                   n.normalized(), 0};
+      }
+      if (s.major == "DATDEF") datum_of[ref(s.args[1])] = ref(s.args[0]);
+      if (s.major == "DATSET" && s.args[0] != "MCS") {
+        // DAT(A),ZDIR,ZORIG,DAT(B),YDIR,DAT(C),XORIG,YORIG
+        const Actual& a = actual_.at(datum_of.at(ref(s.args[0])));
+        const Actual& b = actual_.at(datum_of.at(ref(s.args[3])));
+        const Actual& c = actual_.at(datum_of.at(ref(s.args[5])));
+        const Eigen::Vector3d z = a.dir;
+        const Eigen::Vector3d y = (b.dir - b.dir.dot(z) * z).normalized();
+        Eigen::Matrix3d r;
+        r << y.cross(z), y, z;
+        frame.linear() = r;
+        frame.translation() = c.point - (c.point - a.point).dot(z) * z;
+      }
+      if (s.major == "OUTPUT") {
+        const std::string label = ref(s.args[0]);
+        const Actual& a = actual_.at(label);
+        const Eigen::Vector3d p = frame.inverse() * a.point;
+        const Eigen::Vector3d d = frame.linear().transpose() * a.dir;
+        out += fmt::format("FA({}) = FEAT/{},{}CART, $\n  {:.12f},{:.12f},"
+                           "{:.12f},{:.12f},{:.12f},{:.12f}{}\n",
+                           label, a.type, a.type == "CIRCLE" ? "OUTER," : "",
+                           p.x(), p.y(), p.z(), d.x(), d.y(), d.z(),
+                           a.type == "CIRCLE"
+                               ? fmt::format(",{:.12f}", a.diameter)
+                               : "");
+      }
+    }
+    return out + "ENDFIL\n";
+  }
+
+ private:
+  struct Block {
+    std::string label, type;
+    Eigen::Vector3d nominal_dir;
+    std::vector<Eigen::Vector3d> points;  // CMM frame
+  };
+  struct Actual {
+    std::string type;
+    Eigen::Vector3d point, dir;
+    double diameter = 0;
+  };
+  static Eigen::Vector3d Oriented(const Eigen::Vector3d& n,
+                                  const Eigen::Vector3d& like) {
+    return n.dot(like) >= 0 ? n : Eigen::Vector3d(-n);
+  }
+
+  // Where a probe travelling from `from` along `dir` (CMM frame) touches
+  // the true surface of the feature the label names.
+  Eigen::Vector3d Touch(const std::string& label, const Eigen::Vector3d& from,
+                        const Eigen::Vector3d& dir) const {
+    const Eigen::Vector3d o = pose_.inverse() * from;
+    const Eigen::Vector3d d = pose_.linear().transpose() * dir;
+    std::string id = label;
+    if (id == "TOP_M") id = "TOP";
+    if (id == "FLANK_M" || id == "FLANK_NY") id = "FLANK-Y";
+    if (id == "FLANK_PY") id = "FLANK+Y";
+    if (id == "CYL_M") id = "CYL199";
+    std::replace(id.begin(), id.end(), '_', '-');
+    // Planes n.x = c in W.
+    Eigen::Vector3d n;
+    double c;
+    if (id == "TOP") {
+      n = Eigen::Vector3d::UnitZ(), c = 0;
+    } else if (id == "FLANK+Y" || id == "FLANK-Y") {
+      n = Eigen::Vector3d::UnitY();
+      c = (id == "FLANK+Y" ? 1 : -1) * part_.big_notch_half_width_mm;
+    } else if (id == "CYL199") {  // |o + t d|_xy = r
+      const double r = part_.ref_cylinders.front().diameter_mm / 2;
+      const Eigen::Vector2d o2 = o.head<2>(), d2 = d.head<2>();
+      const double a = d2.squaredNorm(), b = 2 * o2.dot(d2),
+                   cc = o2.squaredNorm() - r * r;
+      const double t = (-b - std::sqrt(b * b - 4 * a * cc)) / (2 * a);
+      return pose_ * Eigen::Vector3d(o + t * d);
+    } else {
+      const NominalFeature& f = nominal_.at(id);
+      const FeatureResult& r = truth_.at(id);
+      if (f.kind == FeatureKind::kStrip) {  // z = -d + tan(beta) x
+        n = Eigen::Vector3d(-std::tan(r.angle_rad), 0, 1);
+        c = -r.d_mm;
+      } else {
+        const double phi = std::atan2(f.normal.y(), f.normal.x()) + r.angle_rad;
+        n = Eigen::Vector3d(std::cos(phi) * std::cos(r.tilt_rad),
+                            std::sin(phi) * std::cos(r.tilt_rad),
+                            std::sin(r.tilt_rad));
+        c = r.d_mm;
+      }
+    }
+    const double t = (c - n.dot(o)) / n.dot(d);
+    const Eigen::Vector3d hit = o + t * d;
+    // The touch lies on the feature the label names, inside its edges.
+    if (nominal_.count(id)) {
+      const NominalFeature& f = nominal_.at(id);
+      if (f.kind == FeatureKind::kStrip) {
+        EXPECT_LT(std::abs(hit.y() - f.point.y()), part_.strip_width_mm / 2 - 1)
+            << id;
+        EXPECT_GT(std::abs(hit.x()), part_.small_notch_half_width_mm + 1) << id;
+      } else {
+        const double tang = Eigen::Vector3d::UnitZ().cross(f.normal).dot(hit);
+        EXPECT_GT(tang, f.t_min_mm + 1) << id;
+        EXPECT_LT(tang, f.t_max_mm - 1) << id;
+        EXPECT_GT(hit.z(), f.z_min_mm + 1) << id;
+        EXPECT_LT(hit.z(), f.z_max_mm - 1) << id;
+      }
+    }
+    return pose_ * hit;
+  }
+
+  Actual Fit(const Block& block) const {
+    const auto& pts = block.points;
+    Eigen::Vector3d m = Eigen::Vector3d::Zero();
+    for (const auto& p : pts) m += p;
+    m /= static_cast<double>(pts.size());
+    if (block.type == "CIRCLE") {  // in the plane across the nominal axis
+      const Eigen::Vector3d ax = block.nominal_dir.normalized();
+      const Eigen::Vector3d u = ax.unitOrthogonal(), v = ax.cross(u);
+      Eigen::MatrixXd a(pts.size(), 3);
+      Eigen::VectorXd b(pts.size());
+      for (size_t i = 0; i < pts.size(); ++i) {
+        const double x = u.dot(pts[i] - m), y = v.dot(pts[i] - m);
+        a.row(i) << x, y, 1;
+        b(i) = x * x + y * y;
+      }
+      const Eigen::Vector3d k = a.colPivHouseholderQr().solve(b);
+      const double cx = k(0) / 2, cy = k(1) / 2;
+      return {"CIRCLE", m + cx * u + cy * v, ax,
+              2 * std::sqrt(k(2) + cx * cx + cy * cy)};
+    }
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const auto& p : pts) cov += (p - m) * (p - m).transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+    return {"PLANE", m, Oriented(es.eigenvectors().col(0), block.nominal_dir),
+            0};
+  }
+
+  const PartSpec& part_;
+  const FeatureResults& truth_;
+  Eigen::Isometry3d pose_;
+  std::map<std::string, NominalFeature> nominal_;
+  std::map<std::string, Actual> actual_;
+};
+
+TEST(DmisWriterTest, ResultsOfTheProgramComeBackToTheTwinsFigures) {
+  const Config config;
+  sim::TwinOptions twin;
+  sim::SetEffect(&twin, "clamping_distortion", 4.0);
+  twin.seed = 5;
+  const sim::TwinRun run = sim::RunTwin(config, twin);
+  // On the CMM table: turned 0.4 deg, tilted 0.05 deg, anywhere.
+  const Eigen::Isometry3d pose =
+      Eigen::Translation3d(412.0, 233.5, 81.25) *
+      Eigen::AngleAxisd(0.4 * M_PI / 180, Eigen::Vector3d::UnitZ()) *
+      Eigen::AngleAxisd(0.05 * M_PI / 180, Eigen::Vector3d::UnitX());
+  SimulatedCmm cmm(config.part, run.true_results, pose);
+  const std::string results =
+      cmm.Run(WriteDmisProgram(config.part, CmmPoints(config.part)));
+  const auto path = test::TestDir("dmis-roundtrip") / "ttp_cmm_results.dmo";
+  WriteFileAtomic(path, results);
+  const inspect::Measurement got = inspect::LoadMeasurement(config, path);
+  EXPECT_EQ(got.kind, inspect::MeasurementKind::kDmis);
+
+  inspect::InspectionResult truth;
+  truth.features = run.true_results;
+  inspect::ComputeResultFigures(config.part, &truth);
+  ASSERT_EQ(got.result.figures.size(), truth.figures.size());
+  double largest_um = 0;
+  for (size_t i = 0; i < truth.figures.size(); ++i) {
+    const CycleFigures& a = got.result.figures[i];
+    const CycleFigures& b = truth.figures[i];
+    EXPECT_NEAR(a.e_x_mm, b.e_x_mm, 1e-6) << "cycle " << b.cycle;
+    EXPECT_NEAR(a.e_y_mm, b.e_y_mm, 1e-6) << "cycle " << b.cycle;
+    EXPECT_NEAR(a.e_z_mm, b.e_z_mm, 1e-6) << "cycle " << b.cycle;
+    EXPECT_NEAR(a.e_b_rad, b.e_b_rad, 1e-8) << "cycle " << b.cycle;
+    EXPECT_NEAR(a.e_ttp_mm, b.e_ttp_mm, 1e-6) << "cycle " << b.cycle;
+    largest_um = std::max({largest_um, std::abs(b.e_x_mm) * 1e3,
+                           std::abs(b.e_ttp_mm) * 1e3});
+  }
+  EXPECT_GT(largest_um, 0.5) << "the twin's piece shows no effect";
+  for (const auto& [id, r] : run.true_results) {
+    EXPECT_NEAR(got.result.features.at(id).d_mm, r.d_mm, 1e-6) << id;
+    EXPECT_NEAR(got.result.features.at(id).angle_rad, r.angle_rad, 1e-8) << id;
+  }
 }
 
 }  // namespace
