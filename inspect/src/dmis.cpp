@@ -187,8 +187,10 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
   DmisImport out;
   std::map<std::string, const DmisFeature*> by_id;
   for (const DmisFeature& f : dmis.features) {
-    const std::string id = TestFeatureIdForDmisLabel(f.label);
-    if (id.empty()) continue;  // a datum or another feature: not a result
+    std::string id = TestFeatureIdForDmisLabel(f.label);
+    const std::string up = Upper(Trim(f.label));
+    if (up == "MARK" || up == "MARK_OPP") id = up;
+    if (id.empty()) continue;  // another feature: not a result
     if (by_id.count(id))
       throw InputError(dmis.source, f.line, "FA(" + f.label + ")",
                        id + " is reported twice (first on line " +
@@ -244,6 +246,31 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     if (has("TOP", {"PLANE"})) {
       const DmisFeature& top = *by_id["TOP"];
       top_z_mm = top.point_mm.z();
+    }
+  }
+
+  // The half-turn from the engraved mark.
+  if (out.aligned_from_datums) {
+    const bool mark = has("MARK", {"POINT"}), opp = has("MARK_OPP", {"POINT"});
+    if (mark && opp) {
+      constexpr double kMinDepthMm = 0.005;
+      const DmisFeature& m = *by_id["MARK"];
+      const double depth = (to_w * by_id["MARK_OPP"]->point_mm).z() -
+                           (to_w * m.point_mm).z();
+      if (depth <= -kMinDepthMm)
+        throw InputError(
+            dmis.source, m.line, "FA(" + m.label + ")",
+            fmt::format("the engraved mark was found {:.1f} um deep at "
+                        "MARK_OPP, not at MARK: the piece was aligned turned "
+                        "by 180 deg (X1 measured as X2, Y1 as Y2); put the "
+                        "mark towards +X and measure again",
+                        -depth * 1e3));
+      if (depth < kMinDepthMm)
+        out.warnings.push_back(fmt::format(
+            "the engraved mark was not seen (MARK {:.1f} um below MARK_OPP, "
+            "at least 5 um expected): the half-turn rests on the CMM "
+            "operator's placing",
+            depth * 1e3));
     }
   }
 

@@ -95,6 +95,23 @@ class Writer {
     if (output) Line(fmt::format("OUTPUT/FA({})", label));
   }
 
+  // A point feature on the top face, approached from above.
+  void Point(const std::string& label, const PlannedPoint& p) {
+    const Eigen::Vector3d a = Approach(p);
+    Line(fmt::format("F({})=FEAT/POINT,CART,{},{}", label, Xyz(p.point_w_mm),
+                     Xyz(p.normal_w)));
+    Line(fmt::format("GOTO/{},{},{}", Num(a.x()), Num(a.y()),
+                     Num(o_.clearance_height_mm)));
+    Line(fmt::format("MEAS/POINT,F({}),1", label));
+    Line("  GOTO/" + Xyz(a));
+    Line(fmt::format("  PTMEAS/CART,{},{}", Xyz(p.point_w_mm),
+                     Xyz(p.normal_w)));
+    Line(fmt::format("  GOTO/{},{},{}", Num(a.x()), Num(a.y()),
+                     Num(o_.clearance_height_mm)));
+    Line("ENDMES");
+    Line(fmt::format("OUTPUT/FA({})", label));
+  }
+
  private:
   Eigen::Vector3d Approach(const PlannedPoint& p) const {
     return p.point_w_mm + p.normal_w * (r_ + o_.approach_mm);
@@ -298,6 +315,32 @@ std::string WriteDmisProgram(const PartSpec& part,
   w.Line("D(W)=DATSET/DAT(A),ZDIR,ZORIG,DAT(B),YDIR,DAT(C),XORIG,YORIG");
   for (const std::string& d : datums)
     w.Line(fmt::format("OUTPUT/FA({})", DmisLabel(d)));
+  // The half-turn: one point in the engraved mark (the ball sinks into the
+  // groove) and one at the same place turned by 180 deg, if that lies on a
+  // segment's top face; `ttp inspect` compares their heights.
+  {
+    const double r_mark = (part.mark_r_start_mm + part.mark_r_end_mm) / 2;
+    const double phi = part.mark_phi_deg * kPi / 180;
+    PlannedPoint mark, opp;
+    mark.feature = "MARK";
+    mark.point_w_mm = {r_mark * std::cos(phi), r_mark * std::sin(phi), 0};
+    opp.feature = "MARK_OPP";
+    opp.point_w_mm = {-mark.point_w_mm.x(), -mark.point_w_mm.y(), 0};
+    const auto on_top = [&](const Eigen::Vector3d& p) {
+      const double ang = std::atan2(p.y(), p.x()) * 180 / kPi;
+      bool on_segment = false;
+      for (double c : part.segment_centre_deg)
+        on_segment = on_segment || std::abs(std::remainder(ang - c, 360.0)) <
+                                       part.segment_span_deg / 2 - 2;
+      return on_segment &&
+             std::abs(p.y()) > part.big_notch_half_width_mm + 2 * o.stylus_diameter_mm &&
+             p.head<2>().norm() < part.facet_final_distance_mm - 2 * o.stylus_diameter_mm;
+    };
+    if (on_top(mark.point_w_mm) && on_top(opp.point_w_mm)) {
+      w.Point("MARK", mark);
+      w.Point("MARK_OPP", opp);
+    }
+  }
 
   // 3. Strips, then the facets segment by segment.
   w.Line("$$ 3. Strips and facets in W.");

@@ -192,6 +192,37 @@ TEST(DmisTest, RefusesWhatCannotBeThisPiece) {
       InputError);
 }
 
+// The half-turn from the mark: the ball sinks into the groove at MARK.
+TEST(DmisTest, MarkPointsDecideTheHalfTurn) {
+  const PartSpec part;
+  const std::string datums =
+      "UNITS/MM,ANGDEC\n"
+      "FA(TOP)=FEAT/PLANE,CART,30,40,0,0,0,1\n"
+      "FA(FLANK_PY)=FEAT/PLANE,CART,20,53,-5,0,-1,0\n"
+      "FA(FLANK_NY)=FEAT/PLANE,CART,-10,-53,-7,0,1,0\n"
+      "FA(CYL199)=FEAT/CIRCLE,OUTER,CART,0,0,-15,0,0,1,199\n"
+      "FA(X1_5)=FEAT/PLANE,CART,48.65,84.266,-6,0.5,0.8660254037844386,0\n";
+  const auto load = [&](double mark_z, double opp_z) {
+    return DmisToFeatureResults(
+        ParseDmisOutput(datums + fmt::format("FA(MARK)=FEAT/POINT,CART,40,"
+                                             "69.28,{},0,0,1\n"
+                                             "FA(MARK_OPP)=FEAT/POINT,CART,"
+                                             "-40,-69.28,{},0,0,1\n",
+                                             mark_z, opp_z),
+                        "m.dmo"),
+        part);
+  };
+  EXPECT_TRUE(load(-0.0226, 0.0).warnings.empty());
+  EXPECT_EQ(load(-0.002, 0.0).warnings.size(), 1u);  // not seen
+  try {
+    load(0.0, -0.0226);
+    ADD_FAILURE() << "a half-turned piece accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "FA(MARK)");
+    EXPECT_EQ(e.line(), 7);
+  }
+}
+
 // The statement checker against real CMM files (NIST I++ test suite: a
 // DMIS 4.0 program of the DaimlerChrysler part, a DMIS 3.0 program and its
 // output file): an oracle for the checker written by others.

@@ -70,7 +70,7 @@ TEST(DmisWriterTest, ProgramPassesEveryCheck) {
     for (const auto& f : k.findings)
       ADD_FAILURE() << "line " << f.line << ": " << f.problem;
   }
-  EXPECT_EQ(c.probe_points, static_cast<int>(points.size()));
+  EXPECT_EQ(c.probe_points, static_cast<int>(points.size()) + 2);  // + mark
   EXPECT_GE(c.min_clearance_mm, 0.5);
   // One measurement and one output per feature, in the reader's labels.
   int meas = 0, outputs = 0;
@@ -78,8 +78,9 @@ TEST(DmisWriterTest, ProgramPassesEveryCheck) {
     meas += l.rfind("MEAS/", 0) == 0;
     outputs += l.rfind("OUTPUT/FA(", 0) == 0;
   }
-  EXPECT_EQ(meas, 49 + 3);  // 4 datums + 45 features + 3 by hand
-  EXPECT_EQ(outputs, 49);
+  // 4 datums + 45 features + 3 by hand + the mark and its opposite.
+  EXPECT_EQ(meas, 49 + 3 + 2);
+  EXPECT_EQ(outputs, 49 + 2);
   EXPECT_NE(dmis.find("OUTPUT/FA(X1_5)"), std::string::npos);
   EXPECT_NE(dmis.find("D(W)=DATSET/DAT(A),ZDIR,ZORIG,DAT(B),YDIR,DAT(C),"
                       "XORIG,YORIG"),
@@ -211,7 +212,7 @@ class SimulatedCmm {
  public:
   SimulatedCmm(const PartSpec& part, const FeatureResults& truth,
                const Eigen::Isometry3d& w_to_cmm)
-      : part_(part), truth_(truth), pose_(w_to_cmm) {
+      : operator_pose_(w_to_cmm), part_(part), truth_(truth), pose_(w_to_cmm) {
     for (const NominalFeature& f : TestFeatures(part)) nominal_[f.id] = f;
   }
 
@@ -228,6 +229,7 @@ class SimulatedCmm {
         return w.substr(w.find('(') + 1, w.size() - w.find('(') - 2);
       };
       if (s.major == "MODE") manual = s.args[0] == "MAN";
+      if (s.major == "SNSDEF") ball_r_ = std::stod(s.args.back()) / 2;
       if (s.major == "FEAT") {
         std::vector<double> v;
         for (const auto& a : s.args)
@@ -244,7 +246,7 @@ class SimulatedCmm {
         const Eigen::Vector3d p(num(1), num(2), num(3)), n(num(4), num(5), num(6));
         // By hand the operator finds the nominal place on the piece itself;
         // automatically the CMM goes where the active frame says.
-        const Eigen::Isometry3d to_cmm = manual ? pose_ : frame;
+        const Eigen::Isometry3d to_cmm = manual ? operator_pose_ : frame;
         const Eigen::Vector3d from = to_cmm * Eigen::Vector3d(p + 5.0 * n);
         const Eigen::Vector3d dir = to_cmm.linear() * -n;
         block.points.push_back(Touch(block.label, from, dir));
@@ -306,72 +308,121 @@ class SimulatedCmm {
     return n.dot(like) >= 0 ? n : Eigen::Vector3d(-n);
   }
 
-  // Where a probe travelling from `from` along `dir` (CMM frame) touches
-  // the true surface of the feature the label names.
+  // Where a probe travelling from `from` along `dir` (CMM frame) first
+  // touches the true piece: the nearest surface along the ray whose hit
+  // lies inside that surface's edges. Ball-compensated, as the CMM reports
+  // (flat surfaces: the contact point; the engraved groove: the ball rests
+  // on its edges).
   Eigen::Vector3d Touch(const std::string& label, const Eigen::Vector3d& from,
-                        const Eigen::Vector3d& dir) const {
+                        const Eigen::Vector3d& dir) {
     const Eigen::Vector3d o = pose_.inverse() * from;
     const Eigen::Vector3d d = pose_.linear().transpose() * dir;
-    std::string id = label;
-    if (id == "TOP_M") id = "TOP";
-    if (id == "FLANK_M" || id == "FLANK_NY") id = "FLANK-Y";
-    if (id == "FLANK_PY") id = "FLANK+Y";
-    if (id == "CYL_M") id = "CYL199";
-    std::replace(id.begin(), id.end(), '_', '-');
-    // Planes n.x = c in W.
-    Eigen::Vector3d n;
-    double c;
-    if (id == "TOP") {
-      n = Eigen::Vector3d::UnitZ(), c = 0;
-    } else if (id == "FLANK+Y" || id == "FLANK-Y") {
-      n = Eigen::Vector3d::UnitY();
-      c = (id == "FLANK+Y" ? 1 : -1) * part_.big_notch_half_width_mm;
-    } else if (id == "CYL199") {  // |o + t d|_xy = r
-      const double r = part_.ref_cylinders.front().diameter_mm / 2;
+    double best_t = 1e300;
+    std::string best_id;
+    const auto consider = [&](const std::string& id, double t, bool inside) {
+      if (t > 0 && inside && t < best_t) best_t = t, best_id = id;
+    };
+    const auto plane_t = [&](const Eigen::Vector3d& n, double c) {
+      const double nd = n.dot(d);
+      return std::abs(nd) < 1e-12 ? -1.0 : (c - n.dot(o)) / nd;
+    };
+    const double facet_corner =
+        part_.facet_final_distance_mm / std::cos(part_.facet_step_deg / 2 * M_PI / 180);
+    {  // top face of the segments
+      const double t = plane_t(Eigen::Vector3d::UnitZ(), 0);
+      const Eigen::Vector3d h = o + t * d;
+      consider("TOP", t,
+               std::abs(h.y()) > part_.big_notch_half_width_mm &&
+                   h.head<2>().norm() < part_.facet_final_distance_mm);
+    }
+    for (int side : {1, -1}) {
+      const double t = plane_t(Eigen::Vector3d::UnitY(),
+                               side * part_.big_notch_half_width_mm);
+      const Eigen::Vector3d h = o + t * d;
+      consider(side > 0 ? "FLANK+Y" : "FLANK-Y", t,
+               h.z() < 0 && h.z() > part_.big_notch_floor_z_mm &&
+                   std::abs(h.x()) > part_.small_notch_half_width_mm &&
+                   h.head<2>().norm() < facet_corner);
+    }
+    {  // the 199 cylinder
+      const RefCylinder& c = part_.ref_cylinders.front();
+      const double r = c.diameter_mm / 2;
       const Eigen::Vector2d o2 = o.head<2>(), d2 = d.head<2>();
       const double a = d2.squaredNorm(), b = 2 * o2.dot(d2),
                    cc = o2.squaredNorm() - r * r;
-      const double t = (-b - std::sqrt(b * b - 4 * a * cc)) / (2 * a);
-      return pose_ * Eigen::Vector3d(o + t * d);
-    } else {
-      const NominalFeature& f = nominal_.at(id);
+      if (a > 1e-12 && b * b - 4 * a * cc >= 0) {
+        const double t = (-b - std::sqrt(b * b - 4 * a * cc)) / (2 * a);
+        const double z = o.z() + t * d.z();
+        consider("CYL199", t, z > c.z_bottom_mm && z < c.z_top_mm);
+      }
+    }
+    for (const auto& [id, f] : nominal_) {
       const FeatureResult& r = truth_.at(id);
       if (f.kind == FeatureKind::kStrip) {  // z = -d + tan(beta) x
-        n = Eigen::Vector3d(-std::tan(r.angle_rad), 0, 1);
-        c = -r.d_mm;
+        const double t =
+            plane_t(Eigen::Vector3d(-std::tan(r.angle_rad), 0, 1), -r.d_mm);
+        const Eigen::Vector3d h = o + t * d;
+        consider(id, t,
+                 std::abs(h.y() - f.point.y()) < part_.strip_width_mm / 2 &&
+                     std::abs(h.x()) > part_.small_notch_half_width_mm &&
+                     std::abs(h.x()) < f.t_max_mm);
       } else {
         const double phi = std::atan2(f.normal.y(), f.normal.x()) + r.angle_rad;
-        n = Eigen::Vector3d(std::cos(phi) * std::cos(r.tilt_rad),
-                            std::sin(phi) * std::cos(r.tilt_rad),
-                            std::sin(r.tilt_rad));
-        c = r.d_mm;
+        const Eigen::Vector3d n(std::cos(phi) * std::cos(r.tilt_rad),
+                                std::sin(phi) * std::cos(r.tilt_rad),
+                                std::sin(r.tilt_rad));
+        const double t = plane_t(n, r.d_mm);
+        const Eigen::Vector3d h = o + t * d;
+        const double tang = Eigen::Vector3d::UnitZ().cross(f.normal).dot(h);
+        consider(id, t,
+                 tang > f.t_min_mm && tang < f.t_max_mm && h.z() > f.z_min_mm &&
+                     h.z() < f.z_max_mm);
       }
     }
-    const double t = (c - n.dot(o)) / n.dot(d);
-    const Eigen::Vector3d hit = o + t * d;
-    // The touch lies on the feature the label names, inside its edges.
-    if (nominal_.count(id)) {
-      const NominalFeature& f = nominal_.at(id);
-      if (f.kind == FeatureKind::kStrip) {
-        EXPECT_LT(std::abs(hit.y() - f.point.y()), part_.strip_width_mm / 2 - 1)
-            << id;
-        EXPECT_GT(std::abs(hit.x()), part_.small_notch_half_width_mm + 1) << id;
-      } else {
-        const double tang = Eigen::Vector3d::UnitZ().cross(f.normal).dot(hit);
-        EXPECT_GT(tang, f.t_min_mm + 1) << id;
-        EXPECT_LT(tang, f.t_max_mm - 1) << id;
-        EXPECT_GT(hit.z(), f.z_min_mm + 1) << id;
-        EXPECT_LT(hit.z(), f.z_max_mm - 1) << id;
-      }
+    if (best_id.empty()) {
+      ADD_FAILURE() << label << ": the probe found nothing";
+      return from;
     }
+    Eigen::Vector3d hit = o + best_t * d;
+    // The engraved groove: the ball rests on its two edges.
+    if (best_id == "TOP") {
+      const double mphi = part_.mark_phi_deg * M_PI / 180;
+      const Eigen::Vector2d along(std::cos(mphi), std::sin(mphi));
+      const double s = along.dot(hit.head<2>());
+      const double e = std::abs(along.x() * hit.y() - along.y() * hit.x());
+      const double half = part_.mark_width_mm / 2;
+      if (s > part_.mark_r_start_mm && s < part_.mark_r_end_mm && e < half)
+        hit.z() = std::sqrt(ball_r_ * ball_r_ - (half - e) * (half - e)) -
+                  ball_r_;
+    }
+    if (check_labels_) {
+      std::string want = label;
+      if (want == "TOP_M" || want == "MARK" || want == "MARK_OPP") want = "TOP";
+      if (want == "FLANK_M" || want == "FLANK_NY") want = "FLANK-Y";
+      if (want == "FLANK_PY") want = "FLANK+Y";
+      if (want == "CYL_M") want = "CYL199";
+      std::replace(want.begin(), want.end(), '_', '-');
+      EXPECT_EQ(best_id, want) << "a point of " << label << " touches "
+                               << best_id;
+    }
+    touched_[best_id]++;
     return pose_ * hit;
   }
 
+ public:
+  bool check_labels_ = true;
+  double ball_r_ = 2.0;
+  // The operator's idea of where the piece lies (the manual points).
+  Eigen::Isometry3d operator_pose_;
+  std::map<std::string, int> touched_;
+
+ private:
   Actual Fit(const Block& block) const {
     const auto& pts = block.points;
     Eigen::Vector3d m = Eigen::Vector3d::Zero();
     for (const auto& p : pts) m += p;
     m /= static_cast<double>(pts.size());
+    if (block.type == "POINT") return {"POINT", pts.front(), block.nominal_dir, 0};
     if (block.type == "CIRCLE") {  // in the plane across the nominal axis
       const Eigen::Vector3d ax = block.nominal_dir.normalized();
       const Eigen::Vector3d u = ax.unitOrthogonal(), v = ax.cross(u);
@@ -440,6 +491,39 @@ TEST(DmisWriterTest, ResultsOfTheProgramComeBackToTheTwinsFigures) {
   for (const auto& [id, r] : run.true_results) {
     EXPECT_NEAR(got.result.features.at(id).d_mm, r.d_mm, 1e-6) << id;
     EXPECT_NEAR(got.result.features.at(id).angle_rad, r.angle_rad, 1e-8) << id;
+  }
+  EXPECT_EQ(got.result.warnings.size(), 0u)
+      << (got.result.warnings.empty() ? "" : got.result.warnings[0]);
+  EXPECT_EQ(cmm.touched_.size(), 49u);  // every feature, none twice
+}
+
+// The piece put on the CMM turned by 180 deg: the datums are symmetric, the
+// program runs through and measures X2 as X1; the mark's points refuse the
+// results.
+TEST(DmisWriterTest, APieceTurnedByHalfATurnIsRefused) {
+  const Config config;
+  sim::TwinOptions twin;
+  sim::SetEffect(&twin, "clamping_distortion", 4.0);
+  twin.seed = 5;
+  const sim::TwinRun run = sim::RunTwin(config, twin);
+  const Eigen::Isometry3d pose =
+      Eigen::Translation3d(412.0, 233.5, 81.25) *
+      Eigen::AngleAxisd(M_PI + 0.004, Eigen::Vector3d::UnitZ());
+  SimulatedCmm cmm(config.part, run.true_results, pose);
+  cmm.operator_pose_ =
+      pose * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ());
+  cmm.check_labels_ = false;
+  const std::string results =
+      cmm.Run(WriteDmisProgram(config.part, CmmPoints(config.part)));
+  const auto path = test::TestDir("dmis-halfturn") / "turned.dmo";
+  WriteFileAtomic(path, results);
+  try {
+    inspect::LoadMeasurement(config, path);
+    ADD_FAILURE() << "a piece turned by 180 deg was graded";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "FA(MARK)");
+    EXPECT_NE(std::string(e.what()).find("turned by 180 deg"),
+              std::string::npos);
   }
 }
 

@@ -51,8 +51,14 @@ struct DmisImport {
 
 // Facet and strip planes -> per-feature results. If the datums TOP (plane),
 // FLANK+Y and FLANK-Y (planes) and CYL199 (circle or cylinder) are among the
-// results, W is built from them as test-piece.md section 5 says (the mark's
-// half-turn ambiguity is left to the CMM program's alignment); otherwise the
+// results, W is built from them as test-piece.md section 5 says; the
+// mark decides the half-turn when the points MARK (in the engraved line)
+// and MARK_OPP (the same place turned by 180 deg) are reported: the stylus
+// ball sinks into the groove, so MARK must lie at least 5 um below
+// MARK_OPP. Reported the other way round the piece was aligned turned by
+// 180 deg (X1 measured as X2...): refused; no depth either way: a warning
+// (without the two points the half-turn is the CMM program's alignment).
+// Without all four datums the
 // reported frame is taken as W and a warning says so. Variances come from
 // the CMM's MPE (1.2 um + L/400, thesis 7.3) taken as a uniform bound over
 // the feature's extent.
