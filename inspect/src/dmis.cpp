@@ -400,7 +400,17 @@ DmisProgram ParseDmisProgram(const std::string& text,
                              const std::string& source) {
   DmisProgram out;
   out.source = source;
+  {
+    std::istringstream in(text);
+    int n = 0;
+    for (std::string raw; std::getline(in, raw);) {
+      ++n;
+      if (!raw.empty() && raw.back() == '\r') raw.pop_back();
+      if (raw.size() > 80) out.long_lines.push_back(n);
+    }
+  }
   for (const Statement& st : Statements(text)) {
+    if (st.text.size() > 256) out.long_statements.push_back(st.line);
     DmisStatement s;
     s.line = st.line;
     const std::string up = UpperOutsideQuotes(st.text);
@@ -639,7 +649,12 @@ bool MatchSeq(const std::vector<Pattern>& items, size_t i,
   return false;
 }
 
+// No DMIS statement has more arguments than this (a FEAT/LINE has 12);
+// longer ones are not matched (the matcher recurses per argument).
+constexpr size_t kMaxArgs = 256;
+
 bool FormMatches(const char* form, const std::vector<std::string>& args) {
+  if (args.size() > kMaxArgs) return false;
   const std::vector<Pattern> items = CompileForm(form);
   return MatchSeq(items, 0, args, 0, [&](size_t q) { return q == args.size(); });
 }
@@ -671,6 +686,10 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
     out.push_back({line, check, what});
   };
   const auto& st = program.statements;
+  for (int line : program.long_lines)
+    add(line, "structure", "the line is longer than 80 characters");
+  for (int line : program.long_statements)
+    add(line, "structure", "the statement is longer than 256 characters");
   // Statements and their forms.
   for (const DmisStatement& s : st) {
     const StatementForm* form = FindForm(s.major);
@@ -755,9 +774,11 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
                                      std::to_string(meas_line));
       meas_line = s.line;
       taken = 0;
-      declared = s.args.size() > 2 && IsNumber(s.args[2])
-                     ? static_cast<int>(std::stod(s.args[2]))
-                     : 0;
+      declared = 0;
+      if (s.args.size() > 2 && IsNumber(s.args[2])) {
+        const double n = std::strtod(s.args[2].c_str(), nullptr);
+        declared = std::abs(n) < 1e9 ? static_cast<int>(n) : -1;
+      }
       meas_label.clear();
       if (s.args.size() > 1) {
         need(s, s.args[1]);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <sstream>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
@@ -55,7 +56,36 @@ class Writer {
       : o_(o), r_(o.stylus_diameter_mm / 2), circle_d_(circle_diameter_mm) {}
   std::string& text() { return text_; }
 
-  void Line(const std::string& s) { text_ += s + "\n"; }
+  // DMIS lines hold at most 80 characters: a longer statement goes on with
+  // `$` after a comma (outside quotes).
+  void Line(const std::string& s) {
+    std::string rest = s;
+    while (rest.size() > 80) {
+      size_t cut = std::string::npos;
+      bool quoted = false;
+      for (size_t i = 0; i < rest.size() && i < 78; ++i) {
+        if (rest[i] == '\'') quoted = !quoted;
+        if (!quoted && rest[i] == ',') cut = i;
+      }
+      if (cut == std::string::npos) break;
+      text_ += rest.substr(0, cut + 1) + "$\n";
+      rest = "  " + rest.substr(cut + 1);
+    }
+    text_ += rest + "\n";
+  }
+  // An operator message in statements that fit a line.
+  void Text(const std::string& message) {
+    std::istringstream words(message);
+    std::string chunk;
+    for (std::string w; words >> w;) {
+      if (!chunk.empty() && chunk.size() + 1 + w.size() > 60) {
+        Line("TEXT/OPER,'" + chunk + "'");
+        chunk.clear();
+      }
+      chunk += (chunk.empty() ? "" : " ") + w;
+    }
+    if (!chunk.empty()) Line("TEXT/OPER,'" + chunk + "'");
+  }
 
   // One feature: nominal, MEAS block with its points, OUTPUT (unless the
   // output waits for the part frame). Manual blocks carry no moves.
@@ -275,10 +305,10 @@ std::string WriteDmisProgram(const PartSpec& part,
   // 1. Preliminary alignment by hand, on the same datums.
   w.Line("$$ 1. Preliminary alignment, by hand.");
   w.Line("MODE/MAN");
-  w.Line("TEXT/OPER,'Top face up on its adapter, engraved mark (segment X1) "
-         "towards machine +X. Take the points shown: 3 on the top face, 3 on "
-         "the -Y flank of the big notch, 4 around the 199 mm cylinder. Leave "
-         "the stylus above the piece.'");
+  w.Text("Top face up on its adapter, the engraved mark (segment X1) "
+         "towards machine +X. Take the points shown: 3 on the top face, 4 "
+         "on the -Y flank of the big notch, 4 around the 199 mm cylinder. "
+         "Leave the stylus above the piece.");
   const auto& top = by_feature["TOP"];
   const size_t per_segment = std::max<size_t>(1, top.size() / 4);
   std::vector<const PlannedPoint*> top_m;

@@ -283,6 +283,11 @@ TEST(DmisProgramTest, DefectsInARealProgramAreFound) {
   EXPECT_TRUE(has(findings("D(CALN1_a)=DATSET/DAT(CALN1A),ZDIR",
                            "D(CALN1_a)=DATSET/DAT(CALN2A),ZDIR"),
                   "labels", "DAT(CALN2A) before DATDEF"));
+  // A line longer than DMIS allows.
+  EXPECT_TRUE(has(findings("TEXT/OUTFIL,'CYL1 - CYLINDER - '",
+                           "TEXT/OUTFIL,'CYL1 - CYLINDER - " +
+                               std::string(70, 'x') + "'"),
+                  "structure", "longer than 80"));
   // A MEAS block with fewer points than declared; no ENDFIL.
   EXPECT_TRUE(has(findings("MEAS/CYLNDR,F(CYL2),8", "MEAS/CYLNDR,F(CYL2),9"),
                   "structure", "declares 9 points"));

@@ -90,8 +90,16 @@ TEST(DmisWriterTest, ProgramPassesEveryCheck) {
   o.stylus_diameter_mm = 2.0;
   o.clearance_height_mm = 35;
   const std::string small = WriteDmisProgram(part, CmmPoints(part, {}, o), o);
-  EXPECT_NE(small.find(",-1.0000,2.0000\n"), std::string::npos);
-  EXPECT_NE(small.find(",35.0000\n"), std::string::npos);
+  int sensors = 0, clearance_moves = 0;
+  for (const auto& st : inspect::ParseDmisProgram(small, "s").statements) {
+    if (st.major == "SNSDEF") {
+      ++sensors;
+      EXPECT_EQ(st.args.back(), "2.0000");
+    }
+    clearance_moves += st.major == "GOTO" && st.args.back() == "35.0000";
+  }
+  EXPECT_EQ(sensors, 1);
+  EXPECT_GT(clearance_moves, 49);
   EXPECT_TRUE(Check(small).Passed());
 }
 

@@ -80,6 +80,10 @@ struct DmisStatement {
 struct DmisProgram {
   std::string source;
   std::vector<DmisStatement> statements;
+  // DMIS limits a line to 80 characters and a statement to 256 (its
+  // continuation lines joined): the ones beyond, by their first line.
+  std::vector<int> long_lines;
+  std::vector<int> long_statements;
 };
 
 // Splits a DMIS file into statements (joins `$` continuations, drops
@@ -97,7 +101,8 @@ struct DmisFinding {
   std::string problem;  // what is wrong, with the numbers
 };
 
-// Standard checks, for any DMIS program or output file: every statement is
+// Standard checks, for any DMIS program or output file: lines of at most
+// 80 characters, statements of at most 256; every statement is
 // in the table with one of its argument forms and the label its form
 // needs; DMISMN (program) or FILNAM (output) first and ENDFIL last;
 // MEAS ... ENDMES blocks hold their declared number of PTMEAS; every label
