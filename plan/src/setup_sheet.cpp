@@ -290,7 +290,8 @@ longer). Tool changes at the tool-change position M = ({:.1f}, {:.1f},
 <span data-key="sphere-distance">{:.3f}</span> mm from the C axis; ball
 radius <span data-key="sphere-radius">{:.3f}</span>, stem diameter
 <span data-key="sphere-stem">{:.3f}</span>. The tool waits between cycles at
-W = ({:.1f}, {:.1f}, {:.1f}), clear of the ring the sphere sweeps.</p>
+W = ({:.1f}, {:.1f}, {:.1f}), between the piece and the ring the sphere
+sweeps while C turns.</p>
 
 <h2>6. Dial-gauge positions</h2>
 <p>Facets: gauge on the +X side, plunger horizontal along &minus;X through

@@ -10,10 +10,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <map>
+#include <sstream>
 #include <regex>
 
+#include "test_dir.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
 
 namespace ttp::plan {
 namespace {
@@ -132,6 +137,34 @@ TEST(SetupSheetTest, NamesAreEscaped) {
   config.machine.name = "mill <A&B>";
   const std::string html = SetupSheetHtml(BuildSetupSheet(config));
   EXPECT_NE(html.find("mill &lt;A&amp;B&gt;"), std::string::npos);
+}
+
+// Printed by headless Chromium (no network): the page prints, on a few
+// A4 pages.
+TEST(BrowserTest, SetupSheetPrintsOnAFewPages) {
+  const auto dir = test::TestDir("setup-sheet-print");
+  const auto html = dir / "sheet.html";
+  const auto pdf = dir / "sheet.pdf";
+  WriteFileAtomic(html, SetupSheetHtml(BuildSetupSheet(Config{})));
+  const std::string cmd =
+      std::string("timeout 120 '") + TTP_CHROMIUM +
+      "' --headless --no-sandbox --disable-gpu --no-first-run "
+      "--disable-extensions --proxy-server=127.0.0.1:9 "
+      "--no-pdf-header-footer --print-to-pdf='" +
+      pdf.string() + "' 'file://" + html.string() + "' > '" +
+      (dir / "chromium.log").string() + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream in(pdf, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  const std::string text = s.str();
+  ASSERT_EQ(text.rfind("%PDF", 0), 0u);
+  int pages = 0;
+  for (size_t at = text.find("/Type /Page"); at != std::string::npos;
+       at = text.find("/Type /Page", at + 1))
+    pages += text.compare(at, 12, "/Type /Pages") != 0;
+  EXPECT_GE(pages, 2);
+  EXPECT_LE(pages, 6);
 }
 
 }  // namespace
