@@ -144,8 +144,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     outputs.Commit();
     if (!o->json.empty())
       WriteJson(o->json, inspect::DmisProgramCheckToJson(check));
-    std::cout << fmt::format("{} points\n{}\n{}\n", points.size(),
-                             csv.string(), dmis.string());
+    std::cout << fmt::format("{} points\n{}\n{}\n", points.size(), csv.string(),
+                             dmis.string());
     if (!global.quiet) PrintProgramCheck(std::cerr, check);
   });
 
@@ -162,8 +162,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   check->add_option("--json", o->json, "the findings as JSON");
   check->callback([&global, o] {
     const Config config = global.LoadConfig();
-    const inspect::DmisProgram program = inspect::ParseDmisProgram(
-        ReadTextFile(o->check_file), o->check_file);
+    const inspect::DmisProgram program =
+        inspect::ParseDmisProgram(ReadTextFile(o->check_file), o->check_file);
     std::ostream& os = TextOut(o->json);
     nlohmann::json j;
     bool passed = true;
@@ -173,12 +173,13 @@ void Register(CLI::App& root, GlobalOptions& global) {
       nlohmann::json f = nlohmann::json::array();
       for (const auto& x : findings) {
         os << fmt::format("  line {}: {}: {}\n", x.line, x.check, x.problem);
-        f.push_back({{"line", x.line}, {"check", x.check},
-                     {"problem", x.problem}});
+        f.push_back(
+            {{"line", x.line}, {"check", x.check}, {"problem", x.problem}});
       }
       os << fmt::format("{} statements, {} findings\n",
                         program.statements.size(), findings.size());
-      j = {{"passed", passed}, {"statements", program.statements.size()},
+      j = {{"passed", passed},
+           {"statements", program.statements.size()},
            {"findings", f}};
     } else {
       const PartMesh mesh = BuildPartMesh(config.part, Stage::kFinished);

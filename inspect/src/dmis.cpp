@@ -255,8 +255,8 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     if (mark && opp) {
       constexpr double kMinDepthMm = 0.005;
       const DmisFeature& m = *by_id["MARK"];
-      const double depth = (to_w * by_id["MARK_OPP"]->point_mm).z() -
-                           (to_w * m.point_mm).z();
+      const double depth =
+          (to_w * by_id["MARK_OPP"]->point_mm).z() - (to_w * m.point_mm).z();
       if (depth <= -kMinDepthMm)
         throw InputError(
             dmis.source, m.line, "FA(" + m.label + ")",
@@ -334,8 +334,8 @@ namespace ttp::inspect {
 namespace {
 
 // Splits at commas outside quotes and parentheses.
-std::vector<std::string> SplitArgs(const std::string& s, const std::string& source,
-                                   int line) {
+std::vector<std::string> SplitArgs(const std::string& s,
+                                   const std::string& source, int line) {
   std::vector<std::string> out;
   std::string cell;
   bool quoted = false;
@@ -354,8 +354,7 @@ std::vector<std::string> SplitArgs(const std::string& s, const std::string& sour
   if (quoted)
     throw InputError(source, line, "statement", "a quote is not closed");
   if (depth != 0)
-    throw InputError(source, line, "statement",
-                     "parentheses do not match");
+    throw InputError(source, line, "statement", "parentheses do not match");
   if (!Trim(cell).empty() || !out.empty()) out.push_back(Trim(cell));
   return out;
 }
@@ -366,7 +365,8 @@ std::string UpperOutsideQuotes(const std::string& s) {
   bool quoted = false;
   for (char& c : out) {
     if (c == '\'') quoted = !quoted;
-    if (!quoted) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    if (!quoted)
+      c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   }
   return out;
 }
@@ -379,7 +379,8 @@ bool IsNumber(const std::string& w) {
 }
 
 bool IsWord(const std::string& w) {
-  if (w.empty() || !std::isalpha(static_cast<unsigned char>(w[0]))) return false;
+  if (w.empty() || !std::isalpha(static_cast<unsigned char>(w[0])))
+    return false;
   for (char c : w)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') return false;
   return true;
@@ -475,10 +476,7 @@ const std::vector<StatementForm>& Table() {
       {"PRCOMP", "", false, {"ON|OFF"}},
       {"DISPLY", "", false, {"OFF", "TERM|STOR|PRINT|COMM DMIS|V()"}},
       {"DEVICE", "DID", true, {"STOR|PRINT|TERM|COMM|INCR s"}},
-      {"OPEN",
-       "",
-       false,
-       {"DID() FDATA DMIS|V() INPUT|OUTPUT|APPEND|OVERWR"}},
+      {"OPEN", "", false, {"DID() FDATA DMIS|V() INPUT|OUTPUT|APPEND|OVERWR"}},
       {"CLOSE", "", false, {"DID() [KEEP|DELETE|END]"}},
       {"MODE", "", false, {"MAN", "PROG MAN", "AUTO PROG MAN"}},
       {"TEXT", "", false, {"MAN|OPER|OUTFIL s"}},
@@ -627,7 +625,9 @@ bool MatchSeq(const std::vector<Pattern>& items, size_t i,
               const Cont& cont) {
   if (i == items.size()) return cont(pos);
   const Pattern& p = items[i];
-  const Cont next = [&](size_t q) { return MatchSeq(items, i + 1, args, q, cont); };
+  const Cont next = [&](size_t q) {
+    return MatchSeq(items, i + 1, args, q, cont);
+  };
   switch (p.kind) {
     case Pattern::kTerm:
       return pos < args.size() && TermMatches(p.alts, args[pos]) &&
@@ -639,9 +639,8 @@ bool MatchSeq(const std::vector<Pattern>& items, size_t i,
       // One more round (making progress), or stop (kStar, or after one).
       std::function<bool(size_t, int)> rounds = [&](size_t q, int done) {
         if ((p.kind == Pattern::kStar || done > 0) && next(q)) return true;
-        return MatchSeq(p.seq, 0, args, q, [&](size_t r) {
-          return r > q && rounds(r, done + 1);
-        });
+        return MatchSeq(p.seq, 0, args, q,
+                        [&](size_t r) { return r > q && rounds(r, done + 1); });
       };
       return rounds(pos, 0);
     }
@@ -656,7 +655,8 @@ constexpr size_t kMaxArgs = 256;
 bool FormMatches(const char* form, const std::vector<std::string>& args) {
   if (args.size() > kMaxArgs) return false;
   const std::vector<Pattern> items = CompileForm(form);
-  return MatchSeq(items, 0, args, 0, [&](size_t q) { return q == args.size(); });
+  return MatchSeq(items, 0, args, 0,
+                  [&](size_t q) { return q == args.size(); });
 }
 
 const StatementForm* FindForm(const std::string& major) {
@@ -702,7 +702,8 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
     if (!s.label_type.empty()) {
       bool ok = false;
       std::stringstream ss(lhs);
-      for (std::string t; std::getline(ss, t, '|');) ok = ok || t == s.label_type;
+      for (std::string t; std::getline(ss, t, '|');)
+        ok = ok || t == s.label_type;
       if (!ok)
         add(s.line, "statement",
             s.major + " does not take a label " + s.label_type + "(...) =");
@@ -712,7 +713,8 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
               "(name) = before it");
     }
     bool matched = false;
-    for (const char* f : form->forms) matched = matched || FormMatches(f, s.args);
+    for (const char* f : form->forms)
+      matched = matched || FormMatches(f, s.args);
     if (!matched) {
       std::string forms;
       for (const char* f : form->forms)
@@ -746,8 +748,7 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
     const auto missing = [&](const std::set<std::string>& set,
                              const std::string& what) {
       if (!set.count(name))
-        add(s.line, "labels",
-            s.major + " uses " + word + " before " + what);
+        add(s.line, "labels", s.major + " uses " + word + " before " + what);
     };
     if (type == "FA") missing(actual, "it is measured or constructed");
     if (type == "DAT") missing(datums, "DATDEF defines it");
@@ -756,7 +757,8 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
     if (type == "DID") missing(devices, "DEVICE defines it");
     if (type == "TA" || type == "T") missing(tolerances, "TOL defines it");
     if (type == "F" && !features.count(name))
-      add(s.line, "labels", s.major + " uses " + word + " before FEAT defines it");
+      add(s.line, "labels",
+          s.major + " uses " + word + " before FEAT defines it");
   };
   for (const DmisStatement& s : st) {
     const std::string& m = s.major;
@@ -770,8 +772,8 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
     if (m == "TOL") tolerances.insert(s.label);
     if (m == "MEAS") {
       if (meas_line)
-        add(s.line, "structure", "MEAS inside the MEAS block of line " +
-                                     std::to_string(meas_line));
+        add(s.line, "structure",
+            "MEAS inside the MEAS block of line " + std::to_string(meas_line));
       meas_line = s.line;
       taken = 0;
       declared = 0;
@@ -792,8 +794,7 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
       continue;
     }
     if (m == "PTMEAS") {
-      if (!meas_line)
-        add(s.line, "structure", "PTMEAS outside a MEAS block");
+      if (!meas_line) add(s.line, "structure", "PTMEAS outside a MEAS block");
       ++taken;
       continue;
     }
@@ -804,8 +805,10 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
       }
       if (taken != declared)
         add(meas_line, "structure",
-            "MEAS declares " + std::to_string(declared) + " points, its block "
-                "holds " + std::to_string(taken) + " PTMEAS");
+            "MEAS declares " + std::to_string(declared) +
+                " points, its block "
+                "holds " +
+                std::to_string(taken) + " PTMEAS");
       actual.insert(meas_label);
       meas_line = 0;
       continue;
@@ -837,8 +840,7 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
     if (m == "FEAT" || m == "DEVICE" || m == "SNSDEF" || m == "TOL") continue;
     for (const std::string& w : s.args) need(s, w);
   }
-  if (meas_line)
-    add(meas_line, "structure", "MEAS block without ENDMES");
+  if (meas_line) add(meas_line, "structure", "MEAS block without ENDMES");
   return out;
 }
 
@@ -942,12 +944,14 @@ double SecondSpan(const std::vector<Eigen::Vector3d>& pts) {
 // Angle covered by points about an axis through a centre (360 minus the
 // largest gap), degrees.
 double AngularSpanDeg(const std::vector<Eigen::Vector3d>& pts,
-                      const Eigen::Vector3d& centre, const Eigen::Vector3d& axis) {
+                      const Eigen::Vector3d& centre,
+                      const Eigen::Vector3d& axis) {
   if (pts.size() < 2) return 0;
   const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
   std::vector<double> a;
   for (const auto& p : pts)
-    a.push_back(std::atan2(v.dot(p - centre), u.dot(p - centre)) * 57.29577951308232);
+    a.push_back(std::atan2(v.dot(p - centre), u.dot(p - centre)) *
+                57.29577951308232);
   std::sort(a.begin(), a.end());
   double gap = a.front() + 360 - a.back();
   for (size_t k = 1; k < a.size(); ++k) gap = std::max(gap, a[k] - a[k - 1]);
@@ -973,7 +977,8 @@ bool DmisPathOptions::IsValid(std::string* error) const {
     if (error) *error = std::string("DmisPathOptions.") + field + ": " + why;
     return false;
   };
-  if (!(margin_mm >= 0 && margin_mm < 50)) return bad("margin_mm", "must be in [0, 50)");
+  if (!(margin_mm >= 0 && margin_mm < 50))
+    return bad("margin_mm", "must be in [0, 50)");
   if (!(shaft_length_mm >= 0 && shaft_length_mm <= 500))
     return bad("shaft_length_mm", "must be in [0, 500]");
   if (!(shaft_diameter_mm >= 0 && shaft_diameter_mm < 50))
@@ -1031,10 +1036,10 @@ DmisProgramCheck CheckDmisProgram(const DmisProgram& program,
                         const char* what) {
     const double shaft_r = options.shaft_diameter_mm / 2;
     const MoveResult m =
-        probing ? TraceMove(obs, *pos, to, ball_r - 0.01, 0, 0)
-                : TraceMove(obs, *pos, to, ball_r + options.margin_mm,
-                            shaft_r + options.margin_mm,
-                            options.shaft_length_mm);
+        probing
+            ? TraceMove(obs, *pos, to, ball_r - 0.01, 0, 0)
+            : TraceMove(obs, *pos, to, ball_r + options.margin_mm,
+                        shaft_r + options.margin_mm, options.shaft_length_mm);
     ++out.moves;
     out.path_length_mm += (to - *pos).norm();
     const double clearance =
@@ -1045,15 +1050,15 @@ DmisProgramCheck CheckDmisProgram(const DmisProgram& program,
     }
     if (m.min_excess_mm < 0)
       fail(4, line,
-           fmt::format("{} from ({:.3f}, {:.3f}, {:.3f}) to ({:.3f}, {:.3f}, "
-                       "{:.3f}): the stylus comes within {:.3f} mm of the "
-                       "material (ball radius {:.3f} + {:.3f} mm required) "
-                       "near ({:.3f}, {:.3f}, {:.3f})",
-                       what, pos->x(), pos->y(), pos->z(), to.x(), to.y(),
-                       to.z(), m.min_excess_mm + ball_r +
-                           (probing ? -0.01 : options.margin_mm),
-                       ball_r, probing ? 0.0 : options.margin_mm, m.where.x(),
-                       m.where.y(), m.where.z()));
+           fmt::format(
+               "{} from ({:.3f}, {:.3f}, {:.3f}) to ({:.3f}, {:.3f}, "
+               "{:.3f}): the stylus comes within {:.3f} mm of the "
+               "material (ball radius {:.3f} + {:.3f} mm required) "
+               "near ({:.3f}, {:.3f}, {:.3f})",
+               what, pos->x(), pos->y(), pos->z(), to.x(), to.y(), to.z(),
+               m.min_excess_mm + ball_r + (probing ? -0.01 : options.margin_mm),
+               ball_r, probing ? 0.0 : options.margin_mm, m.where.x(),
+               m.where.y(), m.where.z()));
     pos = to;
   };
   for (const DmisStatement& s : program.statements) {

@@ -97,16 +97,18 @@ class Writer {
     for (const PlannedPoint* p : pts) centre += p->point_w_mm;
     centre /= static_cast<double>(pts.size());
     if (circle) {
-      Line(fmt::format("F({})=FEAT/CIRCLE,OUTER,CART,0.0000,0.0000,{},0.0000,"
-                       "0.0000,1.0000,{}",
-                       label, Num(centre.z()), Num(circle_d_)));
+      Line(
+          fmt::format("F({})=FEAT/CIRCLE,OUTER,CART,0.0000,0.0000,{},0.0000,"
+                      "0.0000,1.0000,{}",
+                      label, Num(centre.z()), Num(circle_d_)));
     } else {
       Line(fmt::format("F({})=FEAT/PLANE,CART,{},{}", label, Xyz(centre),
                        Xyz(pts.front()->normal_w)));
     }
     const Eigen::Vector3d first = Approach(*pts.front());
-    if (!manual) Line(fmt::format("GOTO/{},{},{}", Num(first.x()),
-                                  Num(first.y()), Num(o_.clearance_height_mm)));
+    if (!manual)
+      Line(fmt::format("GOTO/{},{},{}", Num(first.x()), Num(first.y()),
+                       Num(o_.clearance_height_mm)));
     Line(fmt::format("MEAS/{},F({}),{}", circle ? "CIRCLE" : "PLANE", label,
                      pts.size()));
     if (!manual) Line("  GOTO/" + Xyz(first));
@@ -134,8 +136,8 @@ class Writer {
                      Num(o_.clearance_height_mm)));
     Line(fmt::format("MEAS/POINT,F({}),1", label));
     Line("  GOTO/" + Xyz(a));
-    Line(fmt::format("  PTMEAS/CART,{},{}", Xyz(p.point_w_mm),
-                     Xyz(p.normal_w)));
+    Line(
+        fmt::format("  PTMEAS/CART,{},{}", Xyz(p.point_w_mm), Xyz(p.normal_w)));
     Line(fmt::format("  GOTO/{},{},{}", Num(a.x()), Num(a.y()),
                      Num(o_.clearance_height_mm)));
     Line("ENDMES");
@@ -158,8 +160,8 @@ class Writer {
     const double r1 = std::hypot(to.x(), to.y());
     const double a0 = std::atan2(from.y(), from.x());
     double da = std::remainder(std::atan2(to.y(), to.x()) - a0, 2 * kPi);
-    const int steps =
-        std::max(1, static_cast<int>(std::ceil(std::abs(da) / (10 * kPi / 180))));
+    const int steps = std::max(
+        1, static_cast<int>(std::ceil(std::abs(da) / (10 * kPi / 180))));
     for (int s = 1; s < steps; ++s) {
       const double t = static_cast<double>(s) / steps;
       const double ang = a0 + da * t, rad = r0 + (r1 - r0) * t;
@@ -292,9 +294,10 @@ std::string WriteDmisProgram(const PartSpec& part,
   w.Line(fmt::format("DID(RESULTS)=DEVICE/STOR,'{}'", o.results_file));
   w.Line("OPEN/DID(RESULTS),FDATA,DMIS,OUTPUT");
   w.Line("D(MCS)=DATSET/MCS");
-  w.Line(fmt::format("S(STYLUS)=SNSDEF/PROBE,FIXED,CART,0.0000,0.0000,{},"
-                     "0.0000,0.0000,-1.0000,{}",
-                     Num(o.stylus_length_mm), Num(o.stylus_diameter_mm)));
+  w.Line(
+      fmt::format("S(STYLUS)=SNSDEF/PROBE,FIXED,CART,0.0000,0.0000,{},"
+                  "0.0000,0.0000,-1.0000,{}",
+                  Num(o.stylus_length_mm), Num(o.stylus_diameter_mm)));
   w.Line("SNSLCT/S(STYLUS)");
   w.Line(fmt::format("FEDRAT/POSVEL,MMPS,{}", Num(o.positioning_speed_mm_s)));
   w.Line(fmt::format("FEDRAT/MESVEL,MMPS,{}", Num(o.measuring_speed_mm_s)));
@@ -305,10 +308,11 @@ std::string WriteDmisProgram(const PartSpec& part,
   // 1. Preliminary alignment by hand, on the same datums.
   w.Line("$$ 1. Preliminary alignment, by hand.");
   w.Line("MODE/MAN");
-  w.Text("Top face up on its adapter, the engraved mark (segment X1) "
-         "towards machine +X. Take the points shown: 3 on the top face, 4 "
-         "on the -Y flank of the big notch, 4 around the 199 mm cylinder. "
-         "Leave the stylus above the piece.");
+  w.Text(
+      "Top face up on its adapter, the engraved mark (segment X1) "
+      "towards machine +X. Take the points shown: 3 on the top face, 4 "
+      "on the -Y flank of the big notch, 4 around the 199 mm cylinder. "
+      "Leave the stylus above the piece.");
   const auto& top = by_feature["TOP"];
   const size_t per_segment = std::max<size_t>(1, top.size() / 4);
   std::vector<const PlannedPoint*> top_m;
@@ -335,9 +339,10 @@ std::string WriteDmisProgram(const PartSpec& part,
   const std::vector<std::string> datums = {"TOP", "FLANK+Y", "FLANK-Y", cyl};
   for (const std::string& d : datums)
     w.Feature(DmisLabel(d), d, by_feature[d], false, false);
-  w.Line(fmt::format("F(FLANK_MID)=FEAT/PLANE,CART,0.0000,0.0000,{},0.0000,"
-                     "1.0000,0.0000",
-                     Num(part.big_notch_floor_z_mm / 2)));
+  w.Line(
+      fmt::format("F(FLANK_MID)=FEAT/PLANE,CART,0.0000,0.0000,{},0.0000,"
+                  "1.0000,0.0000",
+                  Num(part.big_notch_floor_z_mm / 2)));
   w.Line("CONST/PLANE,F(FLANK_MID),MIDPL,FA(FLANK_NY),FA(FLANK_PY)");
   w.Line("DATDEF/FA(TOP),DAT(A)");
   w.Line("DATDEF/FA(FLANK_MID),DAT(B)");
@@ -363,8 +368,10 @@ std::string WriteDmisProgram(const PartSpec& part,
         on_segment = on_segment || std::abs(std::remainder(ang - c, 360.0)) <
                                        part.segment_span_deg / 2 - 2;
       return on_segment &&
-             std::abs(p.y()) > part.big_notch_half_width_mm + 2 * o.stylus_diameter_mm &&
-             p.head<2>().norm() < part.facet_final_distance_mm - 2 * o.stylus_diameter_mm;
+             std::abs(p.y()) >
+                 part.big_notch_half_width_mm + 2 * o.stylus_diameter_mm &&
+             p.head<2>().norm() <
+                 part.facet_final_distance_mm - 2 * o.stylus_diameter_mm;
     };
     if (on_top(mark.point_w_mm) && on_top(opp.point_w_mm)) {
       w.Point("MARK", mark);

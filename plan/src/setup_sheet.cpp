@@ -21,19 +21,24 @@ std::array<double, 3> Arr(const Eigen::Vector3d& v) {
 std::string Escape(const std::string& s) {
   std::string out;
   for (char c : s) {
-    if (c == '&') out += "&amp;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '"') out += "&quot;";
-    else out += c;
+    if (c == '&')
+      out += "&amp;";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '"')
+      out += "&quot;";
+    else
+      out += c;
   }
   return out;
 }
 
 // A cell holding a number, named for readers of the page.
 std::string Cell(const std::string& key, double v, int decimals = 3) {
-  return fmt::format("<td class=num data-key=\"{}\">{:.{}f}</td>",
-                     Escape(key), v + 0.0, decimals);
+  return fmt::format("<td class=num data-key=\"{}\">{:.{}f}</td>", Escape(key),
+                     v + 0.0, decimals);
 }
 std::string CellInt(const std::string& key, int v) {
   return fmt::format("<td class=num data-key=\"{}\">{}</td>", Escape(key), v);
@@ -86,7 +91,8 @@ SetupSheet BuildSetupSheet(const Config& config) {
   // The sphere turns with the table: its place at C = 0.
   const double phi = m.sphere_phi_deg * kDeg;
   const Eigen::Vector3d sphere_w(
-      m.sphere_distance_mm * std::cos(phi), m.sphere_distance_mm * std::sin(phi),
+      m.sphere_distance_mm * std::cos(phi),
+      m.sphere_distance_mm * std::sin(phi),
       m.table_top_z_mm + m.sphere_height_mm - WorkpieceOriginHeightMm(config));
   s.sphere_w_mm = Arr(sphere_w);
   s.sphere_m_mm = Arr(WorkpieceToMachine(config, sphere_w, 0.0));
@@ -203,12 +209,11 @@ std::string SetupSheetHtml(const SetupSheet& s) {
   for (size_t i = 0; i < s.clamps.size(); ++i) {
     const SetupClamp& c = s.clamps[i];
     const std::string k = "clamp-" + std::to_string(i + 1) + "-";
-    clamps += fmt::format("<tr><td>{}</td>{}{}{}{}{}</tr>\n", i + 1,
-                          Cell(k + "phi", c.phi_deg, 1),
-                          Cell(k + "r-inner", c.r_inner_mm, 1),
-                          Cell(k + "r-outer", c.r_outer_mm, 1),
-                          Cell(k + "width", c.width_mm, 1),
-                          Cell(k + "top-z", c.top_z_m_mm, 1));
+    clamps += fmt::format(
+        "<tr><td>{}</td>{}{}{}{}{}</tr>\n", i + 1,
+        Cell(k + "phi", c.phi_deg, 1), Cell(k + "r-inner", c.r_inner_mm, 1),
+        Cell(k + "r-outer", c.r_outer_mm, 1), Cell(k + "width", c.width_mm, 1),
+        Cell(k + "top-z", c.top_z_m_mm, 1));
   }
   std::string bolts;
   for (double b : s.bolt_phi_deg)
@@ -223,8 +228,7 @@ std::string SetupSheetHtml(const SetupSheet& s) {
         Cell(k + "x", d.contact_m_mm[0]), Cell(k + "y", d.contact_m_mm[1]),
         Cell(k + "z", d.contact_m_mm[2]), d.direction);
   }
-  const auto row3 = [](const std::string& key,
-                       const std::array<double, 3>& v) {
+  const auto row3 = [](const std::string& key, const std::array<double, 3>& v) {
     return Cell(key + "-x", v[0]) + Cell(key + "-y", v[1]) +
            Cell(key + "-z", v[2]);
   };
@@ -304,8 +308,7 @@ deeper).</p>
 {}</table>
 </body></html>
 )",
-      Escape(s.machine_name),
-      s.c_sense > 0 ? "clockwise" : "counter-clockwise",
+      Escape(s.machine_name), s.c_sense > 0 ? "clockwise" : "counter-clockwise",
       Cell("adapter-diameter", s.adapter_diameter_mm),
       Cell("adapter-height", s.adapter_height_mm),
       Cell("bolt-circle", s.bolt_circle_diameter_mm),

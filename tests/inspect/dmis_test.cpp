@@ -235,14 +235,15 @@ TEST(DmisProgramTest, RealCmmFilesPassTheStandardChecks) {
       ADD_FAILURE() << name << ":" << f.line << ": " << f.check << ": "
                     << f.problem;
   }
-  const std::string imts = ReadTextFile(std::string(TTP_DATA_DIR) +
-                                        "/reference/cmm-files/IMTS_M_clean.dmi");
+  const std::string imts = ReadTextFile(
+      std::string(TTP_DATA_DIR) + "/reference/cmm-files/IMTS_M_clean.dmi");
   const DmisProgram p = ParseDmisProgram(imts, "imts");
   EXPECT_EQ(p.statements.size(), 111u);
   // Continuation lines are one statement: the LINE feature of line 86.
   const auto line = std::find_if(
-      p.statements.begin(), p.statements.end(),
-      [](const DmisStatement& s) { return s.label == "CLIN1" && s.major == "FEAT"; });
+      p.statements.begin(), p.statements.end(), [](const DmisStatement& s) {
+        return s.label == "CLIN1" && s.major == "FEAT";
+      });
   ASSERT_NE(line, p.statements.end());
   EXPECT_EQ(line->args.size(), 12u);
   EXPECT_EQ(line->label_type, "F");
@@ -251,8 +252,8 @@ TEST(DmisProgramTest, RealCmmFilesPassTheStandardChecks) {
 // The same real program with one defect each: every one is found, with
 // its line.
 TEST(DmisProgramTest, DefectsInARealProgramAreFound) {
-  const std::string imts = ReadTextFile(std::string(TTP_DATA_DIR) +
-                                        "/reference/cmm-files/IMTS_M_clean.dmi");
+  const std::string imts = ReadTextFile(
+      std::string(TTP_DATA_DIR) + "/reference/cmm-files/IMTS_M_clean.dmi");
   const auto findings = [&](const std::string& from, const std::string& to) {
     std::string t = imts;
     const auto at = t.find(from);
@@ -268,8 +269,8 @@ TEST(DmisProgramTest, DefectsInARealProgramAreFound) {
     return false;
   };
   // A misspelled major word; a wrong minor word; a missing argument.
-  EXPECT_TRUE(has(findings("SNSLCT/S(PROBE6)", "SNSSEL/S(PROBE6)"),
-                  "statement", "SNSSEL is not in"));
+  EXPECT_TRUE(has(findings("SNSLCT/S(PROBE6)", "SNSSEL/S(PROBE6)"), "statement",
+                  "SNSSEL is not in"));
   EXPECT_TRUE(has(findings("MEAS/PLANE,F(PLN1),4", "MEAS/PLANE,F(PLN1),X"),
                   "statement", "MEAS/PLANE,F(PLN1),X matches none"));
   EXPECT_TRUE(has(findings("F(PLN2)=FEAT/PLANE,CART,0.000,-52.000,15.000,"
@@ -284,10 +285,10 @@ TEST(DmisProgramTest, DefectsInARealProgramAreFound) {
                            "D(CALN1_a)=DATSET/DAT(CALN2A),ZDIR"),
                   "labels", "DAT(CALN2A) before DATDEF"));
   // A line longer than DMIS allows.
-  EXPECT_TRUE(has(findings("TEXT/OUTFIL,'CYL1 - CYLINDER - '",
-                           "TEXT/OUTFIL,'CYL1 - CYLINDER - " +
-                               std::string(70, 'x') + "'"),
-                  "structure", "longer than 80"));
+  EXPECT_TRUE(has(
+      findings("TEXT/OUTFIL,'CYL1 - CYLINDER - '",
+               "TEXT/OUTFIL,'CYL1 - CYLINDER - " + std::string(70, 'x') + "'"),
+      "structure", "longer than 80"));
   // A MEAS block with fewer points than declared; no ENDFIL.
   EXPECT_TRUE(has(findings("MEAS/CYLNDR,F(CYL2),8", "MEAS/CYLNDR,F(CYL2),9"),
                   "structure", "declares 9 points"));

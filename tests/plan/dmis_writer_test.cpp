@@ -10,18 +10,17 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-
 #include <regex>
 #include <sstream>
 
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
-#include "ttp/geometry/part_mesh.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/part_mesh.h"
 #include "ttp/inspect/dmis.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/sim/twin.h"
-#include "test_dir.h"
 
 namespace ttp::plan {
 namespace {
@@ -203,10 +202,9 @@ TEST(DmisWriterTest, RefusesWhatCannotRun) {
     EXPECT_EQ(e.field(), "stylus_diameter_mm");
   }
   auto points = CmmPoints(part);
-  points.erase(std::remove_if(points.begin(), points.end(),
-                              [](const PlannedPoint& p) {
-                                return p.feature == "CYL199";
-                              }),
+  points.erase(std::remove_if(
+                   points.begin(), points.end(),
+                   [](const PlannedPoint& p) { return p.feature == "CYL199"; }),
                points.end());
   EXPECT_THROW(WriteDmisProgram(part, points), InputError);
 }
@@ -251,7 +249,8 @@ class SimulatedCmm {
         block.nominal_dir = frame.linear() * Eigen::Vector3d(v[3], v[4], v[5]);
       }
       if (s.major == "PTMEAS") {
-        const Eigen::Vector3d p(num(1), num(2), num(3)), n(num(4), num(5), num(6));
+        const Eigen::Vector3d p(num(1), num(2), num(3)),
+            n(num(4), num(5), num(6));
         // By hand the operator finds the nominal place on the piece itself;
         // automatically the CMM goes where the active frame says.
         const Eigen::Isometry3d to_cmm = manual ? operator_pose_ : frame;
@@ -288,13 +287,12 @@ class SimulatedCmm {
         const Actual& a = actual_.at(label);
         const Eigen::Vector3d p = frame.inverse() * a.point;
         const Eigen::Vector3d d = frame.linear().transpose() * a.dir;
-        out += fmt::format("FA({}) = FEAT/{},{}CART, $\n  {:.12f},{:.12f},"
-                           "{:.12f},{:.12f},{:.12f},{:.12f}{}\n",
-                           label, a.type, a.type == "CIRCLE" ? "OUTER," : "",
-                           p.x(), p.y(), p.z(), d.x(), d.y(), d.z(),
-                           a.type == "CIRCLE"
-                               ? fmt::format(",{:.12f}", a.diameter)
-                               : "");
+        out += fmt::format(
+            "FA({}) = FEAT/{},{}CART, $\n  {:.12f},{:.12f},"
+            "{:.12f},{:.12f},{:.12f},{:.12f}{}\n",
+            label, a.type, a.type == "CIRCLE" ? "OUTER," : "", p.x(), p.y(),
+            p.z(), d.x(), d.y(), d.z(),
+            a.type == "CIRCLE" ? fmt::format(",{:.12f}", a.diameter) : "");
       }
     }
     return out + "ENDFIL\n";
@@ -334,8 +332,8 @@ class SimulatedCmm {
       const double nd = n.dot(d);
       return std::abs(nd) < 1e-12 ? -1.0 : (c - n.dot(o)) / nd;
     };
-    const double facet_corner =
-        part_.facet_final_distance_mm / std::cos(part_.facet_step_deg / 2 * M_PI / 180);
+    const double facet_corner = part_.facet_final_distance_mm /
+                                std::cos(part_.facet_step_deg / 2 * M_PI / 180);
     {  // top face of the segments
       const double t = plane_t(Eigen::Vector3d::UnitZ(), 0);
       const Eigen::Vector3d h = o + t * d;
@@ -400,8 +398,8 @@ class SimulatedCmm {
       const double e = std::abs(along.x() * hit.y() - along.y() * hit.x());
       const double half = part_.mark_width_mm / 2;
       if (s > part_.mark_r_start_mm && s < part_.mark_r_end_mm && e < half)
-        hit.z() = std::sqrt(ball_r_ * ball_r_ - (half - e) * (half - e)) -
-                  ball_r_;
+        hit.z() =
+            std::sqrt(ball_r_ * ball_r_ - (half - e) * (half - e)) - ball_r_;
     }
     if (check_labels_) {
       std::string want = label;
@@ -410,8 +408,8 @@ class SimulatedCmm {
       if (want == "FLANK_PY") want = "FLANK+Y";
       if (want == "CYL_M") want = "CYL199";
       std::replace(want.begin(), want.end(), '_', '-');
-      EXPECT_EQ(best_id, want) << "a point of " << label << " touches "
-                               << best_id;
+      EXPECT_EQ(best_id, want)
+          << "a point of " << label << " touches " << best_id;
     }
     touched_[best_id]++;
     return pose_ * hit;
@@ -430,7 +428,8 @@ class SimulatedCmm {
     Eigen::Vector3d m = Eigen::Vector3d::Zero();
     for (const auto& p : pts) m += p;
     m /= static_cast<double>(pts.size());
-    if (block.type == "POINT") return {"POINT", pts.front(), block.nominal_dir, 0};
+    if (block.type == "POINT")
+      return {"POINT", pts.front(), block.nominal_dir, 0};
     if (block.type == "CIRCLE") {  // in the plane across the nominal axis
       const Eigen::Vector3d ax = block.nominal_dir.normalized();
       const Eigen::Vector3d u = ax.unitOrthogonal(), v = ax.cross(u);
@@ -492,8 +491,8 @@ TEST(DmisWriterTest, ResultsOfTheProgramComeBackToTheTwinsFigures) {
     EXPECT_NEAR(a.e_z_mm, b.e_z_mm, 1e-6) << "cycle " << b.cycle;
     EXPECT_NEAR(a.e_b_rad, b.e_b_rad, 1e-8) << "cycle " << b.cycle;
     EXPECT_NEAR(a.e_ttp_mm, b.e_ttp_mm, 1e-6) << "cycle " << b.cycle;
-    largest_um = std::max({largest_um, std::abs(b.e_x_mm) * 1e3,
-                           std::abs(b.e_ttp_mm) * 1e3});
+    largest_um = std::max(
+        {largest_um, std::abs(b.e_x_mm) * 1e3, std::abs(b.e_ttp_mm) * 1e3});
   }
   EXPECT_GT(largest_um, 0.5) << "the twin's piece shows no effect";
   for (const auto& [id, r] : run.true_results) {
@@ -518,8 +517,7 @@ TEST(DmisWriterTest, APieceTurnedByHalfATurnIsRefused) {
       Eigen::Translation3d(412.0, 233.5, 81.25) *
       Eigen::AngleAxisd(M_PI + 0.004, Eigen::Vector3d::UnitZ());
   SimulatedCmm cmm(config.part, run.true_results, pose);
-  cmm.operator_pose_ =
-      pose * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ());
+  cmm.operator_pose_ = pose * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ());
   cmm.check_labels_ = false;
   const std::string results =
       cmm.Run(WriteDmisProgram(config.part, CmmPoints(config.part)));

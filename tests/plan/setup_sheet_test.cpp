@@ -13,8 +13,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <regex>
+#include <sstream>
 
 #include "test_dir.h"
 #include "ttp/geometry/features.h"

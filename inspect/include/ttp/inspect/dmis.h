@@ -70,7 +70,7 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part);
 // "TOP", major "FEAT", args {"PLANE", "CART", ...}. Words are upper case
 // except quoted strings, which keep their quotes.
 struct DmisStatement {
-  int line = 0;  // where it starts
+  int line = 0;            // where it starts
   std::string label_type;  // left of '=', empty when none
   std::string label;
   std::string major;  // before '/'
