@@ -1001,7 +1001,10 @@ DmisProgramCheck CheckDmisProgram(const DmisProgram& program,
                                   const DmisPathOptions& options) {
   std::string why;
   if (!options.IsValid(&why))
-    throw InputError("DmisPathOptions", 0, why.substr(0, why.find(':')), why);
+    throw InputError(
+        "DmisPathOptions", 0,
+        why.substr(why.find('.') + 1, why.find(": ") - why.find('.') - 1),
+        why.substr(why.find(": ") + 2));
   DmisProgramCheck out;
   const char* kNames[] = {"DMIS 5 statements and labels",
                           "sensor, feeds and distances set before measuring",

@@ -31,6 +31,13 @@ std::string Xyz(const Eigen::Vector3d& p) {
   return Num(p.x()) + "," + Num(p.y()) + "," + Num(p.z());
 }
 
+// "DmisOptions.<field>: <problem>" -> InputError naming the field.
+[[noreturn]] void ThrowInvalid(const std::string& why) {
+  const size_t dot = why.find('.'), colon = why.find(": ");
+  throw InputError("DmisOptions", 0, why.substr(dot + 1, colon - dot - 1),
+                   why.substr(colon + 2));
+}
+
 // Spread of points in their second principal direction.
 double SecondSpan(const std::vector<const PlannedPoint*>& pts) {
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
@@ -210,8 +217,7 @@ std::vector<PlannedPoint> CmmPoints(const PartSpec& part,
                                     const PlanOptions& options,
                                     const DmisOptions& dmis) {
   std::string why;
-  if (!dmis.IsValid(&why))
-    throw InputError("DmisOptions", 0, why.substr(0, why.find(':')), why);
+  if (!dmis.IsValid(&why)) ThrowInvalid(why);
   std::vector<PlannedPoint> points = PlanPoints(part, options);
   // The datum circle: the ball (radius r) touching the cylinder at height
   // z clears the step of the next cylinder below (s proud, at z_b) when
@@ -258,8 +264,7 @@ std::string WriteDmisProgram(const PartSpec& part,
                              const std::vector<PlannedPoint>& points,
                              const DmisOptions& options) {
   std::string why;
-  if (!options.IsValid(&why))
-    throw InputError("DmisOptions", 0, why.substr(0, why.find(':')), why);
+  if (!options.IsValid(&why)) ThrowInvalid(why);
   std::vector<std::string> order;
   std::map<std::string, std::vector<const PlannedPoint*>> by_feature;
   for (const PlannedPoint& p : points) {
@@ -278,7 +283,8 @@ std::string WriteDmisProgram(const PartSpec& part,
     if (pts.size() < 3 || (!circle && SecondSpan(pts) < 1.0))
       throw InputError("points", 0, feature,
                        "its points lie on a line (or are fewer than 3): a "
-                       "plane needs points spanning two directions");
+                       "plane needs points spanning two directions (more "
+                       "rows or points: --facet-rows, --strip-points)");
   }
 
   Writer w(options, part.ref_cylinders.front().diameter_mm);

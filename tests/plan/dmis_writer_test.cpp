@@ -191,7 +191,12 @@ TEST(DmisWriterTest, RefusesWhatCannotRun) {
   const PartSpec part;
   DmisOptions o;
   o.stylus_diameter_mm = 0;
-  EXPECT_THROW(WriteDmisProgram(part, CmmPoints(part), o), InputError);
+  try {
+    WriteDmisProgram(part, CmmPoints(part), o);
+    ADD_FAILURE() << "a stylus of 0 mm accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "stylus_diameter_mm");
+  }
   // A ball too big to touch the 199 band above the step to the 200
   // cylinder.
   o.stylus_diameter_mm = 9;
