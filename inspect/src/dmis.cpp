@@ -88,9 +88,12 @@ DmisResults ParseDmisOutput(const std::string& text,
   out.source = source;
   double scale = 1.0;  // to mm
   bool any_statement = false;
+  int first_meas_line = 0;
   for (const Statement& st : Statements(text)) {
     any_statement = true;
     const std::string up = Upper(st.text);
+    if (first_meas_line == 0 && up.rfind("MEAS/", 0) == 0)
+      first_meas_line = st.line;
     if (up.rfind("UNITS/", 0) == 0) {
       const auto words = SplitCommas(up.substr(6));
       if (words.empty())
@@ -168,6 +171,11 @@ DmisResults ParseDmisOutput(const std::string& text,
     out.features.push_back(f);
   }
   if (!any_statement) throw InputError(source, 0, "file", "is empty");
+  if (out.features.empty() && first_meas_line > 0)
+    throw InputError(source, first_meas_line, "MEAS",
+                     "this is a DMIS program (it measures), not results: run "
+                     "it on the CMM and inspect the file its OUTPUT "
+                     "statements write (DEVICE/STOR)");
   return out;
 }
 

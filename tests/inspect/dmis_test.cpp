@@ -63,6 +63,11 @@ TEST(DmisTest, BadFilesNameLineAndWord) {
   EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,2,3,0,0,0\n").find("zero"),
             std::string::npos);
   EXPECT_NE(ErrorOf("").find("empty"), std::string::npos);
+  // A program given where its results belong.
+  EXPECT_NE(ErrorOf("DMISMN/'p',05.0\nF(A)=FEAT/PLANE,CART,0,0,0,0,0,1\n"
+                    "MEAS/PLANE,F(A),3\n")
+                .find("r.dmo:3: MEAS: this is a DMIS program"),
+            std::string::npos);
 }
 
 TEST(DmisTest, LabelsMapToFeatureIds) {
