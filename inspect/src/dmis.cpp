@@ -1045,6 +1045,10 @@ DmisProgramCheck CheckDmisProgram(const DmisProgram& program,
   out.min_clearance_mm = 1e300;
   const auto move = [&](int line, const Eigen::Vector3d& to, bool probing,
                         const char* what) {
+    if (!options.check_path) {
+      pos = to;
+      return;
+    }
     const double shaft_r = options.shaft_diameter_mm / 2;
     const MoveResult m =
         probing

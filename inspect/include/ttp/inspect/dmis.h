@@ -124,6 +124,9 @@ struct DmisPathOptions {
   // circle's points in angle.
   double min_plane_span_mm = 2.0;
   double min_circle_span_deg = 180.0;
+  // false: the path is not traced against the piece (the other run checks
+  // only; the path check then passes with no moves counted).
+  bool check_path = true;
   // Ceres style: false with "DmisPathOptions.<field>: <problem>".
   bool IsValid(std::string* error) const;
 };
