@@ -1,4 +1,5 @@
-// `ttp plan probe|cmm|dial`: where and how to measure the finished piece.
+// `ttp plan probe|cmm|dmis-check|dial|setup`: where and how to measure the
+// finished piece, and the machine setup sheet.
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -8,7 +9,11 @@
 #include "ttp/gcode/writer.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/frames.h"
+#include "ttp/geometry/part_mesh.h"
+#include "ttp/inspect/dmis.h"
+#include "ttp/plan/dmis_writer.h"
 #include "ttp/plan/plan.h"
+#include "ttp/plan/setup_sheet.h"
 
 namespace ttp::app {
 namespace {
@@ -22,7 +27,27 @@ struct PlanCliOptions {
   std::string dir = "plan";
   plan::PlanOptions plan;
   plan::ProbeOptions probe;
+  plan::DmisOptions dmis;
+  std::string json;
+  std::string check_file;
+  bool statements_only = false;
 };
+
+void PrintProgramCheck(std::ostream& os, const inspect::DmisProgramCheck& c) {
+  for (const inspect::DmisRunCheck& k : c.checks) {
+    os << (k.passed ? "  ok    " : "  FAIL  ") << k.name << "\n";
+    for (size_t i = 0; i < k.findings.size() && i < 10; ++i)
+      os << "        line " << k.findings[i].line << ": "
+         << k.findings[i].problem << "\n";
+    if (k.findings.size() > 10)
+      os << "        ... " << k.findings.size() - 10 << " more\n";
+  }
+  os << fmt::format(
+      "{} automatic points, {} straight moves, path {:.0f} mm, smallest "
+      "clearance of the stylus ball {:.3f} mm ({})\n",
+      c.probe_points, c.moves, c.path_length_mm, c.min_clearance_mm,
+      c.min_clearance_where);
+}
 
 void AddPlanOptions(CLI::App* cmd, PlanCliOptions& o) {
   cmd->add_option("--facet-columns", o.plan.facet_columns,
@@ -78,22 +103,93 @@ void Register(CLI::App& root, GlobalOptions& global) {
   });
 
   auto* cmm = cmd->add_subcommand(
-      "cmm", "CMM point list (CSV) and DMIS program for the same points");
+      "cmm",
+      "CMM point list (CSV) and DMIS program for the same points, checked "
+      "before it is written");
   cmm->add_option("-o,--output", o->dir, "folder to write into")
       ->default_val("plan");
+  cmm->add_option("--stylus-diameter-mm", o->dmis.stylus_diameter_mm,
+                  "CMM stylus ball diameter");
+  cmm->add_option("--stylus-length-mm", o->dmis.stylus_length_mm,
+                  "CMM stylus length (probe head to ball centre)");
+  cmm->add_option("--approach-mm", o->dmis.approach_mm,
+                  "SNSET/APPRCH and RETRCT distance");
+  cmm->add_option("--clearance-height-mm", o->dmis.clearance_height_mm,
+                  "ball centre height above the top face between features");
+  cmm->add_option("--json", o->json, "the program check as JSON");
   AddPlanOptions(cmm, *o);
   cmm->callback([&global, o] {
     const Config config = global.LoadConfig();
-    const auto points = plan::PlanPoints(config.part, o->plan);
+    o->dmis.retract_mm = o->dmis.approach_mm;
+    const auto points = plan::CmmPoints(config.part, o->plan, o->dmis);
+    const std::string program =
+        plan::WriteDmisProgram(config.part, points, o->dmis);
+    // The program is checked as a CMM would run it before it is written:
+    // a failure here is a bug of the writer, never the user's input.
+    const PartMesh mesh = BuildPartMesh(config.part, Stage::kFinished);
+    inspect::DmisPathOptions path;
+    const inspect::DmisProgramCheck check = inspect::CheckDmisProgram(
+        inspect::ParseDmisProgram(program, "cmm_program.dmi"), config.part,
+        mesh, path);
+    if (!check.Passed()) {
+      PrintProgramCheck(std::cerr, check);
+      throw std::logic_error("the written DMIS program fails its own check");
+    }
     fs::create_directories(o->dir);
     const fs::path csv = fs::path(o->dir) / "cmm_points.csv";
     const fs::path dmis = fs::path(o->dir) / "cmm_program.dmi";
     OutputBatch outputs;
     outputs.Add(csv, plan::PointsToCsv(points));
-    outputs.Add(dmis, plan::PointsToDmis(points, config.part));
+    outputs.Add(dmis, program);
     outputs.Commit();
+    if (!o->json.empty())
+      WriteJson(o->json, inspect::DmisProgramCheckToJson(check));
     std::cout << fmt::format("{} points\n{}\n{}\n", points.size(), csv.string(),
                              dmis.string());
+    if (!global.quiet) PrintProgramCheck(std::cerr, check);
+  });
+
+  auto* check = cmd->add_subcommand(
+      "dmis-check",
+      "check a DMIS program: DMIS 5 statements and labels; for a program of "
+      "this piece also sensor, feeds, alignment, point patterns and the "
+      "stylus path against the piece");
+  check->add_option("program", o->check_file, "DMIS program (.dmi)")
+      ->required();
+  check->add_flag("--statements-only", o->statements_only,
+                  "only the DMIS 5 statement and label checks (a program of "
+                  "another part)");
+  check->add_option("--json", o->json, "the findings as JSON");
+  check->callback([&global, o] {
+    const Config config = global.LoadConfig();
+    const inspect::DmisProgram program =
+        inspect::ParseDmisProgram(ReadTextFile(o->check_file), o->check_file);
+    std::ostream& os = TextOut(o->json);
+    nlohmann::json j;
+    bool passed = true;
+    if (o->statements_only) {
+      const auto findings = inspect::CheckDmisStandard(program);
+      passed = findings.empty();
+      nlohmann::json f = nlohmann::json::array();
+      for (const auto& x : findings) {
+        os << fmt::format("  line {}: {}: {}\n", x.line, x.check, x.problem);
+        f.push_back(
+            {{"line", x.line}, {"check", x.check}, {"problem", x.problem}});
+      }
+      os << fmt::format("{} statements, {} findings\n",
+                        program.statements.size(), findings.size());
+      j = {{"passed", passed},
+           {"statements", program.statements.size()},
+           {"findings", f}};
+    } else {
+      const PartMesh mesh = BuildPartMesh(config.part, Stage::kFinished);
+      const auto c = inspect::CheckDmisProgram(program, config.part, mesh);
+      PrintProgramCheck(os, c);
+      passed = c.Passed();
+      j = inspect::DmisProgramCheckToJson(c);
+    }
+    if (!o->json.empty()) WriteJson(o->json, j);
+    if (!passed) global.exit_code = kExitJudgedFailure;
   });
 
   auto* dial = cmd->add_subcommand(
@@ -110,6 +206,22 @@ void Register(CLI::App& root, GlobalOptions& global) {
     outputs.Add(csv, plan::DialTemplateCsv(config.part));
     outputs.Commit();
     std::cout << html.string() << "\n" << csv.string() << "\n";
+  });
+
+  auto* setup = cmd->add_subcommand(
+      "setup",
+      "printable setup sheet (HTML): G54, tools with T/H, lengths and "
+      "stick-out, adapter, clamps, R-test sphere, dial-gauge positions");
+  setup->add_option("-o,--output", o->output, "HTML file (default stdout)");
+  setup->add_option("--json", o->json, "the sheet's numbers as JSON");
+  setup->callback([&global, o] {
+    const Config config = global.LoadConfig();
+    const plan::SetupSheet sheet = plan::BuildSetupSheet(config);
+    OutputBatch outputs;
+    outputs.Add(o->output, plan::SetupSheetHtml(sheet));
+    if (!o->json.empty())
+      outputs.Add(o->json, plan::SetupSheetToJson(sheet).dump(2) + "\n");
+    outputs.Commit();
   });
 }
 

@@ -63,6 +63,11 @@ TEST(DmisTest, BadFilesNameLineAndWord) {
   EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,2,3,0,0,0\n").find("zero"),
             std::string::npos);
   EXPECT_NE(ErrorOf("").find("empty"), std::string::npos);
+  // A program given where its results belong.
+  EXPECT_NE(ErrorOf("DMISMN/'p',05.0\nF(A)=FEAT/PLANE,CART,0,0,0,0,0,1\n"
+                    "MEAS/PLANE,F(A),3\n")
+                .find("r.dmo:3: MEAS: this is a DMIS program"),
+            std::string::npos);
 }
 
 TEST(DmisTest, LabelsMapToFeatureIds) {
@@ -190,6 +195,122 @@ TEST(DmisTest, RefusesWhatCannotBeThisPiece) {
   EXPECT_THROW(
       ParseDmisOutput("FA(X1_5)=FEAT/PLANE,CART,1e400,0,-6,1,0,0\n", "h"),
       InputError);
+}
+
+// The half-turn from the mark: the ball sinks into the groove at MARK.
+TEST(DmisTest, MarkPointsDecideTheHalfTurn) {
+  const PartSpec part;
+  const std::string datums =
+      "UNITS/MM,ANGDEC\n"
+      "FA(TOP)=FEAT/PLANE,CART,30,40,0,0,0,1\n"
+      "FA(FLANK_PY)=FEAT/PLANE,CART,20,53,-5,0,-1,0\n"
+      "FA(FLANK_NY)=FEAT/PLANE,CART,-10,-53,-7,0,1,0\n"
+      "FA(CYL199)=FEAT/CIRCLE,OUTER,CART,0,0,-15,0,0,1,199\n"
+      "FA(X1_5)=FEAT/PLANE,CART,48.65,84.266,-6,0.5,0.8660254037844386,0\n";
+  const auto load = [&](double mark_z, double opp_z) {
+    return DmisToFeatureResults(
+        ParseDmisOutput(datums + fmt::format("FA(MARK)=FEAT/POINT,CART,40,"
+                                             "69.28,{},0,0,1\n"
+                                             "FA(MARK_OPP)=FEAT/POINT,CART,"
+                                             "-40,-69.28,{},0,0,1\n",
+                                             mark_z, opp_z),
+                        "m.dmo"),
+        part);
+  };
+  EXPECT_TRUE(load(-0.0226, 0.0).warnings.empty());
+  EXPECT_EQ(load(-0.002, 0.0).warnings.size(), 1u);  // not seen
+  try {
+    load(0.0, -0.0226);
+    ADD_FAILURE() << "a half-turned piece accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "FA(MARK)");
+    EXPECT_EQ(e.line(), 7);
+  }
+}
+
+// The statement checker against real CMM files (NIST I++ test suite: a
+// DMIS 4.0 program of the DaimlerChrysler part, a DMIS 3.0 program and its
+// output file): an oracle for the checker written by others.
+TEST(DmisProgramTest, RealCmmFilesPassTheStandardChecks) {
+  for (const char* name : {"IMTS_M_clean.dmi", "simple_in.dms", "output.dms"}) {
+    const std::string path =
+        std::string(TTP_DATA_DIR) + "/reference/cmm-files/" + name;
+    const DmisProgram p = ParseDmisProgram(ReadTextFile(path), path);
+    for (const DmisFinding& f : CheckDmisStandard(p))
+      ADD_FAILURE() << name << ":" << f.line << ": " << f.check << ": "
+                    << f.problem;
+  }
+  const std::string imts = ReadTextFile(
+      std::string(TTP_DATA_DIR) + "/reference/cmm-files/IMTS_M_clean.dmi");
+  const DmisProgram p = ParseDmisProgram(imts, "imts");
+  EXPECT_EQ(p.statements.size(), 111u);
+  // Continuation lines are one statement: the LINE feature of line 86.
+  const auto line = std::find_if(
+      p.statements.begin(), p.statements.end(), [](const DmisStatement& s) {
+        return s.label == "CLIN1" && s.major == "FEAT";
+      });
+  ASSERT_NE(line, p.statements.end());
+  EXPECT_EQ(line->args.size(), 12u);
+  EXPECT_EQ(line->label_type, "F");
+}
+
+// The same real program with one defect each: every one is found, with
+// its line.
+TEST(DmisProgramTest, DefectsInARealProgramAreFound) {
+  const std::string imts = ReadTextFile(
+      std::string(TTP_DATA_DIR) + "/reference/cmm-files/IMTS_M_clean.dmi");
+  const auto findings = [&](const std::string& from, const std::string& to) {
+    std::string t = imts;
+    const auto at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) t.replace(at, from.size(), to);
+    return CheckDmisStandard(ParseDmisProgram(t, "m"));
+  };
+  const auto has = [](const std::vector<DmisFinding>& f, const char* check,
+                      const char* text) {
+    for (const auto& x : f)
+      if (x.check == check && x.problem.find(text) != std::string::npos)
+        return true;
+    return false;
+  };
+  // A misspelled major word; a wrong minor word; a missing argument.
+  EXPECT_TRUE(has(findings("SNSLCT/S(PROBE6)", "SNSSEL/S(PROBE6)"), "statement",
+                  "SNSSEL is not in"));
+  EXPECT_TRUE(has(findings("MEAS/PLANE,F(PLN1),4", "MEAS/PLANE,F(PLN1),X"),
+                  "statement", "MEAS/PLANE,F(PLN1),X matches none"));
+  EXPECT_TRUE(has(findings("F(PLN2)=FEAT/PLANE,CART,0.000,-52.000,15.000,"
+                           "0.000,-1.000,0.000",
+                           "F(PLN2)=FEAT/PLANE,CART,0.000,-52.000,15.000,"
+                           "0.000,-1.000"),
+                  "statement", "FEAT/PLANE"));
+  // A datum used before its feature is measured.
+  EXPECT_TRUE(has(findings("DATDEF/FA(PLN3),DAT(C)", "DATDEF/FA(PLN9),DAT(C)"),
+                  "labels", "FA(PLN9) before it is measured"));
+  EXPECT_TRUE(has(findings("D(CALN1_a)=DATSET/DAT(CALN1A),ZDIR",
+                           "D(CALN1_a)=DATSET/DAT(CALN2A),ZDIR"),
+                  "labels", "DAT(CALN2A) before DATDEF"));
+  // A line longer than DMIS allows.
+  EXPECT_TRUE(has(
+      findings("TEXT/OUTFIL,'CYL1 - CYLINDER - '",
+               "TEXT/OUTFIL,'CYL1 - CYLINDER - " + std::string(70, 'x') + "'"),
+      "structure", "longer than 80"));
+  // A MEAS block with fewer points than declared; no ENDFIL.
+  EXPECT_TRUE(has(findings("MEAS/CYLNDR,F(CYL2),8", "MEAS/CYLNDR,F(CYL2),9"),
+                  "structure", "declares 9 points"));
+  EXPECT_TRUE(has(findings("CLOSE/DID(OUTFILE)\nENDFIL", "CLOSE/DID(OUTFILE)"),
+                  "structure", "not ENDFIL"));
+}
+
+TEST(DmisProgramTest, UnreadableStatementsNameTheLine) {
+  try {
+    ParseDmisProgram("DMISMN/'x',5.0\nTEXT/OPER,'open\n", "q.dmi");
+    ADD_FAILURE() << "unclosed quote accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 2);
+  }
+  EXPECT_THROW(ParseDmisProgram("DMISMN/'x'\n(A)=FEAT/PLANE\n", "q"),
+               InputError);
+  EXPECT_THROW(ParseDmisProgram("$$ only a comment\n", "q"), InputError);
 }
 
 }  // namespace

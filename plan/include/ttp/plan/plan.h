@@ -47,7 +47,8 @@ std::string PointsToCsv(const std::vector<PlannedPoint>& points);
 std::vector<PlannedPoint> PointsFromCsv(const std::string& text,
                                         const std::string& source);
 
-// DMIS 5.x program measuring every feature with its planned points
+// DMIS 5.x program measuring every feature with its planned points:
+// WriteDmisProgram (plan/dmis_writer.h) with the default DmisOptions
 // (FEAT/PLANE for planes, FEAT/CIRCLE for CYL199; PTMEAS with the outward
 // normal as DMIS expects) and OUTPUT of the actual features, labels as
 // ttp::inspect reads them back (X1_5, Z3, TOP, FLANK_PY, FLANK_NY, CYL199).
