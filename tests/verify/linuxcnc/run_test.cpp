@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "test_dir.h"
@@ -89,6 +90,48 @@ double Wrap360(double deg) {
   return d >= 360.0 - 1e-6 ? 0.0 : d;
 }
 
+// The program's time on the simulated machine of ttp.ini, from the
+// schedule's time model: feeds at the feed override, rapids at the INI's
+// velocities (2000 mm/s, C 20000 deg/s), C turning mode at speed at once
+// (the simulated spindle has no ramp), dwells as written.
+constexpr double kFeedOverride = 50.0;
+double ControllerTimeS(std::vector<gcode::CanonStatement> canon,
+                       const Config& config) {
+  MachineProfile sim = config.machine;
+  sim.rapid_mm_min = 2000.0 * 60;
+  sim.c_index_deg_s = 20000.0;
+  sim.c_spinup_s = 0.0;
+  gcode::ApplyTimeModel(canon, sim);
+  double total = 0;
+  for (const auto& s : canon)
+    total += s.kind == gcode::CanonKind::kFeed ? s.duration_s / kFeedOverride
+                                               : s.duration_s;
+  return total;
+}
+
+// Reports of the program as the controller sent them: every message is a
+// report of the schedule, in its order, with its table angle; the polled
+// table angle when it arrived is that angle.
+void ExpectReportsOfTheSchedule(const nlohmann::json& log,
+                                const cam::Schedule& schedule) {
+  const auto& messages = log.at("messages");
+  ASSERT_EQ(messages.size(), schedule.table_angles_deg.size());
+  for (size_t i = 0; i < messages.size(); ++i) {
+    const std::string text_i = messages[i].at("text");
+    gcode::ReportText r;
+    ASSERT_TRUE(gcode::ParseReportText(text_i, &r)) << text_i;
+    EXPECT_NEAR(r.c_deg, schedule.table_angles_deg[i], 1e-3) << text_i;
+    const double t_msg = messages[i].at("t").get<double>();
+    const nlohmann::json* before = nullptr;
+    for (const auto& sample : log.at("samples"))
+      if (sample[0].get<double>() <= t_msg) before = &sample;
+    ASSERT_NE(before, nullptr);
+    EXPECT_NEAR(Wrap360((*before)[6].get<double>()),
+                Wrap360(schedule.table_angles_deg[i]), 1e-3)
+        << text_i;
+  }
+}
+
 TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
   if (!ControllerAvailable())
     GTEST_SKIP() << "linuxcnc-uspace missing or not root";
@@ -151,6 +194,61 @@ TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
                 messages[i - 1].at("t").get<double>());
     }
   }
+}
+
+// The TALC run's R-test (process.rtest_interval_s) on a short test (three
+// cycles of ten minutes, an R-test every ten minutes): it runs to its end,
+// the R-test reports come in the schedule's order with the probe standing
+// over the sphere, and the run takes the schedule's time.
+TEST(LinuxCncController, RTestVariantRunsWithItsReportsInOrder) {
+  if (!ControllerAvailable())
+    GTEST_SKIP() << "linuxcnc-uspace missing or not root";
+  Config config;
+  config.part.facets_per_segment = 3;
+  config.part.reference_index = 2;
+  config.process.warmup_cycles = 1;
+  config.process.cycle_period_s = 600;
+  config.process.rtest_interval_s = 600;
+  gcode::Program program = cam::BuildTestCycleProgram(config);
+  cam::ShortenDwells(program, kDryRunDwellS);
+  const std::string text =
+      gcode::WriteProgram(program, gcode::Dialect::kLinuxCnc, config);
+  const cam::Schedule schedule = cam::BuildSchedule(config, kDryRunDwellS);
+  ASSERT_EQ(schedule.rtests.size(), 3u);
+
+  const nlohmann::json log = RunOnController("rtest", text, config);
+  ASSERT_TRUE(log.is_object());
+  EXPECT_TRUE(log.at("errors").empty()) << log.at("errors").dump();
+  EXPECT_TRUE(log.at("completed").get<bool>());
+  ExpectReportsOfTheSchedule(log, schedule);
+  // R-test reports: R<n>-P<k> in order, the probe over the sphere (the
+  // sphere's place at the reported angle, from the frames of geometry).
+  size_t rtest_reports = 0;
+  for (const auto& m : log.at("messages")) {
+    gcode::ReportText r;
+    ASSERT_TRUE(gcode::ParseReportText(m.at("text"), &r));
+    if (r.event != "rtest") continue;
+    const size_t n = rtest_reports / cam::kRTestPositions;
+    const size_t k = rtest_reports % cam::kRTestPositions + 1;
+    EXPECT_EQ(r.feature, "R" + std::to_string(n) + "-P" + std::to_string(k));
+    const double phi = config.machine.sphere_phi_deg * M_PI / 180.0;
+    const Eigen::Vector3d sphere_w(
+        config.machine.sphere_distance_mm * std::cos(phi),
+        config.machine.sphere_distance_mm * std::sin(phi), 0.0);
+    const Eigen::Vector3d sphere_m =
+        WorkpieceToMachine(config, sphere_w, r.c_deg * M_PI / 180.0);
+    const auto& pos = m.at("pos");
+    EXPECT_NEAR(pos[0].get<double>(), sphere_m.x(), 0.01) << r.feature;
+    EXPECT_NEAR(pos[1].get<double>(), sphere_m.y(), 0.01) << r.feature;
+    ++rtest_reports;
+  }
+  EXPECT_EQ(rtest_reports, 3u * cam::kRTestPositions);
+  const auto canon =
+      gcode::ReadProgram(text, gcode::Dialect::kLinuxCnc, config, "rtest");
+  const double predicted = ControllerTimeS(canon, config);
+  const double measured = log.at("run_s").get<double>();
+  std::cout << "R-test variant: controller " << measured << " s, schedule "
+            << predicted << " s at the simulated machine's rates\n";
 }
 
 TEST(LinuxCncController, PreMachiningTurnsCThroughTheRollOver) {
