@@ -56,12 +56,16 @@ try:
     t0 = time.time()
     c.auto(linuxcnc.AUTO_RUN, 0)
     wait_for(lambda: s.interp_state != linuxcnc.INTERP_IDLE, 5)
+    # Task may show the interpreter idle for a moment while it syncs (a
+    # tool change): the run has ended when it stays idle for 0.1 s.
+    idle_polls = 0
     while time.time() - t0 < limit_s:
         s.poll()
         drain(t0)
         log["samples"].append([time.time() - t0] +
                               list(s.actual_position)[:6])
-        if s.interp_state == linuxcnc.INTERP_IDLE:
+        idle_polls = idle_polls + 1 if s.interp_state == linuxcnc.INTERP_IDLE else 0
+        if idle_polls == 5:
             log["completed"] = len(log["errors"]) == 0
             break
         time.sleep(0.02)

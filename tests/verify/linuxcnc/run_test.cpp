@@ -90,22 +90,34 @@ double Wrap360(double deg) {
   return d >= 360.0 - 1e-6 ? 0.0 : d;
 }
 
-// The program's time on the simulated machine of ttp.ini, from the
-// schedule's time model: feeds at the feed override, rapids at the INI's
-// velocities (2000 mm/s, C 20000 deg/s), C turning mode at speed at once
-// (the simulated spindle has no ramp), dwells as written.
+// The program's time on the simulated machine of ttp.ini by the schedule's
+// time model with that machine's rates: feeds at the feed override, every
+// move at most at the INI's velocities (2000 mm/s, C 20000 deg/s; the
+// accelerations are high enough not to count), dwells as written, no
+// spindle or C ramps (the simulated spindles reach their speed at once),
+// and the tool changer's handshake (task and iocontrol, 0.3 s).
 constexpr double kFeedOverride = 50.0;
-double ControllerTimeS(std::vector<gcode::CanonStatement> canon,
-                       const Config& config) {
-  MachineProfile sim = config.machine;
-  sim.rapid_mm_min = 2000.0 * 60;
-  sim.c_index_deg_s = 20000.0;
-  sim.c_spinup_s = 0.0;
-  gcode::ApplyTimeModel(canon, sim);
-  double total = 0;
-  for (const auto& s : canon)
-    total += s.kind == gcode::CanonKind::kFeed ? s.duration_s / kFeedOverride
-                                               : s.duration_s;
+constexpr double kSimMaxMmS = 2000.0, kSimMaxDegS = 20000.0;
+constexpr double kSimToolChangeS = 0.3;
+double ControllerTimeS(const std::vector<gcode::CanonStatement>& canon) {
+  constexpr double kRadToDeg = 180.0 / M_PI;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  double c_deg = 0, total = 0;
+  for (const auto& s : canon) {
+    const double length = (s.end_mm - p).norm();
+    const double turn = std::abs(s.end_c_rad * kRadToDeg - c_deg);
+    if (s.kind == gcode::CanonKind::kTraverse)
+      total += std::max(length / kSimMaxMmS, turn / kSimMaxDegS);
+    if (s.kind == gcode::CanonKind::kFeed) {
+      const double f = s.feed_per_min / 60 * kFeedOverride;
+      total += length > 0 ? length / std::min(f, kSimMaxMmS)
+                          : turn / std::min(f, kSimMaxDegS);
+    }
+    if (s.kind == gcode::CanonKind::kDwell) total += s.value;
+    if (s.kind == gcode::CanonKind::kToolChange) total += kSimToolChangeS;
+    p = s.end_mm;
+    c_deg = s.end_c_rad * kRadToDeg;
+  }
   return total;
 }
 
@@ -132,6 +144,24 @@ void ExpectReportsOfTheSchedule(const nlohmann::json& log,
   }
 }
 
+// The run took the schedule's time at the simulated machine's rates: never
+// less (less than half a poll early), and more only by the controller's
+// own cycle (task runs every 10 ms: at most one cycle per statement).
+void ExpectTheScheduleTime(const nlohmann::json& log,
+                           const std::vector<gcode::CanonStatement>& canon,
+                           const std::string& what) {
+  const double predicted = ControllerTimeS(canon);
+  const double measured = log.at("run_s").get<double>();
+  size_t statements = 0;
+  for (const auto& s : canon)
+    if (s.kind != gcode::CanonKind::kComment) ++statements;
+  std::cout << what << ": controller " << measured << " s, schedule "
+            << predicted << " s at the simulated machine's rates, "
+            << statements << " statements\n";
+  EXPECT_GE(measured, predicted - 0.05) << what;
+  EXPECT_LE(measured, predicted + 0.01 * statements) << what;
+}
+
 TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
   if (!ControllerAvailable())
     GTEST_SKIP() << "linuxcnc-uspace missing or not root";
@@ -148,6 +178,8 @@ TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
   ASSERT_TRUE(log.is_object());
   EXPECT_TRUE(log.at("errors").empty()) << log.at("errors").dump();
   EXPECT_TRUE(log.at("completed").get<bool>());
+  ExpectReportsOfTheSchedule(log, cam::BuildSchedule(config, kDryRunDwellS));
+  ExpectTheScheduleTime(log, canon, "test cycle");
   const auto& messages = log.at("messages");
   ASSERT_EQ(messages.size(), schedule.cuts.size());
   // Cut feeds of the program, in order: the one before each report.
@@ -245,10 +277,7 @@ TEST(LinuxCncController, RTestVariantRunsWithItsReportsInOrder) {
   EXPECT_EQ(rtest_reports, 3u * cam::kRTestPositions);
   const auto canon =
       gcode::ReadProgram(text, gcode::Dialect::kLinuxCnc, config, "rtest");
-  const double predicted = ControllerTimeS(canon, config);
-  const double measured = log.at("run_s").get<double>();
-  std::cout << "R-test variant: controller " << measured << " s, schedule "
-            << predicted << " s at the simulated machine's rates\n";
+  ExpectTheScheduleTime(log, canon, "R-test variant");
 }
 
 TEST(LinuxCncController, PreMachiningTurnsCThroughTheRollOver) {
