@@ -631,8 +631,12 @@ Eigen::Vector2d SpherePositionProgramXY(const Config& c, double c_deg) {
   const double phi = m.sphere_phi_deg * kDegToRad;
   const Eigen::Vector3d w(m.sphere_distance_mm * std::cos(phi),
                           m.sphere_distance_mm * std::sin(phi), 0.0);
-  return (WorkpieceToMachineRotation(c_deg * kDegToRad, m.c_sense) * w)
-      .head<2>();
+  Eigen::Vector2d xy =
+      (WorkpieceToMachineRotation(c_deg * kDegToRad, m.c_sense) * w).head<2>();
+  // No "-0.0000" in the program for a rounding residue.
+  for (int a = 0; a < 2; ++a)
+    if (std::abs(xy[a]) < 1e-9) xy[a] = 0.0;
+  return xy;
 }
 
 gcode::Program BuildTestCycleProgram(const Config& c) {
