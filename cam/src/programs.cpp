@@ -417,8 +417,8 @@ void RTest(PathWriter& path, const Config& c, int n) {
     path.RapidZ(l.safe_z_mm);
   }
   path.IndexC(0.0);
-  ChangeTool(path, c, c.process.finishing, false);
-  path.Add(gcode::SpindleOff{});  // each cycle starts the spindle
+  // Each cycle starts the spindle and the coolant itself.
+  ChangeTool(path, c, c.process.finishing, false, /*spindle=*/false);
   path.RapidXY(Eigen::Vector2d(c.machine.waiting_position_w_mm[0],
                                c.machine.waiting_position_w_mm[1]));
   path.RapidZ(ComputeTestCycleLayout(c).cut_z_mm);
