@@ -7,13 +7,13 @@
 #include <iostream>
 
 #include "command.h"
-#include "ttp/geometry/error.h"
 #include "dialect_option.h"
 #include "ttp/cam/programs.h"
 #include "ttp/gcode/canon_to_program.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/gcode/rs274.h"
 #include "ttp/gcode/writer.h"
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 
 namespace ttp::app {
@@ -76,9 +76,16 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("--dry-run", *dry_run,
                     "shorten every dwell to at most this many seconds (a "
                     "trial run on a controller; nothing else changes)");
-    cmd->callback([&global, dialect, output, build, dry_run] {
+    auto rtest_interval = std::make_shared<double>(-1.0);
+    if (std::string(name) == "cycle")
+      cmd->add_option("--rtest-interval", *rtest_interval,
+                      "R-test every this many seconds (0 = none; default: "
+                      "process.rtest_interval_s of the config)");
+    cmd->callback([&global, dialect, output, build, dry_run, rtest_interval] {
       const Dialect d = ParseDialect(*dialect, "--dialect");
-      const Config config = global.LoadConfig();
+      Config config = global.LoadConfig();
+      if (*rtest_interval >= 0)
+        config.process.rtest_interval_s = *rtest_interval;
       gcode::Program program = build(config);
       if (*dry_run >= 0) cam::ShortenDwells(program, *dry_run);
       WriteText(*output, WriteProgram(program, d, config));

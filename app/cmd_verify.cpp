@@ -25,6 +25,7 @@ struct VerifyCliOptions {
   std::string after_path;
   double pitch_mm = 1.0;
   bool verbose = false;
+  double rtest_interval_s = -1.0;  // < 0: the config's
 };
 
 void Register(CLI::App& root, GlobalOptions& global) {
@@ -54,8 +55,18 @@ void Register(CLI::App& root, GlobalOptions& global) {
                   "(default 1; surfaces are exact whatever the spacing)");
   cmd->add_flag("-v,--verbose", opts->verbose,
                 "every check with its numbers, not only the summary");
+  cmd->add_option("--rtest-interval", opts->rtest_interval_s,
+                  "without a program: the test cycle with an R-test every "
+                  "this many seconds (0 = none; default: the config's)");
   cmd->callback([&global, opts] {
-    const Config config = global.LoadConfig();
+    Config config = global.LoadConfig();
+    if (opts->rtest_interval_s >= 0) {
+      if (!opts->program_path.empty())
+        throw InputError("verify", 0, "--rtest-interval",
+                         "only without a program (a given program is "
+                         "verified as written)");
+      config.process.rtest_interval_s = opts->rtest_interval_s;
+    }
     if (!(opts->pitch_mm > 0.05 && opts->pitch_mm <= 10))
       throw InputError("--pitch", 0, "pitch", "must be in (0.05, 10] mm");
     if (opts->program_path.empty()) {

@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
+#include <stdexcept>
 
 #include "toolpath.h"
 #include "ttp/cam/cutting_data.h"
@@ -29,7 +32,7 @@ double BlankRadius(const Config& c) { return c.part.blank_diameter_mm / 2; }
 // piece with a tool below it), M6, G43 H with a Z word down to safe Z at
 // the tool-change XY, spindle and coolant on again.
 void ChangeTool(PathWriter& path, const Config& c, const ToolSpec& tool,
-                bool coolant) {
+                bool coolant, bool spindle = true) {
   const MachineProfile& m = c.machine;
   const double origin_z = WorkpieceOriginHeightMm(c);
   path.Add(gcode::SpindleOff{});
@@ -43,6 +46,7 @@ void ChangeTool(PathWriter& path, const Config& c, const ToolSpec& tool,
   path.MachineRapid(across, origin_z);
   path.Add(gcode::ToolChange{tool.number, tool.name});
   path.LengthOffset(tool.number, c.process.safe_z_w_mm);
+  if (!spindle) return;  // a probe: no spindle, no coolant
   path.Add(gcode::SpindleOn{tool.spindle_rpm, true});
   if (coolant) path.Add(gcode::Coolant{true});
 }
@@ -388,14 +392,88 @@ void CheckTestCycleConfig(const Config& c) {
                     l.route_radius_mm));
 }
 
-}  // namespace
+// R-test n (thesis 5.2, figure 5.2): probe in, the sphere measured at five
+// table angles 90 deg apart, starting with the sphere on the machine's +X
+// axis (the fifth repeats the first: a repeatability check), probe out and
+// the finishing tool back at the waiting position at the cutting height.
+// Every position: over the sphere at the R-test's safe height, down to the
+// approach height, the measurement (a dwell of rtest_measure_s standing for
+// the probe's sphere cycle), the report with the control's clock, up again.
+void RTest(PathWriter& path, const Config& c, int n) {
+  const RTestLayout l = ComputeRTestLayout(c);
+  path.Add(gcode::Comment{RTestCommentText(n)});
+  path.IndexC(0.0);
+  ChangeTool(path, c, c.process.probe, false, /*spindle=*/false);
+  path.RapidZ(l.safe_z_mm);
+  for (int k = 1; k <= kRTestPositions; ++k) {
+    const double c_deg = l.c_deg[k - 1];
+    path.IndexC(c_deg);
+    const Eigen::Vector2d over = SpherePositionProgramXY(c, c_deg);
+    path.RapidXY(over);
+    path.RapidZ(l.approach_z_mm);
+    path.Add(gcode::Dwell{c.process.rtest_measure_s});
+    path.Add(gcode::Report{"rtest", RTestPositionFeature(n, k),
+                           path.c_deg_normalised()});
+    path.RapidZ(l.safe_z_mm);
+  }
+  path.IndexC(0.0);
+  // Each cycle starts the spindle and the coolant itself.
+  ChangeTool(path, c, c.process.finishing, false, /*spindle=*/false);
+  path.RapidXY(Eigen::Vector2d(c.machine.waiting_position_w_mm[0],
+                               c.machine.waiting_position_w_mm[1]));
+  path.RapidZ(ComputeTestCycleLayout(c).cut_z_mm);
+  path.Add(gcode::Comment{RTestDoneCommentText(n)});
+}
 
-gcode::Program BuildTestCycleProgram(const Config& c) {
-  ValidateConfig(c, kSource);
-  CheckCuttingData(c, kSource);
-  CheckTestCycleConfig(c);
+// Time kept free around an R-test: C stops before it and spins up after
+// it in the warm-up.
+double RTestMarginS(const Config& c) { return 2 * c.machine.c_spinup_s + 2.0; }
+
+// Which R-tests run in the wait after each cycle, and the program time each
+// starts at.
+struct WaitPlan {
+  std::vector<std::vector<int>> rtests_after;  // [cycle] -> R-test numbers
+  std::vector<double> rtest_start_s;           // [R-test number]
+  // Due while the tool was busy: starts as soon as it waits, no dwell.
+  std::vector<bool> immediate;  // [R-test number]
+};
+
+// A dwell of the waits and the comment whose program time it sets.
+struct Anchor {
+  size_t dwell_statement;
+  std::string comment;
+  double target_s;
+};
+
+// Times (program seconds) of the comments of a written program.
+std::map<std::string, double> CommentTimes(const gcode::Program& program,
+                                           const Config& c) {
+  const std::string text =
+      gcode::WriteProgram(program, gcode::Dialect::kLinuxCnc, c);
+  const auto canon =
+      gcode::ReadProgram(text, gcode::Dialect::kLinuxCnc, c, "cycle");
+  std::map<std::string, double> times;
+  for (const gcode::CanonStatement& s : canon)
+    if (s.kind == gcode::CanonKind::kComment) times.emplace(s.text, s.start_s);
+  return times;
+}
+
+double TimeOf(const std::map<std::string, double>& times,
+              const std::string& comment) {
+  const auto it = times.find(comment);
+  if (it == times.end())
+    throw std::logic_error("comment lost in the written program: " + comment);
+  return it->second;
+}
+
+// The program with placeholder dwells; `anchors` gets every wait's dwell
+// with the comment it leads to (targets filled by the caller).
+constexpr double kPlaceholderS = 1.0;
+gcode::Program AssembleTestCycle(const Config& c, const WaitPlan& plan,
+                                 std::vector<Anchor>* anchors) {
   const PartSpec& part = c.part;
   const ProcessSpec& pr = c.process;
+  const bool rtests = pr.rtest_interval_s > 0;
   gcode::Program program;
   program.name = "cycle";
   program.number = c.machine.program_number;
@@ -412,61 +490,219 @@ gcode::Program BuildTestCycleProgram(const Config& c) {
   path.Add(gcode::Comment{"Z is set here and not moved until the end"});
   path.RapidZ(ComputeTestCycleLayout(c).cut_z_mm);
 
-  // Waits between cycles, with a placeholder length until the times are
-  // known; the statement indices of the dwells, in order.
-  constexpr double kPlaceholderS = 1.0;
-  std::vector<size_t> dwell_statements;
+  const auto dwell_before = [&](const std::string& comment) {
+    anchors->push_back({program.statements.size(), comment, 0.0});
+    path.Add(gcode::Dwell{kPlaceholderS});
+  };
   const int cycles = part.cycles();
   for (int k = 0; k <= cycles; ++k) {
     TestCycle(path, c, k);
-    if (k == cycles) break;
+    if (rtests) path.Add(gcode::Comment{CycleEndCommentText(k)});
+    const std::vector<int>& tests = plan.rtests_after[k];
+    if (k == cycles) {
+      for (int n : tests) RTest(path, c, n);
+      break;
+    }
     if (k < pr.warmup_cycles) {
       path.Add(gcode::Comment{"warm-up: C at maximum speed"});
-      path.ClampC(false);
-      path.Add(gcode::CSpin{c.machine.c_max_rpm});
-      dwell_statements.push_back(program.statements.size());
-      path.Add(gcode::Dwell{kPlaceholderS});
-      path.Add(gcode::CSpin{0});
-      // Back in positioning mode the table's angle is not known: absolute.
-      path.RapidCAbsolute(0);
+      const auto spin = [&] {
+        path.ClampC(false);
+        path.Add(gcode::CSpin{c.machine.c_max_rpm});
+      };
+      const auto stop = [&] {
+        path.Add(gcode::CSpin{0});
+        // Back in positioning mode the table's angle is not known: absolute.
+        path.RapidCAbsolute(0);
+      };
+      for (int n : tests) {
+        if (!plan.immediate[n]) {
+          spin();
+          dwell_before(RTestCommentText(n));
+          stop();
+        }
+        RTest(path, c, n);
+      }
+      spin();
+      dwell_before(CycleCommentText(k + 1));
+      stop();
     } else {
       path.Add(gcode::Comment{"cool-down: NC hold, C at 0"});
       path.ClampC(true);
-      dwell_statements.push_back(program.statements.size());
-      path.Add(gcode::Dwell{kPlaceholderS});
+      for (int n : tests) {
+        if (!plan.immediate[n]) dwell_before(RTestCommentText(n));
+        RTest(path, c, n);
+      }
+      dwell_before(CycleCommentText(k + 1));
     }
   }
   path.RapidZ(pr.safe_z_w_mm);
   path.ClampC(true);
   path.Add(gcode::ProgramEnd{});
   CheckTravel(program, c);
+  return program;
+}
 
-  // Times from the reader's time model on the written text, so that the
-  // program, the schedule and a log agree to the written precision.
-  const std::string text =
-      gcode::WriteProgram(program, gcode::Dialect::kLinuxCnc, c);
-  const auto canon =
-      gcode::ReadProgram(text, gcode::Dialect::kLinuxCnc, c, "cycle");
-  std::vector<double> cycle_start_s(cycles + 1, -1.0);
-  for (const gcode::CanonStatement& s : canon) {
-    if (s.kind != gcode::CanonKind::kComment) continue;
-    for (int k = 0; k <= cycles; ++k)
-      if (s.text == CycleCommentText(k)) cycle_start_s[k] = s.start_s;
+// R-test n is due n * rtest_interval_s after the reference cycle's start
+// (n = 0 .. while due by the last cycle's start) and runs at the first
+// moment at or after that when the tool waits and the whole R-test, with
+// the margin for stopping and restarting C, fits before the next cycle;
+// one due during a cycle runs after it.
+WaitPlan PlanRTests(const Config& c, double cycle0_s,
+                    const std::vector<double>& cycle_duration_s,
+                    double rtest_s) {
+  const ProcessSpec& pr = c.process;
+  const int cycles = c.part.cycles();
+  WaitPlan plan;
+  plan.rtests_after.assign(cycles + 1, {});
+  if (pr.rtest_interval_s <= 0) return plan;
+  const double margin = RTestMarginS(c);
+  const auto start_of = [&](int k) { return cycle0_s + k * pr.cycle_period_s; };
+  const auto end_of = [&](int k) { return start_of(k) + cycle_duration_s[k]; };
+  double free_from = cycle0_s;
+  for (int n = 0;; ++n) {
+    const double due = cycle0_s + n * pr.rtest_interval_s;
+    if (due > start_of(cycles) + 1e-6) break;
+    double t = std::max(due, free_from);
+    int after = cycles;
+    for (int k = 0; k <= cycles; ++k) {
+      if (t < end_of(k) + margin) t = std::max(t, end_of(k) + margin);
+      if (k == cycles || t + rtest_s + margin <= start_of(k + 1)) {
+        after = k;
+        break;
+      }
+    }
+    // Due while the tool was busy: right after, without stopping C's
+    // warm-up in between (the C stop and restart are the margin).
+    const bool immediate = t > due + 1e-6;
+    if (immediate) t = t - margin;
+    plan.rtests_after[after].push_back(n);
+    plan.rtest_start_s.push_back(t);
+    plan.immediate.push_back(immediate);
+    free_from = t + rtest_s + margin;
   }
-  for (int k = 0; k <= cycles; ++k)
-    if (cycle_start_s[k] < 0)
-      throw std::logic_error("cycle comment lost in the written program");
-  double added_s = 0;  // dwell time added before the current cycle
-  for (int k = 0; k < cycles; ++k) {
-    const double target = cycle_start_s[0] + (k + 1) * pr.cycle_period_s;
-    const double now = cycle_start_s[k + 1] + added_s;
+  return plan;
+}
+
+}  // namespace
+
+std::string RTestCommentText(int n) { return fmt::format("R-test {}", n); }
+std::string RTestDoneCommentText(int n) {
+  return fmt::format("R-test {} done", n);
+}
+std::string CycleEndCommentText(int cycle) {
+  return fmt::format("end of cycle {}", cycle);
+}
+std::string RTestPositionFeature(int n, int position) {
+  return fmt::format("R{}-P{}", n, position);
+}
+bool ParseRTestPositionFeature(const std::string& feature, int* n,
+                               int* position) {
+  int a = -1, b = -1;
+  char tail = 0;
+  if (std::sscanf(feature.c_str(), "R%d-P%d%c", &a, &b, &tail) != 2 || a < 0 ||
+      b < 1 || b > kRTestPositions || feature != RTestPositionFeature(a, b))
+    return false;
+  *n = a;
+  *position = b;
+  return true;
+}
+
+RTestLayout ComputeRTestLayout(const Config& c) {
+  const MachineProfile& m = c.machine;
+  const ToolSpec& probe = c.process.probe;
+  RTestLayout l;
+  // Sphere on the machine's +X axis first, then C by +90 deg each.
+  const double c1 =
+      TableAngleFor(m.sphere_phi_deg * kDegToRad, 0.0, m.c_sense) * kRadToDeg;
+  for (int k = 0; k < kRTestPositions; ++k) l.c_deg[k] = c1 + 90.0 * k;
+  l.sphere_centre_z_mm =
+      m.table_top_z_mm + m.sphere_height_mm - WorkpieceOriginHeightMm(c);
+  // The stylus ball (tip at program Z) clear above the ball by the
+  // clearance; the safe height also clears the piece.
+  l.approach_z_mm = l.sphere_centre_z_mm + m.sphere_radius_mm +
+                    probe.diameter_mm / 2 + c.process.clearance_mm;
+  l.safe_z_mm =
+      std::max(c.process.safe_z_w_mm, l.approach_z_mm + c.process.clearance_mm);
+  return l;
+}
+
+Eigen::Vector2d SpherePositionProgramXY(const Config& c, double c_deg) {
+  const MachineProfile& m = c.machine;
+  const double phi = m.sphere_phi_deg * kDegToRad;
+  const Eigen::Vector3d w(m.sphere_distance_mm * std::cos(phi),
+                          m.sphere_distance_mm * std::sin(phi), 0.0);
+  Eigen::Vector2d xy =
+      (WorkpieceToMachineRotation(c_deg * kDegToRad, m.c_sense) * w).head<2>();
+  // No "-0.0000" in the program for a rounding residue.
+  for (int a = 0; a < 2; ++a)
+    if (std::abs(xy[a]) < 1e-9) xy[a] = 0.0;
+  return xy;
+}
+
+gcode::Program BuildTestCycleProgram(const Config& c) {
+  ValidateConfig(c, kSource);
+  CheckCuttingData(c, kSource);
+  CheckTestCycleConfig(c);
+  const ProcessSpec& pr = c.process;
+  const int cycles = c.part.cycles();
+
+  // First the cycles' and an R-test's durations, from a program with one
+  // R-test after the reference cycle (or none).
+  WaitPlan plan;
+  plan.rtests_after.assign(cycles + 1, {});
+  if (pr.rtest_interval_s > 0) {
+    plan.rtests_after[0] = {0};
+    plan.immediate = {true};
+  }
+  std::vector<Anchor> anchors;
+  gcode::Program program = AssembleTestCycle(c, plan, &anchors);
+  if (pr.rtest_interval_s > 0) {
+    const auto times = CommentTimes(program, c);
+    const double cycle0_s = TimeOf(times, CycleCommentText(0));
+    std::vector<double> cycle_duration_s;
+    for (int k = 0; k <= cycles; ++k)
+      cycle_duration_s.push_back(TimeOf(times, CycleEndCommentText(k)) -
+                                 TimeOf(times, CycleCommentText(k)));
+    const double rtest_s = TimeOf(times, RTestDoneCommentText(0)) -
+                           TimeOf(times, RTestCommentText(0));
+    const double margin = RTestMarginS(c);
+    if (rtest_s + margin > pr.rtest_interval_s)
+      throw InputError(
+          kSource, 0, "process.rtest_interval_s",
+          fmt::format("an R-test takes {:.0f} s and {:.0f} s to stop and "
+                      "restart C: more than the interval",
+                      rtest_s, margin));
+    plan = PlanRTests(c, cycle0_s, cycle_duration_s, rtest_s);
+    anchors.clear();
+    program = AssembleTestCycle(c, plan, &anchors);
+  }
+
+  // Dwells from the reader's time model on the written text, so that the
+  // program, the schedule and a log agree to the written precision: each
+  // sets the time of the comment it leads to.
+  const auto times = CommentTimes(program, c);
+  const double cycle0_s = TimeOf(times, CycleCommentText(0));
+  for (Anchor& a : anchors) {
+    for (int k = 1; k <= cycles; ++k)
+      if (a.comment == CycleCommentText(k))
+        a.target_s = cycle0_s + k * pr.cycle_period_s;
+    for (size_t n = 0; n < plan.rtest_start_s.size(); ++n)
+      if (a.comment == RTestCommentText(static_cast<int>(n)))
+        a.target_s = plan.rtest_start_s[n];
+  }
+  double added_s = 0;  // dwell time added before the current anchor
+  for (const Anchor& a : anchors) {
+    const double now = TimeOf(times, a.comment) + added_s;
     // Whole milliseconds: the writers keep 3 decimals of seconds.
     const double dwell =
-        std::round((kPlaceholderS + target - now) * 1000.0) / 1000.0;
+        std::round((kPlaceholderS + a.target_s - now) * 1000.0) / 1000.0;
     if (dwell < 0)
       throw InputError(kSource, 0, "process.cycle_period_s",
-                       fmt::format("cycle {} takes longer than the period", k));
-    std::get<gcode::Dwell>(program.statements[dwell_statements[k]]).seconds =
+                       fmt::format("the test cannot reach '{}' at {:.0f} s: "
+                                   "a cycle (with its R-tests) takes longer "
+                                   "than the period",
+                                   a.comment, a.target_s));
+    std::get<gcode::Dwell>(program.statements[a.dwell_statement]).seconds =
         dwell;
     added_s += dwell - kPlaceholderS;
   }

@@ -128,6 +128,8 @@ void VisitProcess(V& v, ProcessSpec& p) {
   v("nc_hold_after_pre_min", p.nc_hold_after_pre_min);
   v("cycle_period_s", p.cycle_period_s);
   v("warmup_cycles", p.warmup_cycles);
+  v("rtest_interval_s", p.rtest_interval_s);
+  v("rtest_measure_s", p.rtest_measure_s);
   v("coolant_in_test", p.coolant_in_test);
   v("coolant_in_pre", p.coolant_in_pre);
   v("safe_z_w_mm", p.safe_z_w_mm);
@@ -594,6 +596,10 @@ void ValidateConfig(const Config& c, const std::string& source) {
           "must be at least 600 s (one cycle must fit)");
   Require(pr.warmup_cycles >= 0 && pr.warmup_cycles <= p.cycles(), source,
           "process.warmup_cycles", "must be in [0, cycles]");
+  Require(pr.rtest_interval_s == 0 || pr.rtest_interval_s >= 60, source,
+          "process.rtest_interval_s", "must be 0 (no R-test) or >= 60 s");
+  Require(pr.rtest_measure_s >= 0 && pr.rtest_measure_s <= 600, source,
+          "process.rtest_measure_s", "must be in [0, 600] s");
   Require(pr.safe_z_w_mm > 0, source, "process.safe_z_w_mm",
           "must be above the top face");
   Require(pr.clearance_mm > 0, source, "process.clearance_mm",

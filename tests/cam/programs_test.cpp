@@ -522,3 +522,116 @@ TEST(ProgramsConfigTest, ProgramsFollowTheConfig) {
 
 }  // namespace
 }  // namespace ttp::cam
+
+namespace ttp::cam {
+namespace {
+
+// The TALC run's R-test (thesis 5.2, 7.4): hourly, after each cycle's cuts;
+// C standing and clamped while the probe measures the sphere at five table
+// angles 90 deg apart; the probe stands over the sphere (its place from the
+// frames of geometry at the angle the program commands) clear above it.
+TEST(ProgramsRTestTest, HourlyRTestsMeasureTheSphereWithCStanding) {
+  Config config;
+  config.process.rtest_interval_s = 3600;
+  const gcode::Program program = BuildTestCycleProgram(config);
+  const auto canon = ReadBack(program, Dialect::kLinuxCnc, config);
+  const MachineProfile& m = config.machine;
+  const double phi = m.sphere_phi_deg * kDeg;
+  const Eigen::Vector3d sphere_w(
+      m.sphere_distance_mm * std::cos(phi),
+      m.sphere_distance_mm * std::sin(phi),
+      m.table_top_z_mm + m.sphere_height_mm - WorkpieceOriginHeightMm(config));
+  bool clamped = false, c_spinning = false;
+  int tool = 0, reports = 0;
+  double last_dwell_s = -1, cycle_start_s = -1;
+  std::vector<double> rtest_starts;
+  for (const CanonStatement& s : canon) {
+    if (s.kind == CanonKind::kClamp) clamped = s.value > 0;
+    if (s.kind == CanonKind::kCSpin) c_spinning = s.value > 0;
+    if (s.kind == CanonKind::kToolChange) tool = static_cast<int>(s.value);
+    if (s.kind == CanonKind::kDwell) last_dwell_s = s.duration_s;
+    if (s.kind == CanonKind::kComment && s.text.rfind("cycle ", 0) == 0)
+      cycle_start_s = s.start_s;
+    if (s.kind == CanonKind::kComment && s.text.rfind("R-test ", 0) == 0 &&
+        s.text.find("done") == std::string::npos)
+      rtest_starts.push_back(s.start_s);
+    if (s.kind != CanonKind::kReport || s.text.rfind("rtest,", 0) != 0)
+      continue;
+    gcode::ReportText r;
+    ASSERT_TRUE(gcode::ParseReportText(s.text, &r));
+    const int n = reports / kRTestPositions, k = reports % kRTestPositions;
+    EXPECT_EQ(r.feature, RTestPositionFeature(n, k + 1));
+    EXPECT_NEAR(r.c_deg, std::fmod(90.0 * k, 360.0), 1e-9);
+    EXPECT_NEAR(std::remainder(s.end_c_rad / kDeg - r.c_deg, 360.0), 0, 1e-9);
+    EXPECT_TRUE(clamped && !c_spinning) << s.text;
+    EXPECT_EQ(tool, config.process.probe.number) << s.text;
+    EXPECT_NEAR(last_dwell_s, config.process.rtest_measure_s, 1e-9);
+    // Probe tip over the sphere's centre, the ball's top below it.
+    const Eigen::Vector3d tip_w = ToW(config, s.end_mm, s.end_c_rad);
+    EXPECT_NEAR((tip_w - sphere_w).head<2>().norm(), 0.0, 1e-3) << s.text;
+    const double gap = tip_w.z() - config.process.probe.diameter_mm / 2 -
+                       (sphere_w.z() + m.sphere_radius_mm);
+    EXPECT_GT(gap, 0.5) << s.text;
+    EXPECT_LT(gap, 10.0) << s.text;
+    // After the cycle's cuts: R-test n follows cycle n.
+    EXPECT_GT(s.start_s, cycle_start_s);
+    EXPECT_LT(s.start_s, cycle_start_s + 600);
+    ++reports;
+  }
+  EXPECT_EQ(reports, (config.part.cycles() + 1) * kRTestPositions);
+  ASSERT_EQ(rtest_starts.size(), static_cast<size_t>(config.part.cycles() + 1));
+  // The cycles still start on the hour.
+  std::vector<testing::ReportedCut> cuts;
+  for (const auto& c : ReportedCuts(canon))
+    if (c.feature[0] != 'R') cuts.push_back(c);
+  Config plain = config;
+  plain.process.rtest_interval_s = 0;
+  const auto plain_cuts = ReportedCuts(
+      ReadBack(BuildTestCycleProgram(plain), Dialect::kLinuxCnc, plain));
+  ASSERT_EQ(cuts.size(), plain_cuts.size());
+  for (size_t i = 0; i < cuts.size(); ++i) {
+    EXPECT_EQ(cuts[i].feature, plain_cuts[i].feature);
+    EXPECT_NEAR(cuts[i].start_s, plain_cuts[i].start_s, 2e-3);
+  }
+}
+
+// rs274 reads the R-test program as our reader does; FANUC and LinuxCNC
+// give the same toolpath and time.
+TEST(ProgramsRTestTest, RTestProgramPassesRs274AndTwinsAgree) {
+  Config config;
+  config.part.facets_per_segment = 3;
+  config.part.reference_index = 2;
+  config.process.warmup_cycles = 1;
+  config.process.cycle_period_s = 600;
+  config.process.rtest_interval_s = 300;
+  const gcode::Program program = BuildTestCycleProgram(config);
+  const auto linuxcnc = ReadBack(program, Dialect::kLinuxCnc, config);
+  const auto fanuc = ReadBack(program, Dialect::kFanuc, config);
+  const auto twins = gcode::CompareToolpaths(fanuc, linuxcnc);
+  EXPECT_TRUE(twins.same) << twins.what;
+  EXPECT_NEAR(gcode::TotalDuration(fanuc), gcode::TotalDuration(linuxcnc),
+              1e-6);
+  if (!gcode::Rs274Available()) GTEST_SKIP() << "/usr/bin/rs274 missing";
+  const gcode::Rs274Result rs = gcode::RunRs274(
+      gcode::WriteProgram(program, Dialect::kLinuxCnc, config), config);
+  const auto d = gcode::CompareToolpaths(linuxcnc, rs.statements);
+  EXPECT_TRUE(d.same) << d.what << " at line " << d.line_a;
+  EXPECT_NEAR(gcode::TotalDuration(linuxcnc),
+              gcode::TotalDuration(rs.statements), 1e-6);
+}
+
+TEST(ProgramsRTestTest, IntervalShorterThanAnRTestIsRefused) {
+  Config config;
+  config.process.rtest_interval_s = 60;
+  try {
+    BuildTestCycleProgram(config);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("process.rtest_interval_s"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace ttp::cam

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <sstream>
 
@@ -127,6 +128,90 @@ TEST(ScheduleTableTest, PrintsOneRowPerCut) {
   EXPECT_NE(table.find("X1-5"), std::string::npos);
   EXPECT_NE(table.find("60.000"), std::string::npos);
   EXPECT_EQ(std::count(table.begin(), table.end(), '\n'), 4);
+}
+
+}  // namespace
+}  // namespace ttp::cam
+
+namespace ttp::cam {
+namespace {
+
+// R-tests every 30 min: those due in a wait start on time, those due while
+// a cycle cuts start after its cuts; each gives one TALC log row at its
+// last report covering its five measurements (talc-log.md: rtest rows,
+// dur_s); FANUC gives the same R-tests, and the dry run the same table
+// angles in a shorter program.
+TEST(ScheduleRTestTest, RTestsAtTheirDueTimesWithTheirLogRows) {
+  Config config;
+  config.process.rtest_interval_s = 1800;
+  const Schedule s = BuildSchedule(config);
+  const double period = config.process.cycle_period_s;
+  const double t0 = s.cycle_start_s[0];
+  ASSERT_EQ(s.rtests.size(), 17u);  // due at 0, 0.5 h, ... 8 h
+  for (const ScheduledRTest& r : s.rtests) {
+    const double due = t0 + r.number * 1800.0;
+    if (r.number % 2 == 1) {
+      EXPECT_NEAR(r.start_s, due, 2e-3) << r.number;
+    } else {
+      // Due at a cycle's start: after that cycle's last cut.
+      const int k = r.number / 2;
+      double last_cut = 0;
+      for (const ScheduledCut& c : s.cuts)
+        if (c.cycle == k) last_cut = std::max(last_cut, c.end_s);
+      EXPECT_GT(r.start_s, last_cut) << r.number;
+      EXPECT_LT(r.start_s, last_cut + 60) << r.number;
+    }
+    EXPECT_EQ(r.after_cycle, r.number / 2);
+    ASSERT_EQ(r.positions.size(), static_cast<size_t>(kRTestPositions));
+    for (size_t k = 1; k < r.positions.size(); ++k)
+      EXPECT_GT(r.positions[k].measure_s, r.positions[k - 1].report_s);
+    for (const auto& p : r.positions)
+      EXPECT_NEAR(p.report_s - p.measure_s, config.process.rtest_measure_s,
+                  1e-9);
+    EXPECT_EQ(r.log_t_s, r.positions.back().report_s);
+    EXPECT_NEAR(r.dur_s, r.log_t_s - r.positions.front().measure_s, 1e-9);
+    EXPECT_GT(r.end_s, r.log_t_s);
+    // Not while a cycle cuts.
+    for (const ScheduledCut& c : s.cuts)
+      EXPECT_TRUE(c.end_s < r.start_s || c.start_s > r.end_s) << c.feature;
+  }
+  for (int k = 0; k <= config.part.cycles(); ++k)
+    EXPECT_NEAR(s.cycle_start_s[k], t0 + k * period, 2e-3);
+
+  const auto canon = testing::ReadBack(BuildTestCycleProgram(config),
+                                       gcode::Dialect::kFanuc, config);
+  const Schedule fanuc = ScheduleFromCanon(canon, config, "fanuc");
+  ASSERT_EQ(fanuc.rtests.size(), s.rtests.size());
+  for (size_t i = 0; i < s.rtests.size(); ++i) {
+    EXPECT_NEAR(fanuc.rtests[i].log_t_s, s.rtests[i].log_t_s, 1e-6);
+    EXPECT_NEAR(fanuc.rtests[i].dur_s, s.rtests[i].dur_s, 1e-6);
+  }
+  EXPECT_EQ(fanuc.table_angles_deg, s.table_angles_deg);
+
+  const Schedule dry = BuildSchedule(config, 0.01);
+  EXPECT_EQ(dry.table_angles_deg, s.table_angles_deg);
+  EXPECT_LT(dry.total_s, 0.1 * s.total_s);
+  const std::string csv = RTestsToCsv(s);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 17 * kRTestPositions);
+}
+
+TEST(ScheduleRTestTest, RTestReportOutOfOrderIsRejected) {
+  gcode::CanonStatement open;
+  open.kind = gcode::CanonKind::kComment;
+  open.text = RTestCommentText(0);
+  gcode::CanonStatement dwell;
+  dwell.kind = gcode::CanonKind::kDwell;
+  gcode::CanonStatement report;
+  report.kind = gcode::CanonKind::kReport;
+  report.text = "rtest," + RTestPositionFeature(0, 2) + ",90.000";
+  report.source_line = 7;
+  try {
+    ScheduleFromCanon({open, dwell, report}, Config{}, "prog");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("prog:7"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "ttp/cam/programs.h"
+#include "ttp/gcode/reader.h"
 #include "ttp/gcode/writer.h"
 #include "ttp/geometry/features.h"
 
@@ -97,6 +98,54 @@ TEST(ProgramsVerifyChainTest, CycleIsJudgedOnWhatThePreMachiningLeft) {
   // Facets and strips are where the cycle puts them, whatever the stock.
   EXPECT_TRUE(v.cycle.Find("surface X1-5")->pass);
   EXPECT_TRUE(v.cycle.Find("surface Z5")->pass);
+}
+
+// The TALC run's R-test: the probe goes to the sphere at five table angles
+// and the collision model accepts the approach (probe and holder clear of
+// the sphere, its stem, the adapter and the clamps). The same program on a
+// machine whose sphere is larger than the program was made for puts the
+// probe into the ball: caught, at an R-test line.
+TEST(ProgramsVerifyRTestTest, SphereApproachPassesAndARealCollisionIsCaught) {
+  Config config;
+  config.process.rtest_interval_s = 3600;
+  const auto d = gcode::Dialect::kFanuc;
+  const std::string text =
+      gcode::WriteProgram(cam::BuildTestCycleProgram(config), d, config);
+  const auto canon = gcode::ReadProgram(text, d, config, "cycle");
+  VerifyOptions options;
+  options.stage = VerifyStage::kCycle;
+  const VerifyReport good = VerifyStatements(canon, config, options, "cycle");
+  std::string failures;
+  for (const Finding* f : good.Failed()) failures += f->check + "; ";
+  EXPECT_TRUE(good.AllPassed()) << failures;
+  const Finding* clear = good.Find("tool and holder clear the fixtures");
+  ASSERT_NE(clear, nullptr);
+  EXPECT_TRUE(clear->pass);
+
+  Config bigger = config;
+  bigger.machine.sphere_radius_mm = 20.0;  // top 7.3 mm higher
+  const VerifyReport bad = VerifyStatements(canon, bigger, options, "cycle");
+  const Finding* hit = bad.Find("tool and holder clear the fixtures");
+  ASSERT_NE(hit, nullptr);
+  EXPECT_FALSE(hit->pass);
+  EXPECT_NE(hit->detail.find("R-test sphere"), std::string::npos)
+      << hit->detail;
+  // The probe tip stood the clearance plus the stylus ball radius above
+  // the ball.
+  EXPECT_NEAR(hit->measured,
+              20.0 - 12.7 - config.process.clearance_mm -
+                  config.process.probe.diameter_mm / 2,
+              1e-6);
+  // The line is a move of an R-test (between its comments).
+  const std::string line_text = [&] {
+    std::string::size_type pos = 0;
+    for (int l = 1; l < hit->source_line; ++l) pos = text.find('\n', pos) + 1;
+    return text.substr(pos, text.find('\n', pos) - pos);
+  }();
+  const size_t at = text.find(line_text);
+  const size_t open = text.rfind("(R-test ", at);
+  ASSERT_NE(open, std::string::npos) << line_text;
+  EXPECT_EQ(text.find("done)", open), text.find("done)", at)) << line_text;
 }
 
 }  // namespace

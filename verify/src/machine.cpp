@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ttp/gcode/execution.h"
 #include "ttp/geometry/frames.h"
 
 namespace ttp::verify {
@@ -123,9 +124,8 @@ std::vector<Finding> CheckMachine(const std::vector<CanonStatement>& statements,
   double worst_fixture = -1e300, worst_ring = -1e300, worst_change = -1e300;
   int fixture_at = -1, ring_at = -1, change_at = -1;
   std::string fixture_what, ring_what;
+  // The tool in the spindle during the statement being checked.
   const ToolSpec* tool = nullptr;
-  bool spinning = false;
-  AxisPoint here;
 
   double blank_reach = config.part.blank_diameter_mm / 2;
   double max_holder = 0;
@@ -158,11 +158,11 @@ std::vector<Finding> CheckMachine(const std::vector<CanonStatement>& statements,
       }
     }
   };
-  const auto check_ring = [&](int i) {
+  const auto check_ring = [&](const AxisPoint& at, int i) {
     if (!tool) return;
     // C turning: the tool sweeps its whole circle about the C axis in W.
     for (int s = 0; s < 720; ++s) {
-      AxisPoint a = here;
+      AxisPoint a = at;
       a.c_rad = s * 0.5 * kDeg;
       std::string what;
       const double pen = FixturePenetrationMm(config, *tool, to_w(a), &what);
@@ -174,27 +174,31 @@ std::vector<Finding> CheckMachine(const std::vector<CanonStatement>& statements,
     }
   };
 
+  // Driven by the executor's state: tool, C turning, positions.
+  const auto states = gcode::ExecutionStates(statements);
   for (int i = 0; i < static_cast<int>(statements.size()); ++i) {
     const CanonStatement& st = statements[i];
-    const AxisPoint next{st.end_mm, st.end_c_rad};
+    const gcode::ExecutionState& before = states[i];
+    const gcode::ExecutionState& after = states[i + 1];
+    const AxisPoint here{before.position_mm, before.c_rad};
+    const AxisPoint next{after.position_mm, after.c_rad};
+    tool = pr.ToolByNumber(after.tool);
     switch (st.kind) {
       case CanonKind::kToolChange: {
         // The gauge line where M6 happens must be off the piece.
-        const double r = here.p_mm.head<2>().norm();
-        const double pen = blank_reach + max_holder - r;
+        const double pen =
+            blank_reach + max_holder - here.p_mm.head<2>().norm();
         if (pen > worst_change) {
           worst_change = pen;
           change_at = i;
         }
-        tool = pr.ToolByNumber(static_cast<int>(st.value));
         break;
       }
       case CanonKind::kCSpin:
-        spinning = st.value > 0;
-        if (spinning) check_ring(i);
+        if (after.c_turning_rpm > 0) check_ring(here, i);
         break;
       case CanonKind::kTraverse:
-        if (spinning) check_ring(i);
+        if (before.c_turning_rpm > 0) check_ring(here, i);
         check_path(RapidPath(here, next, m, false), i);
         check_path(RapidPath(here, next, m, true), i);
         break;
@@ -205,10 +209,9 @@ std::vector<Finding> CheckMachine(const std::vector<CanonStatement>& statements,
       default:
         break;
     }
-    here = next;
-    if (spinning && st.kind != CanonKind::kCSpin &&
+    if (after.c_turning_rpm > 0 && st.kind != CanonKind::kCSpin &&
         st.kind != CanonKind::kTraverse)
-      check_ring(i);
+      check_ring(next, i);
   }
 
   const auto finding = [&](const char* check, double pen, int at,

@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 
+#include "ttp/gcode/execution.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
@@ -328,289 +329,260 @@ std::vector<const Finding*> VerifyReport::Failed() const {
   return out;
 }
 
-VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
-                              const Config& config,
-                              const VerifyOptions& options,
-                              const std::string& source) {
-  const PartSpec& part = config.part;
-  const MachineProfile& machine = config.machine;
-  VerifyReport report;
-  report.stage = options.stage;
-  report.source = source;
-  report.statements = static_cast<int>(statements.size());
+namespace {
 
+// Stage 1: the dexel model of the target stage (feature probe rays, coarse
+// Z grid) holding the initial stock.
+struct SimulationModel {
   DexelModel model;
   std::vector<Probe> probes;
-  BuildProbes(part,
+  int probe_rays = 0;
+  int rays = 0;
+};
+
+void BuildSimulationModel(const Config& config, const VerifyOptions& options,
+                          SimulationModel* out) {
+  BuildProbes(config.part,
               options.stage == VerifyStage::kPre ? Stage::kPreMachined
                                                  : Stage::kFinished,
-              options.probe_pitch_mm, &model, &probes);
-  report.probe_rays = static_cast<int>(model.rays().size());
-  AddCoarseGrid(part, options.coarse_pitch_mm, &model);
-  report.rays = static_cast<int>(model.rays().size());
-  model.Finalize();
+              options.probe_pitch_mm, &out->model, &out->probes);
+  out->probe_rays = static_cast<int>(out->model.rays().size());
+  AddCoarseGrid(config.part, options.coarse_pitch_mm, &out->model);
+  out->rays = static_cast<int>(out->model.rays().size());
+  out->model.Finalize();
   // Test cycle after a given pre-machining program: blank, then that
   // program; otherwise the ideal stock of the stage.
   InitialiseStock(config, options.after ? VerifyStage::kPre : options.stage,
-                  &model);
+                  &out->model);
+}
 
-  const double adapter_top = -part.height_mm();
-  const double adapter_bottom = adapter_top - part.adapter_height_mm;
-  const double adapter_radius = part.adapter_diameter_mm / 2;
-  const double origin_height = WorkpieceOriginHeightMm(config);
+// Stage 2: where one move takes the tool, as sweeps in W: the straight
+// move of the axes (feeds, and rapids under straight semantics), and for a
+// rapid the per-axis dog-leg after them.
+struct MoveSweeps {
+  Eigen::Vector3d from, to;  // program coordinates
+  double c_from = 0, c_to = 0;
+  std::vector<Sweep> sweeps;
+  size_t straight_pieces = 0;  // sweeps[0, straight_pieces) = straight path
+};
 
-  double worst_rapid = 0, worst_rapid_per_axis = 0, worst_travel = 0,
-         worst_adapter = 0, worst_no_spindle = 0, worst_unclamped = 0;
-  int rapid_at = -1, rapid_per_axis_at = -1, travel_at = -1, adapter_at = -1,
-      no_spindle_at = -1, unclamped_at = -1;
-  std::vector<int> unknown_tools;
-  std::vector<Cut> cuts;
-
+MoveSweeps SweepsOfMove(const CanonStatement& st,
+                        const gcode::ExecutionState& before,
+                        const ToolShape& tool, const Config& config) {
+  const MachineProfile& machine = config.machine;
+  MoveSweeps m;
+  m.from = before.position_mm;
+  m.c_from = before.c_rad;
+  if (!before.tool_position_known) {
+    // After a tool change the tool comes down from the top of the travel
+    // above its first target.
+    m.from = st.end_mm;
+    m.from.z() = machine.travel_z_mm[1] - WorkpieceOriginHeightMm(config);
+    m.c_from = st.end_c_rad;
+  }
+  m.to = st.end_mm;
+  m.c_to = st.end_c_rad;
   // The return type is explicit: an Eigen product of a temporary rotation
   // returned as `auto` would dangle.
   const auto to_w = [&](const Eigen::Vector3d& p_prog,
                         double c) -> Eigen::Vector3d {
     return WorkpieceToMachineRotation(c, machine.c_sense).transpose() * p_prog;
   };
-
-  // Sweeps the tool along one program; `record` false: only removes
-  // material (the pre-machining before a test cycle), no findings.
-  const auto run = [&](const std::vector<CanonStatement>& program,
-                       bool record) {
-    Eigen::Vector3d pos = Eigen::Vector3d::Zero();
-    double c_rad = 0;
-    bool known = false;
-    std::optional<ToolShape> tool;
-    double spindle_rpm = 0;
-    bool c_clamped = false;
-    for (int i = 0; i < static_cast<int>(program.size()); ++i) {
-      const CanonStatement& st = program[i];
-      if (st.kind == CanonKind::kClamp) c_clamped = st.value > 0;
-      switch (st.kind) {
-        case CanonKind::kToolChange: {
-          const ToolSpec* spec =
-              config.process.CuttingToolByNumber(static_cast<int>(st.value));
-          if (spec) {
-            tool = ShapeOf(*spec);
-          } else {
-            tool.reset();
-            if (record) unknown_tools.push_back(i);
-          }
-          spindle_rpm = 0;
-          known = false;
-          pos = st.end_mm;
-          c_rad = st.end_c_rad;
-          continue;
-        }
-        case CanonKind::kSpindle:
-          spindle_rpm = st.value;
-          break;
-        case CanonKind::kTraverse:
-        case CanonKind::kFeed:
-        case CanonKind::kProbe:
-          break;
-        default:
-          pos = st.end_mm;
-          c_rad = st.end_c_rad;
-          continue;
-      }
-      if (st.kind == CanonKind::kSpindle) {
-        pos = st.end_mm;
-        c_rad = st.end_c_rad;
-        continue;
-      }
-      Eigen::Vector3d from = pos;
-      double c_from = c_rad;
-      if (!known) {
-        // After a tool change the tool comes down from the top of the travel
-        // above its first target.
-        from = st.end_mm;
-        from.z() = machine.travel_z_mm[1] - origin_height;
-        c_from = st.end_c_rad;
-        known = true;
-      }
-      const Eigen::Vector3d to = st.end_mm;
-      const double c_to = st.end_c_rad;
-      pos = to;
-      c_rad = c_to;
-
-      // Travel of the tool tip in M (straight in XYZ: the end points bound it).
-      const Eigen::Vector3d m = ProgramToMachine(config, to);
-      const double travel = std::max({Excess(m.x(), machine.travel_x_mm),
-                                      Excess(m.y(), machine.travel_y_mm),
-                                      Excess(m.z(), machine.travel_z_mm)});
-      if (record && travel > worst_travel) {
-        worst_travel = travel;
-        travel_at = i;
-      }
-      if (!tool) continue;
-
-      // Pieces of the move in W: a straight move of the axes (feeds, and
-      // rapids under straight semantics), and for rapids the per-axis
-      // dog-leg as well.
-      std::vector<Sweep> sweeps;
-      const auto add_straight = [&](const Eigen::Vector3d& p0, double c0,
-                                    const Eigen::Vector3d& p1, double c1) {
-        const double dc = c1 - c0;
-        if ((p1 - p0).norm() < 1e-12 && std::abs(dc) > 0) {
-          const double rho = p0.head<2>().norm();
-          const double theta0 = std::atan2(p0.y(), p0.x());
-          sweeps.push_back(Sweep::Rotation(*tool, rho, p0.z(),
-                                           theta0 + machine.c_sense * c0,
-                                           theta0 + machine.c_sense * c1));
-          return;
-        }
-        const int n = std::max(
-            1, static_cast<int>(std::ceil(std::abs(dc) / kMaxPieceRad)));
-        for (int k = 0; k < n; ++k) {
-          const double f0 = double(k) / n, f1 = double(k + 1) / n;
-          sweeps.push_back(
-              Sweep::Straight(*tool, to_w(p0 + f0 * (p1 - p0), c0 + f0 * dc),
-                              to_w(p0 + f1 * (p1 - p0), c0 + f1 * dc)));
-        }
-      };
-      add_straight(from, c_from, to, c_to);
-      const size_t straight_pieces = sweeps.size();
-      if (st.kind == CanonKind::kTraverse) {
-        const auto corners =
-            RapidPath({from, c_from}, {to, c_to}, machine, true);
-        if (corners.size() > 2)
-          for (size_t k = 0; k + 1 < corners.size(); ++k)
-            add_straight(corners[k].p_mm, corners[k].c_rad, corners[k + 1].p_mm,
-                         corners[k + 1].c_rad);
-      }
-      double removed = 0, removed_per_axis = 0;
-      for (size_t piece = 0; piece < sweeps.size(); ++piece) {
-        const Sweep& sw = sweeps[piece];
-        const double r = model.Cut(sw, record ? i : -1, nullptr);
-        if (piece < straight_pieces)
-          removed = std::max(removed, r);
-        else
-          removed_per_axis = std::max(removed_per_axis, r);
-        if (!record) continue;
-        // Adapter: a cylinder about the C axis below the piece, so the
-        // table angle does not matter.
-        const Eigen::Vector3d a = sw.start_w, b = sw.end_w;
-        double ta = 0, tb = 1;
-        const double dz = b.z() - a.z();
-        if (std::abs(dz) < 1e-12) {
-          if (a.z() >= adapter_top || a.z() + tool->length_mm <= adapter_bottom)
-            continue;
-        } else {
-          double t0 = (adapter_bottom - tool->length_mm - a.z()) / dz;
-          double t1 = (adapter_top - a.z()) / dz;
-          if (t0 > t1) std::swap(t0, t1);
-          ta = std::max(0.0, t0);
-          tb = std::min(1.0, t1);
-          if (ta >= tb) continue;
-        }
-        double closest;
-        if (sw.kind == Sweep::Kind::kRotation) {
-          closest = sw.radius_mm;
-        } else {
-          const Eigen::Vector2d pa = (a + ta * (b - a)).head<2>();
-          const Eigen::Vector2d pb = (a + tb * (b - a)).head<2>();
-          closest = SegmentDistance(Eigen::Vector2d::Zero(), pa, pb);
-        }
-        const double z_low = std::min(a.z(), b.z());
-        const double reach =
-            tool->RadiusAt(std::min(tool->length_mm, adapter_top - z_low));
-        const double penetration = adapter_radius + reach - closest;
-        if (reach > 0 && penetration > worst_adapter) {
-          worst_adapter = penetration;
-          adapter_at = i;
-        }
-      }
-      if (record && removed_per_axis > worst_rapid_per_axis) {
-        worst_rapid_per_axis = removed_per_axis;
-        rapid_per_axis_at = i;
-      }
-      if (!record || removed <= kCutEpsMm) continue;
-      if (st.kind == CanonKind::kTraverse) {
-        if (removed > worst_rapid) {
-          worst_rapid = removed;
-          rapid_at = i;
-        }
-      } else {
-        cuts.push_back({i, st.start_s, st.start_s + st.duration_s, from, to});
-        // A cut with C standing still needs the table clamped; a turning
-        // cut (C moving) needs it unclamped.
-        const bool turning = std::abs(c_to - c_from) > 1e-12;
-        if (c_clamped == turning && removed > worst_unclamped) {
-          worst_unclamped = removed;
-          unclamped_at = i;
-        }
-        if (spindle_rpm <= 0 && removed > worst_no_spindle) {
-          worst_no_spindle = removed;
-          no_spindle_at = i;
-        }
-      }
+  const auto add_straight = [&](const Eigen::Vector3d& p0, double c0,
+                                const Eigen::Vector3d& p1, double c1) {
+    const double dc = c1 - c0;
+    if ((p1 - p0).norm() < 1e-12 && std::abs(dc) > 0) {
+      const double rho = p0.head<2>().norm();
+      const double theta0 = std::atan2(p0.y(), p0.x());
+      m.sweeps.push_back(Sweep::Rotation(tool, rho, p0.z(),
+                                         theta0 + machine.c_sense * c0,
+                                         theta0 + machine.c_sense * c1));
+      return;
+    }
+    const int n =
+        std::max(1, static_cast<int>(std::ceil(std::abs(dc) / kMaxPieceRad)));
+    for (int k = 0; k < n; ++k) {
+      const double f0 = double(k) / n, f1 = double(k + 1) / n;
+      m.sweeps.push_back(
+          Sweep::Straight(tool, to_w(p0 + f0 * (p1 - p0), c0 + f0 * dc),
+                          to_w(p0 + f1 * (p1 - p0), c0 + f1 * dc)));
     }
   };
-  if (options.after) run(*options.after, false);
-  run(statements, true);
+  add_straight(m.from, m.c_from, m.to, m.c_to);
+  m.straight_pieces = m.sweeps.size();
+  if (st.kind == CanonKind::kTraverse) {
+    const auto corners =
+        RapidPath({m.from, m.c_from}, {m.to, m.c_to}, machine, true);
+    if (corners.size() > 2)
+      for (size_t k = 0; k + 1 < corners.size(); ++k)
+        add_straight(corners[k].p_mm, corners[k].c_rad, corners[k + 1].p_mm,
+                     corners[k + 1].c_rad);
+  }
+  return m;
+}
 
-  auto& out = report.findings;
+// Penetration (mm) of a sweep into the adapter, a cylinder about the C axis
+// below the piece (so the table angle does not matter); nullopt when the
+// sweep stays above or below it.
+std::optional<double> AdapterPenetrationMm(const Sweep& sw,
+                                           const ToolShape& tool,
+                                           const PartSpec& part) {
+  const double adapter_top = -part.height_mm();
+  const double adapter_bottom = adapter_top - part.adapter_height_mm;
+  const Eigen::Vector3d a = sw.start_w, b = sw.end_w;
+  double ta = 0, tb = 1;
+  const double dz = b.z() - a.z();
+  if (std::abs(dz) < 1e-12) {
+    if (a.z() >= adapter_top || a.z() + tool.length_mm <= adapter_bottom)
+      return std::nullopt;
+  } else {
+    double t0 = (adapter_bottom - tool.length_mm - a.z()) / dz;
+    double t1 = (adapter_top - a.z()) / dz;
+    if (t0 > t1) std::swap(t0, t1);
+    ta = std::max(0.0, t0);
+    tb = std::min(1.0, t1);
+    if (ta >= tb) return std::nullopt;
+  }
+  double closest;
+  if (sw.kind == Sweep::Kind::kRotation) {
+    closest = sw.radius_mm;
+  } else {
+    const Eigen::Vector2d pa = (a + ta * (b - a)).head<2>();
+    const Eigen::Vector2d pb = (a + tb * (b - a)).head<2>();
+    closest = SegmentDistance(Eigen::Vector2d::Zero(), pa, pb);
+  }
+  const double z_low = std::min(a.z(), b.z());
+  const double reach =
+      tool.RadiusAt(std::min(tool.length_mm, adapter_top - z_low));
+  if (reach <= 0) return std::nullopt;
+  return part.adapter_diameter_mm / 2 + reach - closest;
+}
+
+// The largest value of a check over the statements and where it was.
+struct Worst {
+  double value = 0;
+  int statement = -1;
+  void Take(double v, int i) {
+    if (v > value) {
+      value = v;
+      statement = i;
+    }
+  }
+};
+
+// Stage 3: the tool swept along a program through the model, with the
+// checks of each move.
+struct MoveChecks {
+  Worst rapid, rapid_per_axis, travel, adapter, no_spindle, unclamped;
+  std::vector<int> unknown_tools;  // statements changing to such a tool
+  std::vector<Cut> cuts;           // moves that removed material
+};
+
+// `record` false: only removes material (the pre-machining before a test
+// cycle), no checks.
+void CutProgram(const std::vector<CanonStatement>& program,
+                const Config& config, bool record, DexelModel* model,
+                MoveChecks* checks) {
+  const MachineProfile& machine = config.machine;
+  const auto states = gcode::ExecutionStates(program);
+  for (int i = 0; i < static_cast<int>(program.size()); ++i) {
+    const CanonStatement& st = program[i];
+    const gcode::ExecutionState& before = states[i];
+    const gcode::ExecutionState& after = states[i + 1];
+    if (st.kind == CanonKind::kToolChange) {
+      if (record && !config.process.ToolByNumber(after.tool))
+        checks->unknown_tools.push_back(i);
+      continue;
+    }
+    if (st.kind != CanonKind::kTraverse && st.kind != CanonKind::kFeed &&
+        st.kind != CanonKind::kProbe)
+      continue;
+    // Travel of the tool tip in M (straight in XYZ: the end points bound it).
+    const Eigen::Vector3d m = ProgramToMachine(config, st.end_mm);
+    if (record)
+      checks->travel.Take(std::max({Excess(m.x(), machine.travel_x_mm),
+                                    Excess(m.y(), machine.travel_y_mm),
+                                    Excess(m.z(), machine.travel_z_mm)}),
+                          i);
+    const ToolSpec* spec = config.process.ToolByNumber(before.tool);
+    if (!spec) continue;
+    const ToolShape tool = ShapeOf(*spec);
+    const MoveSweeps move = SweepsOfMove(st, before, tool, config);
+    double removed = 0, removed_per_axis = 0;
+    for (size_t piece = 0; piece < move.sweeps.size(); ++piece) {
+      const Sweep& sw = move.sweeps[piece];
+      const double r = model->Cut(sw, record ? i : -1, nullptr);
+      if (piece < move.straight_pieces)
+        removed = std::max(removed, r);
+      else
+        removed_per_axis = std::max(removed_per_axis, r);
+      if (!record) continue;
+      if (const auto pen = AdapterPenetrationMm(sw, tool, config.part))
+        checks->adapter.Take(*pen, i);
+    }
+    if (!record) continue;
+    checks->rapid_per_axis.Take(removed_per_axis, i);
+    if (removed <= kCutEpsMm) continue;
+    if (st.kind == CanonKind::kTraverse) {
+      checks->rapid.Take(removed, i);
+      continue;
+    }
+    checks->cuts.push_back(
+        {i, st.start_s, st.start_s + st.duration_s, move.from, move.to});
+    // A cut with C standing still needs the table clamped; a turning cut
+    // (C moving) needs it unclamped.
+    const bool turning = std::abs(move.c_to - move.c_from) > 1e-12;
+    if (before.c_clamped == turning) checks->unclamped.Take(removed, i);
+    if (before.spindle_rpm <= 0) checks->no_spindle.Take(removed, i);
+  }
+}
+
+// Stage 4: the move checks as findings, with the collision model's.
+void AddMoveFindings(const MoveChecks& c,
+                     const std::vector<CanonStatement>& statements,
+                     const Config& config, std::vector<Finding>* out) {
   {
     Finding f = MakeFinding("tools in the process",
-                            static_cast<double>(unknown_tools.size()), 0, "");
-    if (!unknown_tools.empty()) {
-      SetWhere(&f, statements, unknown_tools.front());
+                            static_cast<double>(c.unknown_tools.size()), 0, "");
+    if (!c.unknown_tools.empty()) {
+      SetWhere(&f, statements, c.unknown_tools.front());
       f.detail = "tool change to a tool that is not in the process";
     }
-    out.push_back(f);
+    out->push_back(f);
   }
-  {
-    Finding f = MakeFinding("rapid cuts no material (straight rapids)",
-                            worst_rapid, kCutEpsMm, "mm");
-    SetWhere(&f, statements, rapid_at);
-    if (!f.pass) f.detail = "material removed by a rapid move";
-    out.push_back(f);
-  }
-  {
-    Finding f = MakeFinding("rapid cuts no material (per-axis rapids)",
-                            worst_rapid_per_axis, kCutEpsMm, "mm");
-    SetWhere(&f, statements, rapid_per_axis_at);
-    if (!f.pass)
-      f.detail =
-          "material removed by a rapid when each axis runs at its own rate "
-          "(dog-leg)";
-    out.push_back(f);
-  }
-  {
-    Finding f = MakeFinding("C clamped while cutting, free while turning",
-                            worst_unclamped, kCutEpsMm, "mm");
-    SetWhere(&f, statements, unclamped_at);
-    if (!f.pass)
-      f.detail =
-          "a cut with C standing and unclamped, or a turning cut "
-          "with C clamped";
-    out.push_back(f);
-  }
-  for (Finding& f : CheckMachine(statements, config)) out.push_back(f);
-  {
-    Finding f = MakeFinding("spindle turns while cutting", worst_no_spindle,
-                            kCutEpsMm, "mm");
-    SetWhere(&f, statements, no_spindle_at);
-    out.push_back(f);
-  }
-  {
-    Finding f = MakeFinding("within machine travel", worst_travel, 0, "mm");
-    SetWhere(&f, statements, travel_at);
-    if (!f.pass) f.detail = "tool tip beyond the travel of the machine";
-    out.push_back(f);
-  }
-  {
-    Finding f = MakeFinding("adapter not cut", worst_adapter, 0, "mm");
-    SetWhere(&f, statements, adapter_at);
-    if (!f.pass) f.detail = "tool enters the adapter below the piece";
-    out.push_back(f);
-  }
+  const auto add = [&](const char* check, const Worst& w, double limit,
+                       const char* unit, const char* detail) {
+    Finding f = MakeFinding(check, w.value, limit, unit);
+    SetWhere(&f, statements, w.statement);
+    if (!f.pass && detail) f.detail = detail;
+    out->push_back(f);
+  };
+  add("rapid cuts no material (straight rapids)", c.rapid, kCutEpsMm, "mm",
+      "material removed by a rapid move");
+  add("rapid cuts no material (per-axis rapids)", c.rapid_per_axis, kCutEpsMm,
+      "mm",
+      "material removed by a rapid when each axis runs at its own rate "
+      "(dog-leg)");
+  add("C clamped while cutting, free while turning", c.unclamped, kCutEpsMm,
+      "mm",
+      "a cut with C standing and unclamped, or a turning cut "
+      "with C clamped");
+  for (Finding& f : CheckMachine(statements, config)) out->push_back(f);
+  add("spindle turns while cutting", c.no_spindle, kCutEpsMm, "mm", nullptr);
+  add("within machine travel", c.travel, 0, "mm",
+      "tool tip beyond the travel of the machine");
+  add("adapter not cut", c.adapter, 0, "mm",
+      "tool enters the adapter below the piece");
+}
 
-  // Surfaces: every probe ray must end its first material interval at the
-  // nominal surface (s = kProbeInsideMm).
-  const auto& rays = model.rays();
-  for (const Probe& probe : probes) {
+// Stage 5: every probe ray must end its first material interval at the
+// nominal surface (s = kProbeInsideMm).
+void AddSurfaceFindings(const SimulationModel& sim,
+                        const std::vector<CanonStatement>& statements,
+                        const VerifyOptions& options,
+                        std::vector<Finding>* out) {
+  const auto& rays = sim.model.rays();
+  for (const Probe& probe : sim.probes) {
     double worst = 0, signed_worst = 0;
     int worst_ray = -1;
     for (int index : probe.rays) {
@@ -643,98 +615,129 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
             at.z());
       if (ray.last_cut_statement < 0 && !f.pass) f.detail += ", never cut";
     }
-    out.push_back(f);
+    out->push_back(f);
   }
+}
 
-  if (options.stage == VerifyStage::kCycle) {
-    // Z fixed while cutting.
-    double worst_z = 0;
-    int z_at = -1;
-    for (const Cut& c : cuts) {
-      const double dz = std::max(std::abs(c.from.z() - cuts.front().from.z()),
-                                 std::abs(c.to.z() - cuts.front().from.z()));
-      if (dz > worst_z) {
-        worst_z = dz;
-        z_at = c.statement;
-      }
+// Stage 6 (test cycle): Z fixed while cutting, the cycle count, and every
+// cycle's feed moves repeating cycle 0's but for the strip's Y shift.
+void AddCycleFindings(const std::vector<Cut>& cuts,
+                      const std::vector<CanonStatement>& statements,
+                      const Config& config, const VerifyOptions& options,
+                      std::vector<Finding>* out) {
+  const PartSpec& part = config.part;
+  const MachineProfile& machine = config.machine;
+  // Z fixed while cutting.
+  double worst_z = 0;
+  int z_at = -1;
+  for (const Cut& c : cuts) {
+    const double dz = std::max(std::abs(c.from.z() - cuts.front().from.z()),
+                               std::abs(c.to.z() - cuts.front().from.z()));
+    if (dz > worst_z) {
+      worst_z = dz;
+      z_at = c.statement;
     }
-    Finding fz = MakeFinding("Z fixed while cutting", worst_z,
-                             options.axis_tolerance_mm, "mm");
-    SetWhere(&fz, statements, z_at);
-    out.push_back(fz);
+  }
+  Finding fz = MakeFinding("Z fixed while cutting", worst_z,
+                           options.axis_tolerance_mm, "mm");
+  SetWhere(&fz, statements, z_at);
+  out->push_back(fz);
 
-    // Cycles: groups of cuts separated by long pauses.
-    std::vector<std::vector<Cut>> cycles;
-    for (const Cut& c : cuts) {
-      if (cycles.empty() || c.start_s - cycles.back().back().end_s >
-                                config.process.cycle_period_s / 4)
-        cycles.emplace_back();
-      cycles.back().push_back(c);
+  // Cycles: groups of cuts separated by long pauses.
+  std::vector<std::vector<Cut>> cycles;
+  for (const Cut& c : cuts) {
+    if (cycles.empty() || c.start_s - cycles.back().back().end_s >
+                              config.process.cycle_period_s / 4)
+      cycles.emplace_back();
+    cycles.back().push_back(c);
+  }
+  Finding fc = MakeFinding(
+      "cycle count",
+      std::abs(static_cast<double>(cycles.size()) - (part.cycles() + 1)), 0,
+      "");
+  fc.detail = fmt::format("{} groups of cuts, {} expected", cycles.size(),
+                          part.cycles() + 1);
+  out->push_back(fc);
+
+  // Every feed move inside a cycle's time window (first to last cut)
+  // must repeat cycle 0's, up to the strip's Y shift.
+  std::vector<std::vector<int>> feeds(cycles.size());
+  for (size_t k = 0; k < cycles.size(); ++k)
+    for (int i = cycles[k].front().statement; i <= cycles[k].back().statement;
+         ++i)
+      // Positioning moves (G1 at the profile's positioning feed between
+      // cuts) may differ; every other feed must repeat.
+      if (statements[i].kind == CanonKind::kFeed &&
+          std::abs(statements[i].feed_per_min -
+                   machine.positioning_feed_mm_min) > 1e-6)
+        feeds[k].push_back(i);
+  const auto start_of = [&](int i) {
+    for (int j = i - 1; j >= 0; --j)
+      if (statements[j].kind != CanonKind::kToolChange)
+        return statements[j].end_mm;
+    return Eigen::Vector3d(Eigen::Vector3d::Zero());
+  };
+  double worst_axes = 0;
+  int axes_at = -1;
+  std::string axes_detail;
+  for (size_t k = 1; k < cycles.size(); ++k) {
+    const auto& ref = feeds.front();
+    const auto& cyc = feeds[k];
+    if (cyc.size() != ref.size()) {
+      worst_axes = std::numeric_limits<double>::infinity();
+      axes_at = cyc.empty() ? -1 : cyc.front();
+      axes_detail = fmt::format("cycle {} has {} feed moves, cycle 0 {}", k,
+                                cyc.size(), ref.size());
+      break;
     }
-    Finding fc = MakeFinding(
-        "cycle count",
-        std::abs(static_cast<double>(cycles.size()) - (part.cycles() + 1)), 0,
-        "");
-    fc.detail = fmt::format("{} groups of cuts, {} expected", cycles.size(),
-                            part.cycles() + 1);
-    out.push_back(fc);
-
-    // Every feed move inside a cycle's time window (first to last cut)
-    // must repeat cycle 0's, up to the strip's Y shift.
-    std::vector<std::vector<int>> feeds(cycles.size());
-    for (size_t k = 0; k < cycles.size(); ++k)
-      for (int i = cycles[k].front().statement; i <= cycles[k].back().statement;
-           ++i)
-        // Positioning moves (G1 at the profile's positioning feed between
-        // cuts) may differ; every other feed must repeat.
-        if (statements[i].kind == CanonKind::kFeed &&
-            std::abs(statements[i].feed_per_min -
-                     machine.positioning_feed_mm_min) > 1e-6)
-          feeds[k].push_back(i);
-    const auto start_of = [&](int i) {
-      for (int j = i - 1; j >= 0; --j)
-        if (statements[j].kind != CanonKind::kToolChange)
-          return statements[j].end_mm;
-      return Eigen::Vector3d(Eigen::Vector3d::Zero());
-    };
-    double worst_axes = 0;
-    int axes_at = -1;
-    std::string axes_detail;
-    for (size_t k = 1; k < cycles.size(); ++k) {
-      const auto& ref = feeds.front();
-      const auto& cyc = feeds[k];
-      if (cyc.size() != ref.size()) {
-        worst_axes = std::numeric_limits<double>::infinity();
-        axes_at = cyc.empty() ? -1 : cyc.front();
-        axes_detail = fmt::format("cycle {} has {} feed moves, cycle 0 {}", k,
-                                  cyc.size(), ref.size());
-        break;
-      }
-      const int cycle = std::min<int>(static_cast<int>(k), part.cycles());
-      const double shift = StripY(part, IndexForCycle(part, cycle)) -
-                           StripY(part, IndexForCycle(part, 0));
-      for (size_t i = 0; i < cyc.size(); ++i)
-        for (const auto& [p, q] :
-             {std::pair{start_of(cyc[i]), start_of(ref[i])},
-              std::pair{statements[cyc[i]].end_mm,
-                        statements[ref[i]].end_mm}}) {
-          const Eigen::Vector3d d = p - q;
-          const double dev =
-              std::max({std::abs(d.x()), std::abs(d.z()),
-                        std::min(std::abs(d.y()), std::abs(d.y() - shift))});
-          if (dev > worst_axes) {
-            worst_axes = dev;
-            axes_at = cyc[i];
-            axes_detail = fmt::format("cycle {} vs cycle 0", k);
-          }
+    const int cycle = std::min<int>(static_cast<int>(k), part.cycles());
+    const double shift = StripY(part, IndexForCycle(part, cycle)) -
+                         StripY(part, IndexForCycle(part, 0));
+    for (size_t i = 0; i < cyc.size(); ++i)
+      for (const auto& [p, q] :
+           {std::pair{start_of(cyc[i]), start_of(ref[i])},
+            std::pair{statements[cyc[i]].end_mm, statements[ref[i]].end_mm}}) {
+        const Eigen::Vector3d d = p - q;
+        const double dev =
+            std::max({std::abs(d.x()), std::abs(d.z()),
+                      std::min(std::abs(d.y()), std::abs(d.y() - shift))});
+        if (dev > worst_axes) {
+          worst_axes = dev;
+          axes_at = cyc[i];
+          axes_detail = fmt::format("cycle {} vs cycle 0", k);
         }
-    }
-    Finding fa = MakeFinding("only C changes between cycles", worst_axes,
-                             options.axis_tolerance_mm, "mm");
-    SetWhere(&fa, statements, axes_at);
-    fa.detail = axes_detail;
-    out.push_back(fa);
+      }
   }
+  Finding fa = MakeFinding("only C changes between cycles", worst_axes,
+                           options.axis_tolerance_mm, "mm");
+  SetWhere(&fa, statements, axes_at);
+  fa.detail = axes_detail;
+  out->push_back(fa);
+}
+
+}  // namespace
+
+VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
+                              const Config& config,
+                              const VerifyOptions& options,
+                              const std::string& source) {
+  VerifyReport report;
+  report.stage = options.stage;
+  report.source = source;
+  report.statements = static_cast<int>(statements.size());
+  SimulationModel sim;
+  BuildSimulationModel(config, options, &sim);
+  report.probe_rays = sim.probe_rays;
+  report.rays = sim.rays;
+  MoveChecks checks;
+  if (options.after)
+    CutProgram(*options.after, config, false, &sim.model, &checks);
+  CutProgram(statements, config, true, &sim.model, &checks);
+  AddMoveFindings(checks, statements, config, &report.findings);
+  AddSurfaceFindings(sim, statements, options, &report.findings);
+  if (options.stage == VerifyStage::kCycle)
+    AddCycleFindings(checks.cuts, statements, config, options,
+                     &report.findings);
   return report;
 }
 

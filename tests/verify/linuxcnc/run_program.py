@@ -56,13 +56,25 @@ try:
     t0 = time.time()
     c.auto(linuxcnc.AUTO_RUN, 0)
     wait_for(lambda: s.interp_state != linuxcnc.INTERP_IDLE, 5)
+    # Task may show the interpreter idle while it waits for the tool
+    # changer (M6 empties the queue): the run has ended when the
+    # interpreter is idle with nothing left to execute for a whole second;
+    # its time is when that began.
+    idle_since = None
     while time.time() - t0 < limit_s:
         s.poll()
         drain(t0)
-        log["samples"].append([time.time() - t0] +
-                              list(s.actual_position)[:6])
-        if s.interp_state == linuxcnc.INTERP_IDLE:
+        now = time.time() - t0
+        log["samples"].append([now] + list(s.actual_position)[:6])
+        done = (s.interp_state == linuxcnc.INTERP_IDLE and
+                s.exec_state == linuxcnc.EXEC_DONE and s.queue == 0)
+        if not done:
+            idle_since = None
+        elif idle_since is None:
+            idle_since = now
+        elif now - idle_since >= 1.0:
             log["completed"] = len(log["errors"]) == 0
+            log["end_s"] = idle_since
             break
         time.sleep(0.02)
     drain(t0)

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "test_dir.h"
@@ -89,6 +90,81 @@ double Wrap360(double deg) {
   return d >= 360.0 - 1e-6 ? 0.0 : d;
 }
 
+// The program's time on the simulated machine of ttp.ini by the schedule's
+// time model with that machine's rates: feeds at the feed override, every
+// move at most at the INI's velocities (2000 mm/s, C 20000 deg/s; the
+// accelerations are high enough not to count), dwells as written, no
+// spindle or C ramps (the simulated spindles reach their speed at once),
+// and the tool changer's handshake (task and iocontrol, 0.3 s).
+constexpr double kFeedOverride = 50.0;
+constexpr double kSimMaxMmS = 2000.0, kSimMaxDegS = 20000.0;
+constexpr double kSimToolChangeS = 0.3;
+double ControllerTimeS(const std::vector<gcode::CanonStatement>& canon) {
+  constexpr double kRadToDeg = 180.0 / M_PI;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  double c_deg = 0, total = 0;
+  for (const auto& s : canon) {
+    const double length = (s.end_mm - p).norm();
+    const double turn = std::abs(s.end_c_rad * kRadToDeg - c_deg);
+    if (s.kind == gcode::CanonKind::kTraverse)
+      total += std::max(length / kSimMaxMmS, turn / kSimMaxDegS);
+    if (s.kind == gcode::CanonKind::kFeed) {
+      const double f = s.feed_per_min / 60 * kFeedOverride;
+      total += length > 0 ? length / std::min(f, kSimMaxMmS)
+                          : turn / std::min(f, kSimMaxDegS);
+    }
+    if (s.kind == gcode::CanonKind::kDwell) total += s.value;
+    if (s.kind == gcode::CanonKind::kToolChange) total += kSimToolChangeS;
+    p = s.end_mm;
+    c_deg = s.end_c_rad * kRadToDeg;
+  }
+  return total;
+}
+
+// Reports of the program as the controller sent them: every message is a
+// report of the schedule, in its order, with its table angle; the polled
+// table angle when it arrived is that angle.
+void ExpectReportsOfTheSchedule(const nlohmann::json& log,
+                                const cam::Schedule& schedule) {
+  const auto& messages = log.at("messages");
+  ASSERT_EQ(messages.size(), schedule.table_angles_deg.size());
+  for (size_t i = 0; i < messages.size(); ++i) {
+    const std::string text_i = messages[i].at("text");
+    gcode::ReportText r;
+    ASSERT_TRUE(gcode::ParseReportText(text_i, &r)) << text_i;
+    EXPECT_NEAR(r.c_deg, schedule.table_angles_deg[i], 1e-3) << text_i;
+    const double t_msg = messages[i].at("t").get<double>();
+    const nlohmann::json* before = nullptr;
+    for (const auto& sample : log.at("samples"))
+      if (sample[0].get<double>() <= t_msg) before = &sample;
+    ASSERT_NE(before, nullptr);
+    EXPECT_NEAR(Wrap360((*before)[6].get<double>()),
+                Wrap360(schedule.table_angles_deg[i]), 1e-3)
+        << text_i;
+  }
+}
+
+// The run took the schedule's time at the simulated machine's rates: never
+// less (less than half a poll early), and more only by the controller's
+// own cycle (task runs every 10 ms: at most one cycle per statement).
+void ExpectTheScheduleTime(const nlohmann::json& log,
+                           const std::vector<gcode::CanonStatement>& canon,
+                           const std::string& what) {
+  const double predicted = ControllerTimeS(canon);
+  // When the controller went idle for good (the display then waits 1 s).
+  const double measured = log.contains("end_s")
+                              ? log.at("end_s").get<double>()
+                              : log.at("run_s").get<double>();
+  size_t statements = 0;
+  for (const auto& s : canon)
+    if (s.kind != gcode::CanonKind::kComment) ++statements;
+  std::cout << what << ": controller " << measured << " s, schedule "
+            << predicted << " s at the simulated machine's rates, "
+            << statements << " statements\n";
+  EXPECT_GE(measured, predicted - 0.05) << what;
+  EXPECT_LE(measured, predicted + 0.01 * statements) << what;
+}
+
 TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
   if (!ControllerAvailable())
     GTEST_SKIP() << "linuxcnc-uspace missing or not root";
@@ -105,6 +181,8 @@ TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
   ASSERT_TRUE(log.is_object());
   EXPECT_TRUE(log.at("errors").empty()) << log.at("errors").dump();
   EXPECT_TRUE(log.at("completed").get<bool>());
+  ExpectReportsOfTheSchedule(log, cam::BuildSchedule(config, kDryRunDwellS));
+  ExpectTheScheduleTime(log, canon, "test cycle");
   const auto& messages = log.at("messages");
   ASSERT_EQ(messages.size(), schedule.cuts.size());
   // Cut feeds of the program, in order: the one before each report.
@@ -151,6 +229,58 @@ TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
                 messages[i - 1].at("t").get<double>());
     }
   }
+}
+
+// The TALC run's R-test (process.rtest_interval_s) on a short test (three
+// cycles of ten minutes, an R-test every ten minutes): it runs to its end,
+// the R-test reports come in the schedule's order with the probe standing
+// over the sphere, and the run takes the schedule's time.
+TEST(LinuxCncController, RTestVariantRunsWithItsReportsInOrder) {
+  if (!ControllerAvailable())
+    GTEST_SKIP() << "linuxcnc-uspace missing or not root";
+  Config config;
+  config.part.facets_per_segment = 3;
+  config.part.reference_index = 2;
+  config.process.warmup_cycles = 1;
+  config.process.cycle_period_s = 600;
+  config.process.rtest_interval_s = 600;
+  gcode::Program program = cam::BuildTestCycleProgram(config);
+  cam::ShortenDwells(program, kDryRunDwellS);
+  const std::string text =
+      gcode::WriteProgram(program, gcode::Dialect::kLinuxCnc, config);
+  const cam::Schedule schedule = cam::BuildSchedule(config, kDryRunDwellS);
+  ASSERT_EQ(schedule.rtests.size(), 3u);
+
+  const nlohmann::json log = RunOnController("rtest", text, config);
+  ASSERT_TRUE(log.is_object());
+  EXPECT_TRUE(log.at("errors").empty()) << log.at("errors").dump();
+  EXPECT_TRUE(log.at("completed").get<bool>());
+  ExpectReportsOfTheSchedule(log, schedule);
+  // R-test reports: R<n>-P<k> in order, the probe over the sphere (the
+  // sphere's place at the reported angle, from the frames of geometry).
+  size_t rtest_reports = 0;
+  for (const auto& m : log.at("messages")) {
+    gcode::ReportText r;
+    ASSERT_TRUE(gcode::ParseReportText(m.at("text"), &r));
+    if (r.event != "rtest") continue;
+    const size_t n = rtest_reports / cam::kRTestPositions;
+    const size_t k = rtest_reports % cam::kRTestPositions + 1;
+    EXPECT_EQ(r.feature, "R" + std::to_string(n) + "-P" + std::to_string(k));
+    const double phi = config.machine.sphere_phi_deg * M_PI / 180.0;
+    const Eigen::Vector3d sphere_w(
+        config.machine.sphere_distance_mm * std::cos(phi),
+        config.machine.sphere_distance_mm * std::sin(phi), 0.0);
+    const Eigen::Vector3d sphere_m =
+        WorkpieceToMachine(config, sphere_w, r.c_deg * M_PI / 180.0);
+    const auto& pos = m.at("pos");
+    EXPECT_NEAR(pos[0].get<double>(), sphere_m.x(), 0.01) << r.feature;
+    EXPECT_NEAR(pos[1].get<double>(), sphere_m.y(), 0.01) << r.feature;
+    ++rtest_reports;
+  }
+  EXPECT_EQ(rtest_reports, 3u * cam::kRTestPositions);
+  const auto canon =
+      gcode::ReadProgram(text, gcode::Dialect::kLinuxCnc, config, "rtest");
+  ExpectTheScheduleTime(log, canon, "R-test variant");
 }
 
 TEST(LinuxCncController, PreMachiningTurnsCThroughTheRollOver) {

@@ -15,6 +15,8 @@
 //   so the tool tip stays above the piece across G43.
 #pragma once
 
+#include <Eigen/Core>
+#include <array>
 #include <string>
 
 #include "ttp/gcode/program.h"
@@ -51,6 +53,35 @@ TestCycleLayout ComputeTestCycleLayout(const Config& config);
 // index j (TableAngleFor with the machine's C sense).
 double XFacetTableAngleDeg(const Config& config, int j);
 double YFacetTableAngleDeg(const Config& config, int j);
+
+// R-test of the TALC run (thesis 5.2 and 7.4; process.rtest_interval_s >
+// 0): R-test n is due n * interval after the reference cycle's start (n = 0
+// while due by the last cycle's start) and runs at the first moment after
+// that when the tool waits and it fits before the next cycle (C stopped,
+// then restarted in the warm-up). It changes to the probe, measures the
+// sphere at five table angles (c_deg[0..4], 90 deg apart, the sphere on the
+// machine's +X axis first, the fifth a repeat of the first), reports each
+// position (`rtest,R<n>-P<k>,<C deg>` with the control's clock) and brings
+// the finishing tool back to the waiting position. Comments "R-test <n>"
+// and "R-test <n> done" open and close it.
+constexpr int kRTestPositions = 5;
+struct RTestLayout {
+  std::array<double, kRTestPositions> c_deg{};  // commanded, continuous
+  double sphere_centre_z_mm = 0;  // program Z of the ball's centre
+  double approach_z_mm = 0;       // probe tip over the ball: measuring
+  double safe_z_mm = 0;           // probe tip while indexing
+};
+RTestLayout ComputeRTestLayout(const Config& config);
+// Program XY of the sphere's centre with the table at c_deg.
+Eigen::Vector2d SpherePositionProgramXY(const Config& config, double c_deg);
+std::string RTestCommentText(int n);
+std::string RTestDoneCommentText(int n);
+// "end of cycle <k>" (written when R-tests are on).
+std::string CycleEndCommentText(int cycle);
+// Feature of a position's report, "R<n>-P<k>"; the parser is its inverse.
+std::string RTestPositionFeature(int n, int position);
+bool ParseRTestPositionFeature(const std::string& feature, int* n,
+                               int* position);
 
 // Dry run: every dwell longer than max_s becomes max_s; nothing else
 // changes (a trial on a controller keeps the moves, feeds and reports).

@@ -248,6 +248,11 @@ struct ProcessSpec {
   double nc_hold_after_pre_min = 30.0;
   double cycle_period_s = 3600.0;
   int warmup_cycles = 4;  // C spins between cycles 0..4, holds after
+  // R-test of the TALC run (thesis 5.2, 7.4): every rtest_interval_s after
+  // the reference cycle's start (0 = none) C stops and the probe measures
+  // the sphere at five table angles, rtest_measure_s at each.
+  double rtest_interval_s = 0.0;
+  double rtest_measure_s = 10.0;
   bool coolant_in_test = false;
   bool coolant_in_pre = true;
   double safe_z_w_mm = 50.0;  // retract height above the top face
