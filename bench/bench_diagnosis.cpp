@@ -97,7 +97,7 @@ int Calibrate(const Config& config, int runs, double scale) {
     o.threads = threads;
     if (scale > 0) o.diagnosis.estimator_sigma_scale = scale;
     const BatteryResult r = RunBattery(config, o);
-    std::vector<double> bic, chi2, z, step;
+    std::vector<double> bic, chi2, z, step, machine;
     for (const BatteryRun& run : r.runs) {
       if (run.c.expected != "none") continue;
       if (!run.correct)
@@ -110,6 +110,7 @@ int Calibrate(const Config& config, int runs, double scale) {
       chi2.push_back(run.chi2_per_dof);
       z.push_back(run.structure_z);
       step.push_back(run.step_chi2);
+      machine.push_back(run.machine_z);
     }
     auto line = [&](const char* name, const std::vector<double>& v) {
       fmt::print("  {:<34} median {:7.2f}  95 % {:7.2f}  99 % {:7.2f}  max "
@@ -124,6 +125,7 @@ int Calibrate(const Config& config, int runs, double scale) {
     line("chi2 per degree of freedom", chi2);
     line("largest per-kind chi2 deviate", z);
     line("largest chi2 explained by a step", step);
+    line("largest E_X/E_Y/E_Z chi2 deviate", machine);
   }
   return 0;
 }

@@ -473,6 +473,7 @@ struct Selection {
   double best_evidence = -kInf;  // max over causes of none BIC - BIC
   double local_z = -kInf;        // largest per-group chi2 deviate
   int local_group = -1;
+  double machine_z = -kInf;  // the same over E_X, E_Y, E_Z
   double step_chi2 = 0;  // largest chi2 drop by a step in one figure kind
   int step_group = -1, step_from_cycle = 0;
   // BIC of the chosen cause minus the best step alternative's.
@@ -563,6 +564,7 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
         sel.local_z = z;
         sel.local_group = g;
       }
+      if (g <= 2) sel.machine_z = std::max(sel.machine_z, z);
       if (z > options.local_z && local.empty())
         local = fmt::format("{} keeps chi2 {:.1f} over {} observations ({:.1f} "
                             "standard deviations, limit {:g})",
@@ -727,6 +729,7 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
     return fail("evidence_threshold: must be >= 0");
   if (!(max_chi2_per_dof > 0)) return fail("max_chi2_per_dof: must be > 0");
   if (!(local_z > 0)) return fail("local_z: must be > 0");
+  if (!(refuse_z > 0)) return fail("refuse_z: must be > 0");
   if (!(step_chi2 > 0)) return fail("step_chi2: must be > 0");
   if (!(min_sigma_um > 0)) return fail("min_sigma_um: must be > 0");
   if (!(min_sigma_urad > 0)) return fail("min_sigma_urad: must be > 0");
@@ -893,6 +896,7 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.chi2_per_dof = sel.chi2_per_dof;
   report.best_evidence = sel.best_evidence;
   report.structure_z = sel.local_z;
+  report.machine_z = sel.machine_z;
   report.step_chi2 = sel.step_chi2;
   report.baseline_rms_um = report.candidates[0].rms_um;
   report.baseline_rms_urad = report.candidates[0].rms_urad;
@@ -968,8 +972,19 @@ void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
   // scatter.
   if (fitted) {
     const FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
-    r->var_d_mm2 = s.d_mm * s.d_mm;
-    r->var_angle_rad2 = s.angle_rad * s.angle_rad;
+    // A few touches (a probe's 4-6 points) leave one to three degrees of
+    // freedom: their scatter is no estimate of the instrument's noise, and
+    // their positions are not spread over the facet as a cloud's are. The
+    // variances the instrument states (from its trigger noise and the
+    // touch positions) then stand, unless the scatter is larger.
+    constexpr int kFewPoints = 30;
+    const bool few = r->points < kFewPoints;
+    const double stated_d = std::isfinite(r->var_d_mm2) ? r->var_d_mm2 : 0.0;
+    const double stated_a =
+        std::isfinite(r->var_angle_rad2) ? r->var_angle_rad2 : 0.0;
+    r->var_d_mm2 = few ? std::max(stated_d, s.d_mm * s.d_mm) : s.d_mm * s.d_mm;
+    r->var_angle_rad2 = few ? std::max(stated_a, s.angle_rad * s.angle_rad)
+                            : s.angle_rad * s.angle_rad;
   }
   if (fitted) {
     const FitScatter form =
@@ -1282,6 +1297,26 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   report.estimator = run.simulation.estimator_description;
   // The log of another run: the measured piece's E_X and E_Y (which no
   // known cause changes much) do not follow the simulated ones.
+  if (report.status == DiagnosisStatus::kUnexplained &&
+      report.machine_z > options.refuse_z) {
+    // E_X, E_Y and E_Z follow the machine's location errors, which the
+    // log's R-tests measure and which no catalogue cause changes much
+    // (after the best model): far beyond the error budget there, the log
+    // does not describe the run that cut the piece.
+    DiagnosisReport refused = Refused(fmt::format(
+        "{} does not follow the machine errors of {}: {} (E_X, E_Y and E_Z "
+        "follow the machine's location errors the R-tests measure; limit {:g} "
+        "standard deviations): the measurement and the log do not belong "
+        "together",
+        measured.source.empty() ? "the piece" : measured.source, log.source,
+        report.reason, options.refuse_z));
+    refused.candidates = report.candidates;
+    refused.observations = report.observations;
+    refused.estimator = report.estimator;
+    refused.machine_z = report.machine_z;
+    refused.structure_z = report.structure_z;
+    return refused;
+  }
   if (report.status == DiagnosisStatus::kUnexplained) {
     double sd = 0;
     const double slope = MismatchSlope(run, &sd);

@@ -111,6 +111,11 @@ struct DiagnosisOptions {
   // slope this far from 1 (and more than 5 standard deviations) while the
   // nominal model does not fit: the log describes another run.
   double mismatch_slope_limit = 0.4;
+  // `refused` also when the residual is unexplained and E_X, E_Y or E_Z
+  // (which follow the machine's location errors the log's R-tests measure,
+  // and which no catalogue cause changes much) keep a chi2 deviate beyond
+  // this after the best model.
+  double refuse_z = 7.0;
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
 
@@ -166,6 +171,9 @@ struct DiagnosisReport {
   // and the largest chi2 a step in one figure kind explains after the
   // chosen model.
   double best_evidence = 0, structure_z = 0, step_chi2 = 0;
+  // The largest per-kind deviate over E_X, E_Y, E_Z (the figures that
+  // follow the machine's location errors).
+  double machine_z = 0;
   // Held-out cycles (the whole selection repeated without each cycle):
   // RMS of the held-out residuals, nominal vs the fold's chosen model.
   double heldout_baseline_rms_um = 0, heldout_extended_rms_um = 0;
