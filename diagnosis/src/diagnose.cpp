@@ -357,13 +357,15 @@ class Fitter {
   // Every coefficient enters linearly once tau is fixed.
   // `extra`: further whitened columns fitted along (a structure test's
   // alternative); they add to chi2's fit but not to the parameters.
-  Fit Linear(const ModelSpec& spec, double tau_s,
-             const std::vector<Eigen::VectorXd>& extra = {}) const {
-    Fit fit;
-    fit.spec = spec;
-    std::vector<Eigen::VectorXd> columns;
-    std::vector<int> first;
-    Eigen::VectorXd base = Eigen::VectorXd::Zero(problem_.Rows());
+  // The model's whitened columns at tau (and its fixed part, `base`);
+  // `first`: where each cause's columns start.
+  void Columns(const ModelSpec& spec, double tau_s,
+               std::vector<Eigen::VectorXd>* columns_out,
+               Eigen::VectorXd* base_out, std::vector<int>* first_out) const {
+    std::vector<Eigen::VectorXd>& columns = *columns_out;
+    std::vector<int>& first = *first_out;
+    Eigen::VectorXd& base = *base_out;
+    base = Eigen::VectorXd::Zero(problem_.Rows());
     for (Cause c : spec.causes) {
       first.push_back(static_cast<int>(columns.size()));
       switch (c) {
@@ -387,6 +389,16 @@ class Fitter {
       }
     }
     first.push_back(static_cast<int>(columns.size()));
+  }
+
+  Fit Linear(const ModelSpec& spec, double tau_s,
+             const std::vector<Eigen::VectorXd>& extra = {}) const {
+    Fit fit;
+    fit.spec = spec;
+    std::vector<Eigen::VectorXd> columns;
+    std::vector<int> first;
+    Eigen::VectorXd base;
+    Columns(spec, tau_s, &columns, &base, &first);
     columns.insert(columns.end(), extra.begin(), extra.end());
     const Problem::Solution s = problem_.Solve(columns, base);
     if (!s.ok) return fit;
@@ -584,6 +596,10 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     int max_cycle = 0;
     for (size_t i = 0; i < obs.figures(); ++i)
       max_cycle = std::max(max_cycle, obs.figure_cycle[i]);
+    std::vector<Eigen::VectorXd> columns;
+    std::vector<int> first;
+    Eigen::VectorXd base;
+    if (f.ok) fitter.Columns(f.spec, tau, &columns, &base, &first);
     for (int g = 0; g < kFigureKinds && f.ok; ++g) {
       if (std::count(kinds.begin(), kinds.end(), g) < 4) continue;
       for (int from = 2; from <= max_cycle; ++from) {
@@ -595,7 +611,9 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
             ++on;
           }
         if (on == 0) continue;
-        const Fit with = fitter.Linear(f.spec, tau, {problem.Whiten(step)});
+        std::vector<Eigen::VectorXd> with_step = columns;
+        with_step.push_back(problem.Whiten(step));
+        const Problem::Solution with = problem.Solve(with_step, base);
         if (!with.ok) continue;
         const double drop = f.chi2 - with.chi2;
         if (drop > sel.step_chi2) {
