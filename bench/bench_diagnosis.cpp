@@ -245,7 +245,11 @@ int main(int argc, char** argv) {
         for (int v : ok) right += v;
         const double share = static_cast<double>(right) / per_point;
         line += fmt::format("  {:.3g}:{:.0f}%", size, 100 * share);
-        if (limit < 0 && share >= 0.9) limit = size;
+        // The smallest size from which every larger one is named in 90 %.
+        if (share < 0.9)
+          limit = -1;
+        else if (limit < 0)
+          limit = size;
       }
       fmt::print("{}  -> 90 % at {}\n", line,
                  limit < 0 ? std::string("> tested")
