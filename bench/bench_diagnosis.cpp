@@ -89,47 +89,83 @@ int Calibrate(const Config& config, int runs, double scale) {
     o.runs = runs;
     o.seed = 555;
     o.rtest_interval_s = spacing;
-    o.none_share = 0.7;
-    o.outside_share = 0.3;
+    o.none_share = 1.0;
+    o.outside_share = 0;
     o.pair_share = o.mismatched_share = 0;
-    o.other_instrument_share = 0.1;
+    o.other_instrument_share = 0.25;
+    o.cloud_every = 10;
     o.threads = threads;
-    o.diagnosis.estimator_sigma_scale = scale;
+    if (scale > 0) o.diagnosis.estimator_sigma_scale = scale;
     const BatteryResult r = RunBattery(config, o);
-    std::vector<double> bic, chi2, out_chi2;
+    std::vector<double> bic, chi2, z, step, machine;
     for (const BatteryRun& run : r.runs) {
-      if (run.false_name || (run.c.expected == "none" && !run.correct))
-        fmt::print("  {} (step {:.2f} um, two-lobe {:.2f} um) seed {} comp {} "
-                   "instrument {} -> {} (chi2/dof {:.2f}, -dBIC {:.1f})\n",
-                   run.c.expected, run.c.twin.step_um,
-                   run.c.twin.two_lobe_amplitude_um, run.c.twin.seed,
-                   run.c.twin.compensation,
-                   InstrumentName(run.c.instrument), run.outcome,
-                   run.chi2_per_dof, -run.best_delta_bic);
-      if (run.c.expected == "none") {
-        bic.push_back(-run.best_delta_bic);
-        chi2.push_back(run.chi2_per_dof);
-      } else {
-        out_chi2.push_back(run.chi2_per_dof);
-      }
+      if (run.c.expected != "none") continue;
+      if (!run.correct)
+        fmt::print("  none seed {} comp {} instrument {}{} -> {}: {}\n",
+                   run.c.twin.seed, run.c.twin.compensation,
+                   InstrumentName(run.c.instrument),
+                   run.c.via_cloud ? " via cloud" : "", run.outcome,
+                   run.reason);
+      bic.push_back(run.best_evidence);
+      chi2.push_back(run.chi2_per_dof);
+      z.push_back(run.structure_z);
+      step.push_back(run.step_chi2);
+      machine.push_back(run.machine_z);
     }
-    fmt::print(
-        "{:>5.0f} s scale {:.2f}: none-runs -dBIC med {:6.1f} 99% {:6.1f} max "
-        "{:6.1f}; chi2/dof med {:.2f} 95% {:.2f} max {:.2f}; outside chi2/dof "
-        "min {:.2f} med {:.2f}; right {}/{} false names {}\n",
-        spacing, scale, Quantile(bic, 0.5), Quantile(bic, 0.99),
-        Quantile(bic, 1), Quantile(chi2, 0.5), Quantile(chi2, 0.95),
-        Quantile(chi2, 1), Quantile(out_chi2, 0), Quantile(out_chi2, 0.5),
-        r.correct, r.runs.size(), r.false_names);
+    auto line = [&](const char* name, const std::vector<double>& v) {
+      fmt::print("  {:<34} median {:7.2f}  95 % {:7.2f}  99 % {:7.2f}  max "
+                 "{:7.2f}\n",
+                 name, Quantile(v, 0.5), Quantile(v, 0.95), Quantile(v, 0.99),
+                 Quantile(v, 1.0));
+    };
+    fmt::print("{:>5.0f} s: {} runs without a cause, {} named, {} unexplained\n",
+               spacing, bic.size(), r.false_names,
+               std::count_if(r.runs.begin(), r.runs.end(), [](const BatteryRun& x) { return x.outcome == "unexplained"; }));
+    line("evidence (-delta BIC, best cause)", bic);
+    line("chi2 per degree of freedom", chi2);
+    line("largest per-kind chi2 deviate", z);
+    line("largest chi2 explained by a step", step);
+    line("largest E_X/E_Y/E_Z chi2 deviate", machine);
   }
+  return 0;
+}
+
+// `bench_diagnosis list SPACING RUNS [SEED]`: the battery at one spacing,
+// every run that misses its expected outcome with the diagnosis' reason.
+int List(const Config& config, double spacing, int runs, std::uint64_t seed) {
+  BatteryOptions o;
+  o.runs = runs;
+  o.seed = seed;
+  o.rtest_interval_s = spacing;
+  o.cloud_every = 10;
+  o.threads =
+      std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const BatteryResult r = RunBattery(config, o);
+  for (size_t k = 0; k < r.runs.size(); ++k) {
+    const BatteryRun& run = r.runs[k];
+    if (run.correct) continue;
+    fmt::print(
+        "#{} {} expected {} -> {} ({}{}, comp {}, step {:.2f} um from {}, "
+        "two-lobe {:.2f} um, seed {}): {}\n",
+        k, ScenarioName(run.c.scenario), run.c.expected, run.outcome,
+        InstrumentName(run.c.instrument), run.c.via_cloud ? " via cloud" : "",
+        run.c.twin.compensation, run.c.twin.step_um,
+        run.c.twin.step_from_cycle, run.c.twin.two_lobe_amplitude_um,
+        run.c.twin.seed, run.reason);
+  }
+  fmt::print("{}", ConfusionText(r));
   return 0;
 }
 
 int main(int argc, char** argv) {
   const Config config;
+  if (argc > 2 && std::string(argv[1]) == "list")
+    return List(config, std::atof(argv[2]),
+                argc > 3 ? std::atoi(argv[3]) : 100,
+                argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 20261122);
   if (argc > 1 && std::string(argv[1]) == "calibrate")
     return Calibrate(config, argc > 2 ? std::atoi(argv[2]) : 50,
-                     argc > 3 ? std::atof(argv[3]) : 0.7);
+                     argc > 3 ? std::atof(argv[3]) : 0.0);
   const int runs = argc > 1 ? std::atoi(argv[1]) : 100;
   const int per_point = argc > 2 ? std::atoi(argv[2]) : 20;
   const int threads =
@@ -209,7 +245,11 @@ int main(int argc, char** argv) {
         for (int v : ok) right += v;
         const double share = static_cast<double>(right) / per_point;
         line += fmt::format("  {:.3g}:{:.0f}%", size, 100 * share);
-        if (limit < 0 && share >= 0.9) limit = size;
+        // The smallest size from which every larger one is named in 90 %.
+        if (share < 0.9)
+          limit = -1;
+        else if (limit < 0)
+          limit = size;
       }
       fmt::print("{}  -> 90 % at {}\n", line,
                  limit < 0 ? std::string("> tested")

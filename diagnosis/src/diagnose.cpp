@@ -18,8 +18,39 @@
 namespace ttp::diagnosis {
 namespace {
 
-constexpr const char* kFigureNames[4] = {"E_X", "E_Y", "E_Z", "E_TTP"};
+// Figure kinds 0..3 are the spec's figures; 4 is the piece's ovality per
+// cycle, ((X1 + X2) - (Y1 + Y2)) / 4 of the facet distances against the
+// reference facets: the combination the four facets of a cycle leave
+// after E_X, E_Y and E_TTP. Every machine error the log records (a
+// translation, a tilt, a radial growth) cancels in it, and so does every
+// catalogue cause (a three-lobe pattern cancels between opposite facets):
+// structure there is something no cause the toolkit knows.
+constexpr int kFigureKinds = 5;
+constexpr int kAngleGroup = 5;  // the facet angles' offset group
+constexpr int kGroups = 6;
+constexpr const char* kFigureNames[kFigureKinds] = {"E_X", "E_Y", "E_Z",
+                                                    "E_TTP", "E_OV"};
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double OvalityMm(const PartSpec& part, const FeatureResults& results,
+                 int cycle, double* variance_mm2 = nullptr) {
+  const int j = IndexForCycle(part, cycle), ref = part.reference_index;
+  double value = 0, var = 0;
+  for (Segment s : kSegments) {
+    const double sign =
+        s == Segment::kX1 || s == Segment::kX2 ? 0.25 : -0.25;
+    for (int k : {j, ref}) {
+      auto it = results.find(FacetId(s, k));
+      if (it == results.end() || !it->second.present ||
+          !std::isfinite(it->second.d_mm))
+        return std::numeric_limits<double>::quiet_NaN();
+      value += (k == j ? sign : -sign) * it->second.d_mm;
+      var += 0.0625 * it->second.var_d_mm2;
+    }
+  }
+  if (variance_mm2) *variance_mm2 = var;
+  return value;
+}
 
 double FigureValueMm(const CycleFigures& f, int kind) {
   switch (kind) {
@@ -143,14 +174,14 @@ class Problem {
       if (use[i]) (i < nf ? fig_ : ang_).push_back(i);
     lf_ = Factor(obs.figure_covariance_um2, fig_, 0);
     la_ = Factor(obs.angle_covariance_urad2, ang_, nf);
-    bool kind_used[5] = {false, false, false, false, false};
+    bool kind_used[kGroups] = {};
     for (int i : fig_) kind_used[obs.figure_kind[i]] = true;
-    if (!ang_.empty()) kind_used[4] = true;
-    for (int g = 0; g < 5; ++g)
+    if (!ang_.empty()) kind_used[kAngleGroup] = true;
+    for (int g = 0; g < kGroups; ++g)
       if (kind_used[g]) {
         Column c = Column::Zero(obs.size());
         for (int i = 0; i < static_cast<int>(obs.size()); ++i)
-          c[i] = (i < nf ? obs.figure_kind[i] : 4) == g ? 1.0 : 0.0;
+          c[i] = (i < nf ? obs.figure_kind[i] : kAngleGroup) == g ? 1.0 : 0.0;
         nuisance_.push_back(Whiten(c));
         nuisance_kinds_.push_back(g);
       }
@@ -161,12 +192,12 @@ class Problem {
     y_ = Whiten(y);
   }
   int Rows() const { return static_cast<int>(fig_.size() + ang_.size()); }
-  // Figure kind (0..3) or 4 (angles) of each whitened row: the covariance
+  // Figure kind (0..4) or kAngleGroup of each whitened row: the covariance
   // couples only rows of one kind, so whitened rows stay in their kind.
   std::vector<int> RowKinds() const {
     std::vector<int> out;
     for (int i : fig_) out.push_back(obs_.figure_kind[i]);
-    for (size_t k = 0; k < ang_.size(); ++k) out.push_back(4);
+    for (size_t k = 0; k < ang_.size(); ++k) out.push_back(kAngleGroup);
     return out;
   }
   int Nuisance() const { return static_cast<int>(nuisance_.size()); }
@@ -188,7 +219,7 @@ class Problem {
     double chi2 = kInf;
     Eigen::VectorXd b;        // cause coefficients
     Eigen::MatrixXd cov;      // of b
-    std::vector<double> offsets = std::vector<double>(5, 0.0);
+    std::vector<double> offsets = std::vector<double>(kGroups, 0.0);
   };
   // y - base ~ sum_k b_k columns_k + offsets, all whitened.
   Solution Solve(const std::vector<Eigen::VectorXd>& columns,
@@ -247,7 +278,7 @@ struct Fit {
   int parameters = 0;  // cause parameters + nuisance offsets
   std::vector<std::vector<double>> params;  // per cause
   std::vector<Eigen::MatrixXd> covariance;  // per cause
-  std::vector<double> offsets = std::vector<double>(5, 0.0);
+  std::vector<double> offsets = std::vector<double>(kGroups, 0.0);
   std::string note;
 };
 
@@ -324,12 +355,17 @@ class Fitter {
   }
 
   // Every coefficient enters linearly once tau is fixed.
-  Fit Linear(const ModelSpec& spec, double tau_s) const {
-    Fit fit;
-    fit.spec = spec;
-    std::vector<Eigen::VectorXd> columns;
-    std::vector<int> first;
-    Eigen::VectorXd base = Eigen::VectorXd::Zero(problem_.Rows());
+  // `extra`: further whitened columns fitted along (a structure test's
+  // alternative); they add to chi2's fit but not to the parameters.
+  // The model's whitened columns at tau (and its fixed part, `base`);
+  // `first`: where each cause's columns start.
+  void Columns(const ModelSpec& spec, double tau_s,
+               std::vector<Eigen::VectorXd>* columns_out,
+               Eigen::VectorXd* base_out, std::vector<int>* first_out) const {
+    std::vector<Eigen::VectorXd>& columns = *columns_out;
+    std::vector<int>& first = *first_out;
+    Eigen::VectorXd& base = *base_out;
+    base = Eigen::VectorXd::Zero(problem_.Rows());
     for (Cause c : spec.causes) {
       first.push_back(static_cast<int>(columns.size()));
       switch (c) {
@@ -353,13 +389,24 @@ class Fitter {
       }
     }
     first.push_back(static_cast<int>(columns.size()));
+  }
+
+  Fit Linear(const ModelSpec& spec, double tau_s,
+             const std::vector<Eigen::VectorXd>& extra = {}) const {
+    Fit fit;
+    fit.spec = spec;
+    std::vector<Eigen::VectorXd> columns;
+    std::vector<int> first;
+    Eigen::VectorXd base;
+    Columns(spec, tau_s, &columns, &base, &first);
+    columns.insert(columns.end(), extra.begin(), extra.end());
     const Problem::Solution s = problem_.Solve(columns, base);
     if (!s.ok) return fit;
     fit.ok = true;
     fit.chi2 = s.chi2;
     fit.offsets = s.offsets;
-    fit.parameters = static_cast<int>(columns.size()) + problem_.Nuisance() +
-                     (tau_s > 0 ? 1 : 0);
+    fit.parameters = static_cast<int>(columns.size() - extra.size()) +
+                     problem_.Nuisance() + (tau_s > 0 ? 1 : 0);
     for (size_t k = 0; k < spec.causes.size(); ++k) {
       const int a = first[k], n = first[k + 1] - a;
       std::vector<double> p(s.b.data() + a, s.b.data() + a + n);
@@ -413,8 +460,14 @@ Column Prediction(const Fit& fit, const ColumnCache& cache,
   }
   const size_t nf = obs.figures();
   for (size_t i = 0; i < obs.size(); ++i)
-    out[i] += fit.offsets[i < nf ? obs.figure_kind[i] : 4];
+    out[i] += fit.offsets[i < nf ? obs.figure_kind[i] : kAngleGroup];
   return out;
+}
+
+int part_cycles(const Observations& obs) {
+  int m = 0;
+  for (int c : obs.figure_cycle) m = std::max(m, c);
+  return m;
 }
 
 double Bic(const Fit& f, int n) {
@@ -428,10 +481,21 @@ struct Selection {
   DiagnosisStatus status = DiagnosisStatus::kNone;
   double chi2_per_dof = 0;
   std::string reason;
+  // The decision's statistics (what the thresholds are calibrated on).
+  double best_evidence = -kInf;  // max over causes of none BIC - BIC
+  double local_z = -kInf;        // largest per-group chi2 deviate
+  int local_group = -1;
+  double machine_z = -kInf;  // the same over E_X, E_Y, E_Z
+  double step_chi2 = 0;  // largest chi2 drop by a step in one figure kind
+  int step_group = -1, step_from_cycle = 0;
+  // BIC of the chosen cause minus the best step alternative's.
+  double step_rival = -kInf;
 };
 
+// `tests`: false inside the held-out folds, where only the chosen model's
+// prediction is used.
 Selection Select(const ColumnCache& cache, const Problem& problem,
-                 const DiagnosisOptions& options) {
+                 const DiagnosisOptions& options, bool tests = true) {
   const Fitter fitter(cache, problem, options);
   const int n = problem.Rows();
   Selection sel;
@@ -479,43 +543,140 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
       chosen = best_pair;
   }
   sel.chosen = chosen;
+  if (!tests) return sel;
   const Fit& f = sel.fits[chosen];
+  for (int k = 1; k < static_cast<int>(sel.fits.size()); ++k)
+    if (sel.fits[k].ok && sel.fits[k].note.empty())
+      sel.best_evidence =
+          std::max(sel.best_evidence, none_bic - Bic(sel.fits[k], n));
   const int dof = std::max(1, n - f.parameters);
   sel.chi2_per_dof = f.chi2 / dof;
+  const std::vector<int> kinds = problem.RowKinds();
   // Structure left in one figure kind (or the angles) that the global
-  // chi2 dilutes: its whitened chi2 beyond the limit's quantile.
+  // chi2 dilutes: its whitened chi2 as a standard normal deviate
+  // (Wilson-Hilferty).
   std::string local;
   {
     const Column residual = Column(problem.Whiten(cache.Observed())) -
                             problem.Whiten(Prediction(f, cache, problem.obs()));
-    const std::vector<int> kinds = problem.RowKinds();
-    double chi2[5] = {0, 0, 0, 0, 0};
-    int count[5] = {0, 0, 0, 0, 0};
+    double chi2[kGroups] = {};
+    int count[kGroups] = {};
     for (size_t r = 0; r < kinds.size(); ++r) {
       chi2[kinds[r]] += residual[r] * residual[r];
       ++count[kinds[r]];
     }
-    const char* names[5] = {"E_X", "E_Y", "E_Z", "E_TTP", "facet angles"};
-    for (int g = 0; g < 5; ++g) {
+    const char* names[kGroups] = {"E_X", "E_Y",  "E_Z",
+                                  "E_TTP", "E_OV", "facet angles"};
+    for (int g = 0; g < kGroups; ++g) {
       if (count[g] < 3) continue;
-      // Wilson-Hilferty: chi2_k quantile at z standard deviations.
-      const double k = count[g], z = options.local_z;
-      const double limit =
-          k * std::pow(1 - 2 / (9 * k) + z * std::sqrt(2 / (9 * k)), 3);
-      if (chi2[g] > limit && local.empty())
-        local = fmt::format("{} keeps chi2 {:.1f} over {} observations "
-                            "(limit {:.1f})",
-                            names[g], chi2[g], count[g], limit);
+      const double k = count[g];
+      const double z = (std::cbrt(chi2[g] / k) - (1 - 2 / (9 * k))) /
+                       std::sqrt(2 / (9 * k));
+      if (z > sel.local_z) {
+        sel.local_z = z;
+        sel.local_group = g;
+      }
+      if (g <= 2) sel.machine_z = std::max(sel.machine_z, z);
+      if (z > options.local_z && local.empty())
+        local = fmt::format("{} keeps chi2 {:.1f} over {} observations ({:.1f} "
+                            "standard deviations, limit {:g})",
+                            names[g], chi2[g], count[g], z, options.local_z);
     }
   }
-  if (sel.chi2_per_dof > options.max_chi2_per_dof || !local.empty()) {
+  // A step in one figure kind from some cycle on, fitted along with the
+  // chosen model: a cause that explains the data leaves nothing a step
+  // explains better than chance (an effect that starts at one cycle, a
+  // changed set-up, is no catalogue cause).
+  {
+    double tau = 0;
+    for (size_t c = 0; c < f.spec.causes.size(); ++c)
+      if (f.spec.causes[c] == Cause::kWorkpieceExpansion && f.ok)
+        tau = f.params[c][0];
+    const Observations& obs = problem.obs();
+    int max_cycle = 0;
+    for (size_t i = 0; i < obs.figures(); ++i)
+      max_cycle = std::max(max_cycle, obs.figure_cycle[i]);
+    std::vector<Eigen::VectorXd> columns;
+    std::vector<int> first;
+    Eigen::VectorXd base;
+    if (f.ok) fitter.Columns(f.spec, tau, &columns, &base, &first);
+    for (int g = 0; g < kFigureKinds && f.ok; ++g) {
+      if (std::count(kinds.begin(), kinds.end(), g) < 4) continue;
+      for (int from = 2; from <= max_cycle; ++from) {
+        Column step = Column::Zero(obs.size());
+        int on = 0;
+        for (size_t i = 0; i < obs.figures(); ++i)
+          if (obs.figure_kind[i] == g && obs.figure_cycle[i] >= from) {
+            step[i] = 1;
+            ++on;
+          }
+        if (on == 0) continue;
+        std::vector<Eigen::VectorXd> with_step = columns;
+        with_step.push_back(problem.Whiten(step));
+        const Problem::Solution with = problem.Solve(with_step, base);
+        if (!with.ok) continue;
+        const double drop = f.chi2 - with.chi2;
+        if (drop > sel.step_chi2) {
+          sel.step_chi2 = drop;
+          sel.step_group = g;
+          sel.step_from_cycle = from;
+        }
+      }
+    }
+  }
+  // The same step as an alternative to the chosen cause (the step's
+  // height and the cycle it starts at are its two parameters): a cause
+  // that explains the data no better than a step at some cycle is not
+  // named.
+  std::string rival;
+  if (chosen > 0) {
+    const Fit& none = sel.fits[0];
+    double best_drop = 0;
+    int best_g = -1, best_from = 0;
+    const Observations& obs = problem.obs();
+    for (int g = 0; g < kFigureKinds; ++g) {
+      if (std::count(kinds.begin(), kinds.end(), g) < 4) continue;
+      for (int from = 2; from <= part_cycles(obs); ++from) {
+        Column step = Column::Zero(obs.size());
+        for (size_t i = 0; i < obs.figures(); ++i)
+          if (obs.figure_kind[i] == g && obs.figure_cycle[i] >= from)
+            step[i] = 1;
+        const Fit with = fitter.Linear(ModelSpec{}, 0.0, {problem.Whiten(step)});
+        if (with.ok && none.chi2 - with.chi2 > best_drop) {
+          best_drop = none.chi2 - with.chi2;
+          best_g = g;
+          best_from = from;
+        }
+      }
+    }
+    const double step_bic =
+        none.chi2 - best_drop +
+        (none.parameters + 2) * std::log(static_cast<double>(std::max(n, 2)));
+    sel.step_rival = Bic(f, n) - step_bic;
+    if (best_g >= 0 && sel.step_rival > -options.step_rival_margin)
+      rival = fmt::format(
+          "a step of {} from cycle {} on explains the data as well as {} "
+          "(delta BIC {:.1f})",
+          kFigureNames[best_g], best_from, f.spec.Name(), sel.step_rival);
+  }
+  std::string step;
+  if (sel.step_chi2 > options.step_chi2)
+    step = fmt::format(
+        "a step of {} from cycle {} on explains chi2 {:.1f} more (limit {:g})",
+        kFigureNames[sel.step_group], sel.step_from_cycle, sel.step_chi2,
+        options.step_chi2);
+  if (sel.chi2_per_dof > options.max_chi2_per_dof || !local.empty() ||
+      !step.empty() || !rival.empty()) {
     sel.status = DiagnosisStatus::kUnexplained;
+    std::string where = local;
+    if (!step.empty()) where += (where.empty() ? "" : "; ") + step;
+    if (!rival.empty()) where += (where.empty() ? "" : "; ") + rival;
     sel.reason = fmt::format(
         "{} leaves chi2 per degree of freedom {:.2f} (limit {:.2f}){}: the "
         "residual holds structure that no known cause explains",
         chosen == 0 ? "the nominal model" : "the best model, " + f.spec.Name(),
         sel.chi2_per_dof, options.max_chi2_per_dof,
-        local.empty() ? "" : "; " + local);
+        where.empty() ? "" : "; " + where);
   } else if (chosen == 0) {
     sel.status = DiagnosisStatus::kNone;
     sel.reason = fmt::format(
@@ -586,6 +747,8 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
     return fail("evidence_threshold: must be >= 0");
   if (!(max_chi2_per_dof > 0)) return fail("max_chi2_per_dof: must be > 0");
   if (!(local_z > 0)) return fail("local_z: must be > 0");
+  if (!(refuse_z > 0)) return fail("refuse_z: must be > 0");
+  if (!(step_chi2 > 0)) return fail("step_chi2: must be > 0");
   if (!(min_sigma_um > 0)) return fail("min_sigma_um: must be > 0");
   if (!(min_sigma_urad > 0)) return fail("min_sigma_urad: must be > 0");
   if (!(estimator_sigma_scale >= 0))
@@ -641,7 +804,11 @@ ObservationEffect EffectOnObservations(Cause cause,
   for (size_t i = 0; i < obs.figures(); ++i) {
     const int c = obs.figure_cycle[i];
     if (c >= 1 && c <= static_cast<int>(figures.size())) {
-      const double v = FigureValueMm(figures[c - 1], obs.figure_kind[i]) * 1e3;
+      const double v =
+          (obs.figure_kind[i] == 4
+               ? OvalityMm(part, results, c)
+               : FigureValueMm(figures[c - 1], obs.figure_kind[i])) *
+          1e3;
       out.figure_um[i] = std::isfinite(v) ? v : 0.0;
     }
   }
@@ -674,7 +841,7 @@ std::vector<StructureLocation> LocateStructure(const Observations& obs,
     if (r.empty()) return;
     out.push_back({where, Rms(r), unit, chi2 / r.size()});
   };
-  for (int g = 0; g < 4; ++g)
+  for (int g = 0; g < kFigureKinds; ++g)
     add(kFigureNames[g], "um",
         [&](size_t i) { return i < nf && obs.figure_kind[i] == g; });
   add("facet angles", "urad", [&](size_t i) { return i >= nf; });
@@ -745,6 +912,10 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.status = sel.status;
   report.reason = sel.reason;
   report.chi2_per_dof = sel.chi2_per_dof;
+  report.best_evidence = sel.best_evidence;
+  report.structure_z = sel.local_z;
+  report.machine_z = sel.machine_z;
+  report.step_chi2 = sel.step_chi2;
   report.baseline_rms_um = report.candidates[0].rms_um;
   report.baseline_rms_urad = report.candidates[0].rms_urad;
   const Column after = y - Prediction(chosen, cache, obs);
@@ -776,7 +947,7 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
       }
       if (!any) continue;
       const Problem fold(obs, use);
-      const Selection fs = Select(cache, fold, options);
+      const Selection fs = Select(cache, fold, options, false);
       const Column pb = Prediction(fs.fits[0], cache, obs);
       const Column pe = Prediction(fs.fits[fs.chosen], cache, obs);
       for (int i = 0; i < n; ++i) {
@@ -819,8 +990,19 @@ void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
   // scatter.
   if (fitted) {
     const FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
-    r->var_d_mm2 = s.d_mm * s.d_mm;
-    r->var_angle_rad2 = s.angle_rad * s.angle_rad;
+    // A few touches (a probe's 4-6 points) leave one to three degrees of
+    // freedom: their scatter is no estimate of the instrument's noise, and
+    // their positions are not spread over the facet as a cloud's are. The
+    // variances the instrument states (from its trigger noise and the
+    // touch positions) then stand, unless the scatter is larger.
+    constexpr int kFewPoints = 30;
+    const bool few = r->points < kFewPoints;
+    const double stated_d = std::isfinite(r->var_d_mm2) ? r->var_d_mm2 : 0.0;
+    const double stated_a =
+        std::isfinite(r->var_angle_rad2) ? r->var_angle_rad2 : 0.0;
+    r->var_d_mm2 = few ? std::max(stated_d, s.d_mm * s.d_mm) : s.d_mm * s.d_mm;
+    r->var_angle_rad2 = few ? std::max(stated_a, s.angle_rad * s.angle_rad)
+                            : s.angle_rad * s.angle_rad;
   }
   if (fitted) {
     const FitScatter form =
@@ -972,6 +1154,8 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   const double ttp_scale =
       part.facet_final_distance_mm / log.sphere_distance_mm;
   auto est_sigma_um = [&](int kind, double t) {
+    // The ovality follows none of the machine's errors.
+    if (kind == 4) return 0.0;
     const int e = kind;  // EX0C, EY0C, EZ0T, ER0T
     const double s = estimator.ErrorSigmaAt(e, t) * options.estimator_sigma_scale;
     return kind == 3 ? s * ttp_scale : s;
@@ -995,6 +1179,21 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
       obs.figure_sigma_um.push_back(
           std::max(options.min_sigma_um, std::isfinite(u) ? u : 0.0));
     }
+  }
+  // The ovality per cycle, where the measurement has facet distances.
+  for (int cycle = 1; cycle <= part.cycles() && !measured.features.empty();
+       ++cycle) {
+    double var_mm2 = 0;
+    const double mv = OvalityMm(part, measured.features, cycle, &var_mm2);
+    const double sv = OvalityMm(part, run.simulation.results, cycle);
+    if (!std::isfinite(mv) || !std::isfinite(sv)) continue;
+    obs.figure_cycle.push_back(cycle);
+    obs.figure_kind.push_back(4);
+    obs.figure_t_s.push_back(time_of(cycle));
+    obs.figure_value_um.push_back((mv - sv) * 1e3);
+    obs.figure_sigma_um.push_back(std::max(
+        options.min_sigma_um, std::isfinite(var_mm2) ? std::sqrt(var_mm2) * 1e3
+                                                     : 0.0));
   }
   for (const auto& [id, angle] : measured.facet_angle_rad) {
     auto it = run.simulation.results.find(id);
@@ -1116,6 +1315,26 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   report.estimator = run.simulation.estimator_description;
   // The log of another run: the measured piece's E_X and E_Y (which no
   // known cause changes much) do not follow the simulated ones.
+  if (report.status == DiagnosisStatus::kUnexplained &&
+      report.machine_z > options.refuse_z) {
+    // E_X, E_Y and E_Z follow the machine's location errors, which the
+    // log's R-tests measure and which no catalogue cause changes much
+    // (after the best model): far beyond the error budget there, the log
+    // does not describe the run that cut the piece.
+    DiagnosisReport refused = Refused(fmt::format(
+        "{} does not follow the machine errors of {}: {} (E_X, E_Y and E_Z "
+        "follow the machine's location errors the R-tests measure; limit {:g} "
+        "standard deviations): the measurement and the log do not belong "
+        "together",
+        measured.source.empty() ? "the piece" : measured.source, log.source,
+        report.reason, options.refuse_z));
+    refused.candidates = report.candidates;
+    refused.observations = report.observations;
+    refused.estimator = report.estimator;
+    refused.machine_z = report.machine_z;
+    refused.structure_z = report.structure_z;
+    return refused;
+  }
   if (report.status == DiagnosisStatus::kUnexplained) {
     double sd = 0;
     const double slope = MismatchSlope(run, &sd);

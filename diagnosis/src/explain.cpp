@@ -62,10 +62,30 @@ std::string Summary(const DiagnosisReport& d, double threshold) {
   for (size_t i = 0; i < d.params.size(); ++i) {
     s += (i ? ", " : "") + ParamText(d.params[i]);
   }
+  // An angle cause is judged on the facet angles (urad), which it turns;
+  // the figures (distances) it hardly changes.
+  const bool angle_only = d.cause == "c_axis_indexing";
+  const bool turns_facets =
+      d.cause.find("c_axis_indexing") != std::string::npos ||
+      d.cause.find("clamping_distortion") != std::string::npos;
+  if (angle_only) {
+    s += fmt::format(
+        ". Residual RMS of the facet angles {:.2f} urad -> {:.2f} urad; on "
+        "held-out cycles {:.2f} urad -> {:.2f} urad: the extension removes "
+        "{:.0f} % of the angle residual.",
+        d.baseline_rms_urad, d.extended_rms_urad, d.heldout_baseline_rms_urad,
+        d.heldout_extended_rms_urad, d.gain_pct);
+    return s;
+  }
   s += fmt::format(
-      ". Residual RMS of the figures {:.2f} um -> {:.2f} um; on held-out "
-      "cycles the extension removes {:.0f} % of the residual.",
-      d.baseline_rms_um, d.extended_rms_um, d.gain_pct);
+      ". Residual RMS of the figures {:.2f} um -> {:.2f} um",
+      d.baseline_rms_um, d.extended_rms_um);
+  if (turns_facets)
+    s += fmt::format(", of the facet angles {:.2f} urad -> {:.2f} urad",
+                     d.baseline_rms_urad, d.extended_rms_urad);
+  s += fmt::format(
+      "; on held-out cycles the extension removes {:.0f} % of the residual.",
+      d.gain_pct);
   return s;
 }
 

@@ -218,6 +218,11 @@ BatteryRun RunBatteryCase(const Config& config, const BatteryCase& c,
   r.false_name =
       !expects_cause && report.status == diagnosis::DiagnosisStatus::kNamed;
   r.chi2_per_dof = report.chi2_per_dof;
+  r.reason = report.reason;
+  r.best_evidence = report.best_evidence;
+  r.structure_z = report.structure_z;
+  r.step_chi2 = report.step_chi2;
+  r.machine_z = report.machine_z;
   r.best_delta_bic = std::numeric_limits<double>::infinity();
   for (const auto& cand : report.candidates)
     if (!cand.causes.empty() && cand.delta_bic < r.best_delta_bic)

@@ -252,6 +252,43 @@ TEST(Diagnose, EffectOutsideTheCatalogueIsUnexplained) {
   EXPECT_FALSE(j["unexplained"].empty());
 }
 
+// A step of every facet from one cycle on looks like tool wear or a
+// workpiece expansion in E_TTP alone; no catalogue cause explains it
+// better than the step itself, so none is named.
+TEST(Diagnose, StepBetweenCyclesIsNotNamed) {
+  const Config config;
+  for (double step_um : {-2.0, 2.5}) {
+    TwinOptions o;
+    o.seed = 28;
+    o.step_um = step_um;
+    o.step_from_cycle = 5;
+    const TwinRun run = RunTwin(config, o);
+    const DiagnosisReport r =
+        DiagnoseRun(thermal::ParseTalcLog(run.log_text, "step"), config,
+                    MeasuredPieceFromFeatures(config.part, run.measured));
+    EXPECT_EQ(r.status, DiagnosisStatus::kUnexplained)
+        << step_um << ": " << r.reason;
+    EXPECT_NE(r.reason.find("E_TTP"), std::string::npos) << r.reason;
+  }
+}
+
+// The ovality channel: a two-lobe distortion's distance pattern cancels in
+// the spec's figures but not in E_OV.
+TEST(Diagnose, TwoLobeDistortionShowsInTheOvality) {
+  const Config config;
+  TwinOptions o;
+  o.seed = 16;
+  o.two_lobe_amplitude_um = 3;
+  o.rtest_interval_s = 3600;
+  const TwinRun run = RunTwin(config, o);
+  const DiagnosisReport r =
+      DiagnoseRun(thermal::ParseTalcLog(run.log_text, "two-lobe"), config,
+                  MeasuredPieceFromFeatures(config.part, run.measured));
+  EXPECT_EQ(r.status, DiagnosisStatus::kUnexplained) << r.reason;
+  ASSERT_FALSE(r.structure.empty());
+  EXPECT_EQ(r.structure.front().where, "E_OV") << r.reason;
+}
+
 TEST(Diagnose, OptionsValidateThemselves) {
   DiagnosisOptions o;
   std::string error;
@@ -282,6 +319,21 @@ TEST(Diagnose, SamplesComeOutRight) {
       DiagnoseRun(thermal::ReadTalcLog(b + "talc.csv"), config,
                   LoadMeasuredPiece(config, b + "piece.xyz"));
   EXPECT_EQ(rb.status, DiagnosisStatus::kNone) << rb.reason;
+}
+
+// run-c (tool wear, 20 um/m) measured with every instrument belongs to its
+// log: a probe's few touches are judged by the variances it states, not by
+// the scatter of four to six points, so none is refused or unexplained.
+TEST(Diagnose, RunCIsToolWearWithEveryInstrument) {
+  const Config config;
+  const std::string c = std::string(TTP_DATA_DIR) + "/samples/run-c/";
+  const thermal::TalcLog log = thermal::ReadTalcLog(c + "talc.csv");
+  for (const char* file : {"probe.csv", "dial.csv", "piece.dmo"}) {
+    const DiagnosisReport r =
+        DiagnoseRun(log, config, LoadMeasuredPiece(config, c + file));
+    EXPECT_EQ(r.status, DiagnosisStatus::kNamed) << file << ": " << r.reason;
+    EXPECT_EQ(r.cause, "tool_wear") << file;
+  }
 }
 
 // A cutter does not grow: negative wear is not a fit of tool_wear.

@@ -66,5 +66,28 @@ TEST(ExplainDiagnosis, SummaryAndResidualsOfATwinRun) {
     EXPECT_EQ(none.residuals.after_um[g], none.residuals.before_um[g]);
 }
 
+// An angle cause is described by the facet angles it turns (urad), not by
+// the figures' distances.
+TEST(ExplainDiagnosis, AngleCauseShowsItsAngleResidual) {
+  const Config config;
+  sim::TwinOptions o;
+  o.c_indexing_amplitude_urad = 400;
+  o.seed = 4;
+  const sim::TwinRun twin = sim::RunTwin(config, o);
+  const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin.csv");
+  const MeasuredPiece piece =
+      MeasuredPieceFromFeatures(config.part, twin.measured);
+  const PreparedRun run = PrepareRun(log, config, piece);
+  const DiagnosisReport report =
+      DiagnosePrepared(run, log, config.part, piece);
+  ASSERT_EQ(report.cause, "c_axis_indexing") << report.reason;
+  const std::string s =
+      ExplainDiagnosis(run, report, config.part, 12.0).summary;
+  EXPECT_NE(s.find("Residual RMS of the facet angles"), std::string::npos)
+      << s;
+  EXPECT_EQ(s.find("Residual RMS of the figures"), std::string::npos) << s;
+  EXPECT_GT(report.baseline_rms_urad, 2 * report.extended_rms_urad);
+}
+
 }  // namespace
 }  // namespace ttp::diagnosis

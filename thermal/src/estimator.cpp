@@ -182,6 +182,8 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     est.signals_.push_back(std::move(s));
   }
 
+  for (const CutRecord& cut : log.cuts) est.cut_t_.push_back(cut.t_s);
+
   // Per error: BIC over input subsets and time constants.
   const int n = static_cast<int>(est.rtest_t_.size());
   est.models_.resize(7);
@@ -281,7 +283,19 @@ MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
         const double rss =
             std::max((yv - x.topRows(n) * beta).squaredNorm(), 1e-12);
         const double bic = n * std::log(rss / n) + k_params * std::log(n);
-        if (bic < best_bic - 1e-9 && beta.allFinite()) {
+        bool bounded = true;
+        if (bic < best_bic - 1e-9 && beta.allFinite() && !cut_t_.empty()) {
+          // No blind extrapolation to the cuts (cut_t_).
+          const Eigen::VectorXd at_rtests = x.topRows(n) * beta;
+          const double lo = at_rtests.minCoeff(), hi = at_rtests.maxCoeff();
+          const double margin =
+              std::max(0.5 * (hi - lo), 2.0 * std::sqrt(rss / n));
+          for (double t : cut_t_) {
+            const double v = Row(c, t).dot(beta);
+            bounded &= v >= lo - margin && v <= hi + margin;
+          }
+        }
+        if (bic < best_bic - 1e-9 && beta.allFinite() && bounded) {
           best_bic = bic;
           c.beta = beta;
           c.bic = bic;

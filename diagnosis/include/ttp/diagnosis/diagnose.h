@@ -56,7 +56,9 @@ MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path);
 // measurement, form and the estimator's error between R-tests, which is
 // common to a cycle's cuts and correlated across cycles).
 struct Observations {
-  // Figures E_X, E_Y, E_Z, E_TTP (figure_kind 0..3) per cycle.
+  // Figures E_X, E_Y, E_Z, E_TTP (figure_kind 0..3) per cycle, and the
+  // ovality E_OV (4: ((X1 + X2) - (Y1 + Y2)) / 4 of the facet distances
+  // against the reference facets) where facet distances were measured.
   std::vector<int> figure_cycle, figure_kind;
   std::vector<double> figure_t_s;  // the cycle's cut time
   std::vector<double> figure_value_um, figure_sigma_um;
@@ -85,9 +87,15 @@ struct DiagnosisOptions {
   // chi2 / degrees of freedom below this, else the residual holds
   // structure no known cause explains (`unexplained`).
   double max_chi2_per_dof = 2.0;
-  // The same per figure kind (and for the angles): its whitened chi2 must
-  // stay below the chi2 quantile this many standard deviations out.
+  // The same per figure kind (and for the angles): its whitened chi2, as a
+  // standard normal deviate, must stay below this.
   double local_z = 4.5;
+  // A step in one figure kind from some cycle on, fitted along with the
+  // chosen model, must not lower chi2 by more than this.
+  double step_chi2 = 40.0;
+  // A named cause must beat the best such step (as an alternative to the
+  // cause, two parameters: height and first cycle) by this much in BIC.
+  double step_rival_margin = 0.0;
   // Lower bounds of the residual uncertainties (um, urad).
   double min_sigma_um = 0.02, min_sigma_urad = 0.3;
   // Scale on the estimator's blocked cross-validation error (which holds
@@ -103,6 +111,11 @@ struct DiagnosisOptions {
   // slope this far from 1 (and more than 5 standard deviations) while the
   // nominal model does not fit: the log describes another run.
   double mismatch_slope_limit = 0.4;
+  // `refused` also when the residual is unexplained and E_X, E_Y or E_Z
+  // (which follow the machine's location errors the log's R-tests measure,
+  // and which no catalogue cause changes much) keep a chi2 deviate beyond
+  // this after the best model.
+  double refuse_z = 7.0;
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
 
@@ -153,6 +166,14 @@ struct DiagnosisReport {
   double baseline_rms_um = 0, extended_rms_um = 0;
   double baseline_rms_urad = 0, extended_rms_urad = 0;
   double chi2_per_dof = 0;  // of the chosen model
+  // The decision's statistics: the strongest evidence for any cause (BIC of
+  // the nominal model minus the cause's), the largest per-kind chi2 deviate
+  // and the largest chi2 a step in one figure kind explains after the
+  // chosen model.
+  double best_evidence = 0, structure_z = 0, step_chi2 = 0;
+  // The largest per-kind deviate over E_X, E_Y, E_Z (the figures that
+  // follow the machine's location errors).
+  double machine_z = 0;
   // Held-out cycles (the whole selection repeated without each cycle):
   // RMS of the held-out residuals, nominal vs the fold's chosen model.
   double heldout_baseline_rms_um = 0, heldout_extended_rms_um = 0;

@@ -43,6 +43,10 @@ struct BatteryRun {
   bool false_name = false;
   double chi2_per_dof = 0;
   double best_delta_bic = 0;  // strongest evidence for any cause
+  // The decision's statistics (DiagnosisReport): what the thresholds are
+  // calibrated on.
+  double best_evidence = 0, structure_z = 0, step_chi2 = 0, machine_z = 0;
+  std::string reason;  // the diagnosis' sentence
 };
 
 struct BatteryOptions {

@@ -158,6 +158,13 @@ class MachineErrorEstimator {
   std::vector<CAxisErrors> pred_;
   std::vector<double> rtest_t_;
   std::vector<CAxisErrors> rtest_y_;
+  // The log's cut times: a candidate model whose prediction there leaves
+  // the range it predicts at the R-tests (widened by half of it, at least
+  // by twice its residual RMS, on each side) is not used. Inputs that are
+  // nearly collinear at the R-tests (the C axis stops for each of them)
+  // otherwise fit them with large opposite gains that the cuts' different
+  // input state turns into errors of many um.
+  std::vector<double> cut_t_;
   std::vector<ErrorModel> models_;  // 7
   std::vector<std::vector<int>> model_input_index_, model_tau_index_;
   std::vector<std::array<double, 7>> residual_;  // per R-test, log units
