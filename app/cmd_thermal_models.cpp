@@ -198,8 +198,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("--holdout-from", *from,
                     "fit on t_s below this (s), predict the rest")
         ->required();
-    auto until = std::make_shared<double>(
-        std::numeric_limits<double>::infinity());
+    auto until =
+        std::make_shared<double>(std::numeric_limits<double>::infinity());
     cmd->add_option("--holdout-until", *until,
                     "predict only the rows with t_s below this (s; default: "
                     "to the end of the log)");

@@ -4,8 +4,8 @@
 
 #include <chrono>
 #include <cmath>
-#include <utility>
 #include <string>
+#include <utility>
 
 #include "ttp/models/identify.h"
 #include "ttp/models/time_series.h"
@@ -38,7 +38,7 @@ int main() {
              ts.rows(), ts.input_names.size(), ts.output_names.size(),
              1e3 * Seconds(t0));
   for (const std::string model : {"static", "fir", "lag", "arx", "combined",
-                                   "joint", "auto", "auto+sel"}) {
+                                  "joint", "auto", "auto+sel"}) {
     FitOptions o;
     o.model = model == "auto+sel" ? "auto" : model;
     o.auto_selected = model == "auto+sel";
@@ -58,9 +58,10 @@ int main() {
                             std::pair<double, double>{36000, 54000}}) {
     const TimeSeries part = HeadOf(ts, split.second);
     const TimeSeries fit = HeadOf(part, split.first);
-    fmt::print("\nfit t_s < {:g}, predict to {:g}: RMS um (none / static all "
-               "T / lags n,n^2 / joint 3600 / auto)\n",
-               split.first, part.t_s.back());
+    fmt::print(
+        "\nfit t_s < {:g}, predict to {:g}: RMS um (none / static all "
+        "T / lags n,n^2 / joint 3600 / auto)\n",
+        split.first, part.t_s.back());
     FitOptions o;
     t0 = std::chrono::steady_clock::now();
     for (size_t j = 0; j < part.output_names.size(); ++j) {

@@ -46,7 +46,6 @@ TimeSeries WithoutInput(const TimeSeries& ts, const std::string& name) {
   return out;
 }
 
-
 }  // namespace
 
 double Percentile(std::vector<double> v, double x) {
@@ -445,15 +444,14 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
               2 * longest, 4 * longest);
           fixed = refit("static_all_T", ts, o, slow);
         } else {
-          d.extension = fmt::format(
-              "a slow state: time constants {:g} and {:g} s added",
-              2 * longest, 4 * longest);
+          d.extension =
+              fmt::format("a slow state: time constants {:g} and {:g} s added",
+                          2 * longest, 4 * longest);
           fixed = refit(name, ts, ext, {});
         }
       }
       if (fixed.size() > 0) {
-        d.extended_rms_um =
-            ComputeStats(meas, fixed.tail(nh), none_rms).rms_um;
+        d.extended_rms_um = ComputeStats(meas, fixed.tail(nh), none_rms).rms_um;
       } else {
         d.extension = "none indicated";
         d.extended_rms_um = d.rms_um;

@@ -815,8 +815,8 @@ std::vector<SensorJump> FindJumps(const ThermalModel& model, TimeSeries* ts,
       if (gap[static_cast<size_t>(i)]) continue;
       const double step = ts->inputs(i, j) - ts->inputs(i - 1, j);
       if (std::abs(step) <= limit) continue;
-      out.push_back({r.input, ts->t_s[static_cast<size_t>(i)], step,
-                     o.repair_jumps});
+      out.push_back(
+          {r.input, ts->t_s[static_cast<size_t>(i)], step, o.repair_jumps});
       if (o.repair_jumps)
         ts->inputs.col(j).tail(ts->inputs.rows() - i).array() -= step;
     }
@@ -924,8 +924,8 @@ Prediction Predict(const ThermalModel& model, const TimeSeries& input_ts,
     p.warnings.push_back(fmt::format(
         "{} leaves the fitted range {:.4g}..{:.4g} on {:.0f}% of the rows "
         "(seen {:.4g}..{:.4g}){}",
-        e.input, e.fitted_min, e.fitted_max, 100 * e.share_outside,
-        e.seen_min, e.seen_max,
+        e.input, e.fitted_min, e.fitted_max, 100 * e.share_outside, e.seen_min,
+        e.seen_max,
         e.severe ? ": the model extrapolates, its CV RMS does not describe "
                    "those rows"
                  : ""));
@@ -1031,10 +1031,9 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
     model.inputs = j.at("inputs").get<std::vector<std::string>>();
     if (j.contains("input_ranges"))
       for (const auto& r : j.at("input_ranges"))
-        model.input_ranges.push_back({r.at("input").get<std::string>(),
-                                      r.at("min").get<double>(),
-                                      r.at("max").get<double>(),
-                                      r.at("max_step").get<double>()});
+        model.input_ranges.push_back(
+            {r.at("input").get<std::string>(), r.at("min").get<double>(),
+             r.at("max").get<double>(), r.at("max_step").get<double>()});
     const auto& o = j.at("options");
     model.options.model = o.value("model", "auto");
     model.options.taus_s = o.value("taus_s", model.options.taus_s);

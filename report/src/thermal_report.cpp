@@ -166,15 +166,15 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
           "<li><b>{} {} ({})</b>: {}. {}</li>\n", Escape(o.get<std::string>()),
           which, Escape(d.at("model").get<std::string>()),
           Escape(d.at("problem").get<std::string>()),
-          none ? std::string("No extension indicated.")
-               : fmt::format(
-                     "Extension: {} &rarr; holdout RMS {:.2f} &rarr; {:.2f} "
-                     "um ({}).",
-                     Escape(d.at("extension").get<std::string>()), before,
-                     after,
-                     before - after > 0.005 * before
-                         ? fmt::format("gain {:.2f} um", before - after)
-                         : std::string("does not help")));
+          none
+              ? std::string("No extension indicated.")
+              : fmt::format(
+                    "Extension: {} &rarr; holdout RMS {:.2f} &rarr; {:.2f} "
+                    "um ({}).",
+                    Escape(d.at("extension").get<std::string>()), before, after,
+                    before - after > 0.005 * before
+                        ? fmt::format("gain {:.2f} um", before - after)
+                        : std::string("does not help")));
     }
   }
   diag += "</ul>";

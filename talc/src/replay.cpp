@@ -111,11 +111,10 @@ std::vector<std::vector<double>> StaticUpdatedResiduals(
       started = true;
       theta = rls.Solve();
       if (any && st.anchored)
-        base = last_y -
-               (reg.rows.row(Eigen::Index(last_cal)) * theta).transpose();
+        base =
+            last_y - (reg.rows.row(Eigen::Index(last_cal)) * theta).transpose();
     }
-    pred = started ? Eigen::VectorXd((phi * theta).transpose() + base)
-                   : last_y;
+    pred = started ? Eigen::VectorXd((phi * theta).transpose() + base) : last_y;
     if (t >= cal_end)
       for (int o = 0; o < m; ++o) {
         const double yo = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);

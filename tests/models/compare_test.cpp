@@ -2,9 +2,8 @@
 // constructed cases whose answer is known by construction.
 #include "ttp/models/compare.h"
 
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <cmath>
 
@@ -79,8 +78,8 @@ TimeSeries LaggingStructure(bool jump) {
   const int n = 2400;  // 40 h at 60 s
   ts.inputs.resize(n, 3);
   ts.outputs_um.resize(n, 1);
-  const double levels[] = {2000, 0, 4000, 0, 1000, 0, 3000, 0,
-                           2500, 0, 3500, 0, 1500, 0};
+  const double levels[] = {2000, 0,    4000, 0,    1000, 0,    3000,
+                           0,    2500, 0,    3500, 0,    1500, 0};
   double temp = 20, structure = 20;
   for (int i = 0; i < n; ++i) {
     const double t = 60.0 * i;
@@ -119,9 +118,9 @@ TEST(Compare, NamesTheErrorAndMeasuresTheExtension) {
   EXPECT_LT(e.extended_rms_um, e.rms_um) << e.extension;
   // The text states the measured difference, not a canned line.
   const std::string text = CompareText(j);
-  EXPECT_NE(text.find(fmt::format("{:.2f} -> {:.2f}", e.rms_um,
-                                  e.extended_rms_um)),
-            std::string::npos)
+  EXPECT_NE(
+      text.find(fmt::format("{:.2f} -> {:.2f}", e.rms_um, e.extended_rms_um)),
+      std::string::npos)
       << text;
 }
 

@@ -107,8 +107,7 @@ TEST(Identify, DynamicModelBeatsStaticOnTwoNodeNetwork) {
                     ts),
       kSplit);
   // auto chose a dynamic structure by CV inside the fitted span.
-  EXPECT_NE(m.outputs[0].structure, Structure::kStatic)
-      << m.outputs[0].label;
+  EXPECT_NE(m.outputs[0].structure, Structure::kStatic) << m.outputs[0].label;
   EXPECT_FALSE(m.outputs[0].label.empty());
   EXPECT_LT(auto_rms, 0.5 * static_rms)
       << "auto " << auto_rms << " static " << static_rms;
@@ -269,8 +268,8 @@ TEST(Identify, AutoTakesTheLowestCvScoreOfItsCandidates) {
   const OutputModel a = FitAuto(fit, 0, o);
   const OutputModel st =
       FitFixed(fit, 0, AllTemperatureRegressors(fit), Structure::kStatic, o);
-  const OutputModel lag = FitFixed(fit, 0, SpeedLagRegressors(fit, o.taus_s),
-                                   Structure::kLag, o);
+  const OutputModel lag =
+      FitFixed(fit, 0, SpeedLagRegressors(fit, o.taus_s), Structure::kLag, o);
   EXPECT_LE(a.cv_score, st.cv_score);
   EXPECT_LE(a.cv_score, lag.cv_score);
   // Every candidate is listed with its score, the chosen one marked.
@@ -380,20 +379,21 @@ std::vector<Rms> RealSplit(const TimeSeries& ts, double holdout_from_s) {
   for (int j = 0; j < static_cast<int>(ts.output_names.size()); ++j) {
     Rms r;
     r.none = RmsFrom(ts, j, holdout_from_s, Eigen::VectorXd::Zero(ts.rows()));
-    r.static_all_t = RmsFrom(
-        ts, j, holdout_from_s,
-        PredictOutput(FitFixed(fit, j, AllTemperatureRegressors(fit),
-                               Structure::kStatic, o),
-                      ts));
+    r.static_all_t =
+        RmsFrom(ts, j, holdout_from_s,
+                PredictOutput(FitFixed(fit, j, AllTemperatureRegressors(fit),
+                                       Structure::kStatic, o),
+                              ts));
     OutputModel lag;
     lag.cv_score = std::numeric_limits<double>::infinity();
     for (double tau : o.taus_s) {
-      OutputModel m = FitFixed(fit, j, SpeedLagRegressors(fit, {tau}),
-                               Structure::kLag, o);
+      OutputModel m =
+          FitFixed(fit, j, SpeedLagRegressors(fit, {tau}), Structure::kLag, o);
       if (m.cv_score < lag.cv_score) lag = m;
     }
     r.lag_speed = RmsFrom(ts, j, holdout_from_s, PredictOutput(lag, ts));
-    r.mine = RmsFrom(ts, j, holdout_from_s, PredictOutput(FitAuto(fit, j, o), ts));
+    r.mine =
+        RmsFrom(ts, j, holdout_from_s, PredictOutput(FitAuto(fit, j, o), ts));
     out.push_back(r);
   }
   return out;

@@ -99,7 +99,7 @@ struct InputRange {
 
 struct ThermalModel {
   std::string source;
-  std::vector<InputRange> input_ranges;  // every input of the fitted span
+  std::vector<InputRange> input_ranges;       // every input of the fitted span
   double fit_t_begin_s = 0, fit_t_end_s = 0;  // last fitted row
   double median_step_s = 0;
   std::vector<std::string> inputs;  // columns the model needs

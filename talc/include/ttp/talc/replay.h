@@ -29,9 +29,9 @@ struct Figures {
 
 struct OutputReplay {
   std::string name;
-  Figures talc;           // the strategy's compensation
-  Figures none;           // no compensation (outputs are relative to start)
-  Figures hold;           // the last measurement held (same times)
+  Figures talc;  // the strategy's compensation
+  Figures none;  // no compensation (outputs are relative to start)
+  Figures hold;  // the last measurement held (same times)
   // Linear on all temperatures (their change since the start), updated
   // exactly as TALC is: the same measurement times, calibration phase,
   // recursive least squares (ridge, forgetting) and anchoring. The fair
