@@ -62,7 +62,14 @@ void Register(CLI::App& root, GlobalOptions& global) {
                       ->check(CLI::PositiveNumber);
     s_opt->excludes(i_opt);
     cmd->add_option("--json", *json_out, "also write the result as JSON");
-    cmd->callback([&global, log, strategy, interval, json_out] {
+    auto ro = std::make_shared<talc::ReplayOptions>();
+    cmd->add_option("--static-from-s", ro->static_window_from_s,
+                    "the `static window` baseline is fitted once on the "
+                    "samples from this time (s; default: the log's start)");
+    cmd->add_option("--static-to-s", ro->static_window_to_s,
+                    "... up to this time (s; default: the log's end, i.e. "
+                    "in-sample)");
+    cmd->callback([&global, log, strategy, interval, json_out, ro] {
       talc::Strategy s;
       if (!strategy->empty()) {
         s = talc::ReadStrategy(*strategy);
@@ -73,7 +80,10 @@ void Register(CLI::App& root, GlobalOptions& global) {
                          "give --strategy FILE or --interval-s N");
       }
       const models::TimeSeries series = ReadLog(*log);
-      const talc::ReplayResult r = talc::Replay(series, s);
+      if (!(ro->static_window_to_s > ro->static_window_from_s))
+        throw InputError("talc replay", 0, "--static-to-s",
+                         "must be after --static-from-s");
+      const talc::ReplayResult r = talc::Replay(series, s, *ro);
       if (!global.quiet || json_out->empty())
         WriteText("-", talc::ReplayText(r, s));
       if (!json_out->empty()) WriteJson(*json_out, talc::ReplayToJson(r, s));

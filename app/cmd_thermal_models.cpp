@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include "command.h"
@@ -45,8 +46,12 @@ void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
                   "with the MDL factor, default) or mdl (in-sample MDL-like, "
                   "thesis eq. 4.23)");
   cmd->add_option("--temperature-lag-s", o->temperature_lag_s,
-                  "joint/auto: the lag each temperature passes through "
-                  "besides its direct path (default 3600 s)");
+                  "joint: the lag each temperature passes through "
+                  "besides its direct path (default 3600 s; auto tries "
+                  "every time constant)");
+  cmd->add_flag("--auto-selected", o->auto_selected,
+                "auto: also the forward-selected structures among the "
+                "candidates (scored by nested CV; slow)");
   cmd->add_option("--max-terms", o->max_terms,
                   "most regressors per output (default 8)");
   cmd->add_option("--weight-half-life-s", o->weight_half_life_s,
@@ -101,7 +106,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "outputs to model, comma separated (default: every d_)");
     cmd->add_option(
         "--model", o->model,
-        "auto (default, = joint), static, fir, lag, arx, combined or joint");
+        "auto (default: chosen per output by chronological CV), static, "
+        "fir, lag, arx, combined or joint");
     cmd->add_option("--json", *json_out, "also write a fit summary as JSON");
     AddFitOptions(cmd, o.get());
     cmd->callback([&global, log, out, outputs, json_out, o] {
@@ -118,12 +124,16 @@ void Register(CLI::App& root, GlobalOptions& global) {
         text += fmt::format(
             "{}: {} with {} regressors, CV RMS {:.3f} um, fit "
             "RMS {:.3f} um\n",
-            m.output, models::StructureName(m.structure), m.regressors.size(),
-            m.cv_rms_um, m.fit_rms_um);
+            m.output,
+            m.label.empty() ? std::string(models::StructureName(m.structure))
+                            : m.label,
+            m.regressors.size(), m.cv_rms_um, m.fit_rms_um);
         std::vector<std::string> names;
         for (const auto& r : m.regressors) names.push_back(r.Name());
         summary["outputs"][m.output] = {
             {"structure", models::StructureName(m.structure)},
+            {"candidate", m.label},
+            {"selection", m.selection_log},
             {"regressors", names},
             {"cv_rms_um", m.cv_rms_um},
             {"fit_rms_um", m.fit_rms_um}};
@@ -145,7 +155,15 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("log", *log, "thermal log (outputs, if any, are ignored)")
         ->required();
     cmd->add_option("-o,--output", *out, "prediction CSV to write")->required();
-    cmd->callback([&global, model_path, log, out] {
+    auto json_out = std::make_shared<std::string>();
+    auto po = std::make_shared<models::PredictOptions>();
+    cmd->add_option("--json", *json_out,
+                    "also write a summary: per output the CV RMS of the fit, "
+                    "inputs outside the fitted range, sensor jumps");
+    cmd->add_flag("!--keep-jumps", po->repair_jumps,
+                  "do not shift a jumping temperature sensor back by its "
+                  "step (default: shift it; either way it is warned about)");
+    cmd->callback([&global, model_path, log, out, json_out, po] {
       const std::string text = ReadTextFile(*model_path);
       nlohmann::json j;
       try {
@@ -156,9 +174,10 @@ void Register(CLI::App& root, GlobalOptions& global) {
       }
       const models::ThermalModel model = models::ModelFromJson(j, *model_path);
       const models::TimeSeries ts = ReadLog(*log);
-      const models::Prediction p = models::Predict(model, ts);
+      const models::Prediction p = models::Predict(model, ts, *po);
       Warn(global, p.warnings);
       WriteFileAtomic(*out, PredictionCsv(p));
+      if (!json_out->empty()) WriteJson(*json_out, PredictionSummaryJson(p));
       if (!global.quiet)
         std::fprintf(stderr, "%zu rows predicted (%s) -> %s\n", p.t_s.size(),
                      p.continued ? "continuing the fitted log"
@@ -179,11 +198,19 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("--holdout-from", *from,
                     "fit on t_s below this (s), predict the rest")
         ->required();
+    auto until =
+        std::make_shared<double>(std::numeric_limits<double>::infinity());
+    cmd->add_option("--holdout-until", *until,
+                    "predict only the rows with t_s below this (s; default: "
+                    "to the end of the log)");
     cmd->add_option("--json", *json_out, "also write the comparison as JSON");
     AddFitOptions(cmd, o.get());
-    cmd->callback([&global, log, from, json_out, o] {
+    cmd->callback([&global, log, from, until, json_out, o] {
       CheckFitOptions(*o);
-      const models::TimeSeries ts = ReadLog(*log);
+      if (!(*until > *from))
+        throw InputError("thermal compare", 0, "--holdout-until",
+                         "must be after --holdout-from");
+      const models::TimeSeries ts = models::HeadOf(ReadLog(*log), *until);
       const models::CompareResult r = models::CompareModels(ts, *from, *o);
       if (!global.quiet || json_out->empty())
         WriteText("-", models::CompareText(r));

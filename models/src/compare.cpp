@@ -46,14 +46,6 @@ TimeSeries WithoutInput(const TimeSeries& ts, const std::string& name) {
   return out;
 }
 
-Eigen::VectorXd Predicted(const TimeSeries& ts, double t_end, int j,
-                          Structure s, const FitOptions& o,
-                          OutputModel* model = nullptr) {
-  const OutputModel m = FitOutput(HeadOf(ts, t_end), j, s, o);
-  if (model) *model = m;
-  return PredictOutput(m, ts);
-}
-
 }  // namespace
 
 double Percentile(std::vector<double> v, double x) {
@@ -90,6 +82,20 @@ ResidualStats ComputeStats(const Eigen::VectorXd& measured,
   s.reduction_pct =
       none_rms_um > 0 ? 100.0 * (1.0 - s.rms_um / none_rms_um) : 0.0;
   return s;
+}
+
+const char* ErrorKindName(ErrorKind k) {
+  switch (k) {
+    case ErrorKind::kNone:
+      return "none";
+    case ErrorKind::kJump:
+      return "sensor_jump";
+    case ErrorKind::kLag:
+      return "lag";
+    case ErrorKind::kDrift:
+      return "drift";
+  }
+  return "?";
 }
 
 Diagnosis Diagnose(const TimeSeries& ts, size_t first, int output,
@@ -186,14 +192,17 @@ Diagnosis Diagnose(const TimeSeries& ts, size_t first, int output,
   }
   const double span_h = (t.back() - t.front()) / 3600.0;
   if (!d.jump_input.empty()) {
+    d.kind = ErrorKind::kJump;
     d.problem = fmt::format("sensor jump: {} steps by {:+.2f} K at t = {:g} s",
                             d.jump_input, d.jump_size, d.jump_t_s);
   } else if (std::abs(d.lag_s) >= 600 || d.loop_ratio >= 0.1) {
+    d.kind = ErrorKind::kLag;
     d.problem = fmt::format(
         "lag (pseudo-hysteresis): the measurement lags the prediction by "
         "{:+.0f} s; residual vs {} encloses {:.1f} um K ({:.0f}% of its box)",
         d.lag_s, d.leading_input, d.loop_area_um_k, 100 * d.loop_ratio);
   } else if (std::abs(d.drift_um_per_h) * span_h > d.rms_um) {
+    d.kind = ErrorKind::kDrift;
     d.problem = fmt::format("slow drift of the residual: {:+.2f} um/h",
                             d.drift_um_per_h);
   } else {
@@ -291,63 +300,166 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
            lag_model.regressors.empty() ? Eigen::VectorXd::Zero(n_rows)
                                         : PredictOutput(lag_model, ts),
            "lag", int(lag_model.regressors.size()));
-    // Every structure, and auto (= joint).
-    double best_rms = std::numeric_limits<double>::infinity();
-    Eigen::VectorXd auto_pred, best_pred, static_pred;
-    std::string best_name;
-    int auto_terms = 0;
+    // Every structure, and auto (chosen by CV inside the fitted span).
+    Eigen::VectorXd auto_pred;
     size_t entry = 3;
     for (Structure s : AllStructures()) {
       OutputModel m = FitOutput(fit, j, s, o);
-      const Eigen::VectorXd pred = PredictOutput(m, ts);
-      record(entry, pred, StructureName(s), int(m.regressors.size()));
-      const double rms = res.entries[entry].stats.back().rms_um;
-      if (rms < best_rms)
-        best_rms = rms, best_pred = pred, best_name = StructureName(s);
-      if (s == Structure::kStatic) static_pred = pred;
-      if (s == Structure::kJoint) {
-        auto_pred = pred;
-        auto_terms = int(m.regressors.size());
-      }
+      record(entry, PredictOutput(m, ts), StructureName(s),
+             int(m.regressors.size()));
       ++entry;
     }
-    record(entry, auto_pred, "joint", auto_terms);
+    {
+      const OutputModel am = FitAuto(fit, j, o);
+      auto_pred = PredictOutput(am, ts);
+      record(entry, auto_pred, am.label, int(am.regressors.size()));
+      res.auto_selection.push_back(am.selection_log);
+    }
+    // Best on this holdout (a diagnostic chosen after the fact, not a model
+    // choice) and the simplest: the static model on every temperature.
+    size_t best_entry = 1;
+    for (size_t e = 1; e < res.entries.size(); ++e)
+      if (res.entries[e].stats.back().rms_um <
+          res.entries[best_entry].stats.back().rms_um)
+        best_entry = e;
+    const std::string best_name = res.entries[best_entry].name;
+    const std::string simplest_name = "static_all_T";
+
+    // Refits a named entry on `series` (the same holdout split) with
+    // `opt`, optionally with extra regressors (a fixed set), and returns
+    // its prediction at every row.
+    auto refit = [&](const std::string& name, const TimeSeries& series,
+                     const FitOptions& opt,
+                     const std::vector<Regressor>& extra) -> Eigen::VectorXd {
+      const TimeSeries head = HeadOf(series, holdout_from_s);
+      OutputModel m;
+      Structure s;
+      if (name == "static_all_T") {
+        std::vector<Regressor> regs = AllTemperatureRegressors(series);
+        regs.insert(regs.end(), extra.begin(), extra.end());
+        m = FitFixed(head, j, regs, Structure::kStatic, opt);
+      } else if (name == "lag_speed") {
+        std::vector<Regressor> regs = SpeedLagRegressors(series, opt.taus_s);
+        regs.insert(regs.end(), extra.begin(), extra.end());
+        m = FitFixed(head, j, regs, Structure::kLag, opt);
+      } else if (name == "auto") {
+        m = FitAuto(head, j, opt);
+      } else if (ParseStructure(name, &s)) {
+        m = FitOutput(head, j, s, opt);
+      } else {
+        return Eigen::VectorXd::Zero(static_cast<Eigen::Index>(series.rows()));
+      }
+      return PredictOutput(m, series);
+    };
+    auto entry_pred = [&](const std::string& name) {
+      return refit(name, ts, o, {});
+    };
+    const Eigen::VectorXd best_pred = entry_pred(best_name);
+    const Eigen::VectorXd static_pred = entry_pred(simplest_name);
     res.best.push_back(best_name);
-    res.simplest.push_back("static");
+    res.simplest.push_back(simplest_name);
     res.best_um.col(j) = best_pred;
     res.simplest_um.col(j) = static_pred;
 
-    // What the best and the simplest get wrong, and the measured fix.
+    // What the best and the simplest get wrong, and the extension that
+    // addresses that named error, refitted and measured on the holdout.
     auto diagnose = [&](const std::string& name, const Eigen::VectorXd& pred) {
       Diagnosis d = Diagnose(ts, first, j, pred, name);
-      Structure s;
-      ParseStructure(name, &s);
-      FitOptions ext = o;
+      const bool is_static = name == "static_all_T" || name == "static";
+      const double longest =
+          *std::max_element(o.taus_s.begin(), o.taus_s.end());
       Eigen::VectorXd fixed;
-      if (!d.jump_input.empty()) {
+      if (d.kind == ErrorKind::kJump) {
         d.extension = "leave out " + d.jump_input;
-        const TimeSeries without = WithoutInput(ts, d.jump_input);
-        fixed = Predicted(without, holdout_from_s, j, s, o);
-      } else if (d.problem.rfind("lag", 0) == 0 && s == Structure::kStatic) {
-        d.extension = "first-order lags of the inputs (combined structure)";
-        fixed = Predicted(ts, holdout_from_s, j, Structure::kCombined, o);
-      } else {
-        const double longest =
-            *std::max_element(o.taus_s.begin(), o.taus_s.end());
+        fixed = refit(name, WithoutInput(ts, d.jump_input), o, {});
+      } else if (d.kind == ErrorKind::kLag && is_static) {
+        // The structure lags its sensors: each temperature also through a
+        // first-order lag near the measured delay.
+        double tau = o.taus_s.front();
+        for (double t : o.taus_s)
+          if (std::abs(std::log(t / std::max(std::abs(d.lag_s), 300.0))) <
+              std::abs(std::log(tau / std::max(std::abs(d.lag_s), 300.0))))
+            tau = t;
+        // Two physical extensions for a model that reacts too early or
+        // late: the structure lags its sensors (each temperature also
+        // through a lag near the measured delay), or the heat source acts
+        // before the sensors see it (lags of n and n^2). Chosen by the CV
+        // score inside the fitted span, then measured on the holdout.
+        std::vector<Regressor> lagged;
+        for (const auto& r : AllTemperatureRegressors(ts))
+          lagged.push_back({r.input, 1, 0, {tau}});
+        const std::vector<Regressor> speed = SpeedLagRegressors(ts, o.taus_s);
+        const TimeSeries head = HeadOf(ts, holdout_from_s);
+        double score_t = std::numeric_limits<double>::infinity();
+        double score_n = score_t;
+        std::vector<Regressor> regs_t = AllTemperatureRegressors(ts);
+        std::vector<Regressor> regs_n = regs_t;
+        regs_t.insert(regs_t.end(), lagged.begin(), lagged.end());
+        regs_n.insert(regs_n.end(), speed.begin(), speed.end());
+        score_t = FitFixed(head, j, regs_t, Structure::kStatic, o).cv_score;
+        if (!speed.empty())
+          score_n = FitFixed(head, j, regs_n, Structure::kStatic, o).cv_score;
+        if (score_t <= score_n) {
+          d.extension = fmt::format(
+              "each temperature also through a first-order lag of {:g} s "
+              "(chosen over lags of n and n^2 by CV in the fitted span: "
+              "{:.2f} vs {:.2f})",
+              tau, score_t, score_n);
+          fixed = refit("static_all_T", ts, o, lagged);
+        } else {
+          d.extension = fmt::format(
+              "lags of n and n^2 at every time constant (chosen over "
+              "temperature lags of {:g} s by CV in the fitted span: {:.2f} "
+              "vs {:.2f})",
+              tau, score_n, score_t);
+          fixed = refit("static_all_T", ts, o, speed);
+        }
+      } else if (d.kind == ErrorKind::kLag) {
+        FitOptions ext = o;
+        if (d.lag_s > 0) {  // the measurement is slower than the model
+          ext.taus_s.push_back(2 * longest);
+          ext.taus_s.push_back(4 * longest);
+          d.extension = fmt::format(
+              "slower dynamics: time constants {:g} and {:g} s added",
+              2 * longest, 4 * longest);
+        } else {  // faster than the model
+          const double shortest =
+              *std::min_element(o.taus_s.begin(), o.taus_s.end());
+          ext.taus_s.insert(ext.taus_s.begin(), shortest / 2);
+          ext.taus_s.insert(ext.taus_s.begin(), shortest / 4);
+          d.extension = fmt::format(
+              "faster dynamics: time constants {:g} and {:g} s added",
+              shortest / 4, shortest / 2);
+        }
+        fixed = refit(name, ts, ext, {});
+      } else if (d.kind == ErrorKind::kDrift) {
+        FitOptions ext = o;
         ext.taus_s.push_back(2 * longest);
         ext.taus_s.push_back(4 * longest);
-        d.extension = fmt::format(
-            "longer time constants ({:g} and {:g} s) for the slow part",
-            2 * longest, 4 * longest);
-        fixed =
-            Predicted(ts, holdout_from_s, j,
-                      s == Structure::kStatic ? Structure::kCombined : s, ext);
+        if (is_static) {
+          std::vector<Regressor> slow =
+              SpeedLagRegressors(ts, {2 * longest, 4 * longest});
+          d.extension = fmt::format(
+              "a slow state: lags of n and n^2 at {:g} and {:g} s added",
+              2 * longest, 4 * longest);
+          fixed = refit("static_all_T", ts, o, slow);
+        } else {
+          d.extension =
+              fmt::format("a slow state: time constants {:g} and {:g} s added",
+                          2 * longest, 4 * longest);
+          fixed = refit(name, ts, ext, {});
+        }
       }
-      d.extended_rms_um = ComputeStats(meas, fixed.tail(nh), none_rms).rms_um;
+      if (fixed.size() > 0) {
+        d.extended_rms_um = ComputeStats(meas, fixed.tail(nh), none_rms).rms_um;
+      } else {
+        d.extension = "none indicated";
+        d.extended_rms_um = d.rms_um;
+      }
       return d;
     };
     res.best_diag.push_back(diagnose(best_name, best_pred));
-    res.simplest_diag.push_back(diagnose("static", static_pred));
+    res.simplest_diag.push_back(diagnose(simplest_name, static_pred));
     const int lead = ts.InputIndex(res.best_diag.back().leading_input);
     res.leading_inputs.push_back(res.best_diag.back().leading_input);
     if (lead >= 0)
@@ -387,6 +499,7 @@ nlohmann::json CompareToJson(const CompareResult& r) {
                           {"jump_input", d.jump_input},
                           {"jump_t_s", d.jump_t_s},
                           {"problem", d.problem},
+                          {"kind", ErrorKindName(d.kind)},
                           {"extension", d.extension},
                           {"rms_um", d.rms_um},
                           {"extended_rms_um", d.extended_rms_um},
@@ -398,6 +511,10 @@ nlohmann::json CompareToJson(const CompareResult& r) {
                           {"simplest", diag_json(r.simplest_diag[k])}};
   }
   j["diagnosis"] = diag;
+  nlohmann::json sel = nlohmann::json::object();
+  for (size_t k = 0; k < r.auto_selection.size(); ++k)
+    sel[r.outputs[k]] = r.auto_selection[k];
+  j["auto_selection"] = sel;
   j["warnings"] = r.warnings;
   return j;
 }
@@ -414,21 +531,28 @@ std::string CompareText(const CompareResult& r) {
   for (const auto& e : r.entries) {
     s += fmt::format("{:<14}", e.name);
     for (const auto& st : e.stats) s += fmt::format("{:>10.2f}", st.rms_um);
-    if (e.name == "auto") {
-      s += "   (";
-      for (size_t k = 0; k < e.structures.size(); ++k)
-        s += (k ? " " : "") + e.structures[k];
-      s += ")";
-    }
     s += "\n";
   }
+  for (const auto& e : r.entries)
+    if (e.name == "auto")
+      for (size_t k = 0; k < e.structures.size(); ++k)
+        s += fmt::format("auto {}: {} (chosen by CV inside the fitted span)\n",
+                         r.outputs[k], e.structures[k]);
   for (size_t k = 0; k < r.outputs.size(); ++k) {
     for (const Diagnosis* d : {&r.best_diag[k], &r.simplest_diag[k]}) {
-      s += fmt::format(
-          "{} {} ({}): {}\n    fix: {} -> RMS {:.2f} -> {:.2f} um ({:+.2f})\n",
-          r.outputs[k], d == &r.best_diag[k] ? "best" : "simplest", d->model,
-          d->problem, d->extension, d->rms_um, d->extended_rms_um,
-          d->extended_rms_um - d->rms_um);
+      const double gain = d->rms_um - d->extended_rms_um;
+      s += fmt::format("{} {} ({}): {}\n", r.outputs[k],
+                       d == &r.best_diag[k] ? "best" : "simplest", d->model,
+                       d->problem);
+      if (d->kind == ErrorKind::kNone)
+        s += "    extension: none indicated\n";
+      else
+        s += fmt::format(
+            "    extension: {} -> holdout RMS {:.2f} -> {:.2f} um ({})\n",
+            d->extension, d->rms_um, d->extended_rms_um,
+            gain > 0.005 * d->rms_um
+                ? fmt::format("gain {:.2f} um", gain)
+                : fmt::format("does not help: {:+.2f} um", -gain));
     }
   }
   for (const auto& w : r.warnings) s += "warning: " + w + "\n";

@@ -540,6 +540,155 @@ OutputModel FitOutput(const TimeSeries& fit, int output, Structure structure,
   return best;
 }
 
+namespace {
+
+// Block boundaries of the chronological CV over the rows where `output` is
+// measured (as PrepareData assigns them): fold k trains on t < bound[k].
+std::vector<double> CvBounds(const TimeSeries& fit, int output,
+                             const FitOptions& o) {
+  double t0 = kNaN, t1 = kNaN;
+  for (size_t i = 0; i < fit.rows(); ++i)
+    if (std::isfinite(fit.outputs_um(static_cast<Eigen::Index>(i), output))) {
+      if (!std::isfinite(t0)) t0 = fit.t_s[i];
+      t1 = fit.t_s[i];
+    }
+  std::vector<double> b;
+  for (int k = 0; k <= o.cv_blocks; ++k)
+    b.push_back(t0 + (t1 - t0) * k / o.cv_blocks);
+  return b;
+}
+
+// Nested chronological CV of a forward-selected structure: in fold k the
+// whole selection (regressors, ridge, poles) is redone on blocks [0, k)
+// alone, with its own inner CV, and the result predicts blocks k.. from
+// the inputs. A selection scored on the very folds that chose it would
+// look better than it is; this score does not see the validated blocks.
+double NestedCvRms(const TimeSeries& fit, int output, Structure s,
+                   const FitOptions& o) {
+  const std::vector<double> bound = CvBounds(fit, output, o);
+  double sse = 0, count = 0;
+  for (int k = o.cv_first_validation_block; k < o.cv_blocks; ++k) {
+    const TimeSeries head = HeadOf(fit, bound[k]);
+    OutputModel m;
+    try {
+      m = FitOutput(head, output, s, o);
+    } catch (const InputError&) {
+      continue;  // too few rows before this fold
+    }
+    const Eigen::VectorXd p = PredictOutput(m, fit);
+    for (size_t i = 0; i < fit.rows(); ++i) {
+      const double y = fit.outputs_um(static_cast<Eigen::Index>(i), output);
+      if (!std::isfinite(y) || fit.t_s[i] < bound[k]) continue;
+      const double r = y - p(static_cast<Eigen::Index>(i));
+      sse += r * r;
+      count += 1;
+    }
+  }
+  return count > 0 ? std::sqrt(sse / count) : kNaN;
+}
+
+}  // namespace
+
+std::vector<Regressor> AllTemperatureRegressors(const TimeSeries& ts) {
+  std::vector<Regressor> out;
+  for (const auto& name : ts.input_names)
+    if (!IsSpeed(name)) out.push_back({name, 1, 0, {}});
+  return out;
+}
+
+std::vector<Regressor> SpeedLagRegressors(const TimeSeries& ts,
+                                          const std::vector<double>& taus_s) {
+  std::vector<Regressor> out;
+  for (const auto& name : ts.input_names)
+    if (IsSpeed(name))
+      for (double tau : taus_s) {
+        out.push_back({name, 1, 0, {tau}});
+        out.push_back({name, 2, 0, {tau}});
+      }
+  return out;
+}
+
+OutputModel FitAuto(const TimeSeries& fit, int output, const FitOptions& o) {
+  CheckOptions(o);
+  struct Candidate {
+    std::string label;
+    OutputModel model;
+    double score = std::numeric_limits<double>::infinity();
+    double cv_rms = kNaN;
+  };
+  std::vector<Candidate> cands;
+  const int n_rows = [&] {
+    int n = 0;
+    for (Eigen::Index i = 0; i < fit.outputs_um.rows(); ++i)
+      if (std::isfinite(fit.outputs_um(i, output))) ++n;
+    return n;
+  }();
+  auto mdl = [&](size_t p) {
+    const double n = std::max(2, n_rows);
+    return 1.0 + static_cast<double>(p) * std::log(n) / n;
+  };
+  auto fixed = [&](const std::string& label, std::vector<Regressor> regs,
+                   Structure s) {
+    if (regs.empty()) return;
+    Candidate c;
+    c.label = label;
+    c.model = FitFixed(fit, output, regs, s, o);
+    c.score = c.model.cv_score;
+    c.cv_rms = c.model.cv_rms_um;
+    cands.push_back(std::move(c));
+  };
+  const std::vector<Regressor> temps = AllTemperatureRegressors(fit);
+  const std::vector<Regressor> speed = SpeedLagRegressors(fit, o.taus_s);
+  // Fixed regressor sets: only the ridge (and the temperature lag) is tuned,
+  // so their CV score is close to honest.
+  fixed("static on all temperatures", temps, Structure::kStatic);
+  fixed("lags of n and n^2 (every time constant)", speed, Structure::kLag);
+  {
+    std::vector<Regressor> r = temps;
+    r.insert(r.end(), speed.begin(), speed.end());
+    fixed("all temperatures + lags of n and n^2", r, Structure::kCombined);
+  }
+  if (!temps.empty())
+    for (double tau : o.taus_s) {
+      FitOptions oj = o;
+      oj.temperature_lag_s = tau;
+      fixed(fmt::format("joint, temperature lag {:g} s", tau),
+            JointRegressors(fit, oj), Structure::kJoint);
+    }
+  // Forward-selected structures, scored by nested CV.
+  if (o.auto_selected)
+    for (Structure s : {Structure::kStatic, Structure::kFir, Structure::kLag,
+                        Structure::kArx, Structure::kCombined}) {
+      Candidate c;
+      c.label = std::string(StructureName(s)) + " (forward-selected)";
+      c.model = FitOutput(fit, output, s, o);
+      c.cv_rms = NestedCvRms(fit, output, s, o);
+      if (!std::isfinite(c.cv_rms)) continue;
+      const double base = o.criterion == "mdl" ? c.model.fit_rms_um : c.cv_rms;
+      c.score = base * mdl(c.model.regressors.size());
+      cands.push_back(std::move(c));
+    }
+  if (cands.empty())
+    throw InputError(fit.source, 0, fit.output_names[output],
+                     "no model structure applies to the log's inputs");
+  size_t best = 0;
+  for (size_t k = 1; k < cands.size(); ++k)
+    if (cands[k].score < cands[best].score) best = k;
+  OutputModel m = cands[best].model;
+  m.cv_score = cands[best].score;
+  m.cv_rms_um = cands[best].cv_rms;
+  m.label = cands[best].label;
+  std::vector<std::string> log;
+  for (size_t k = 0; k < cands.size(); ++k)
+    log.push_back(fmt::format("{} {}: score {:.4g}, CV RMS {:.3f} um",
+                              k == best ? "*" : " ", cands[k].label,
+                              cands[k].score, cands[k].cv_rms));
+  log.push_back("chosen: " + m.label + " -- its own steps:");
+  log.insert(log.end(), m.selection_log.begin(), m.selection_log.end());
+  m.selection_log = log;
+  return m;
+}
+
 OutputModel FitFixed(const TimeSeries& fit, int output,
                      const std::vector<Regressor>& regressors,
                      Structure structure, const FitOptions& o) {
@@ -556,6 +705,10 @@ OutputModel FitFixed(const TimeSeries& fit, int output,
   return Finish(d, g, regressors, chosen, s, fit.output_names[output],
                 structure);
 }
+
+namespace {
+std::vector<InputRange> InputRanges(const TimeSeries& ts);
+}  // namespace
 
 ThermalModel FitThermalModel(const TimeSeries& ts,
                              const std::vector<std::string>& outputs,
@@ -585,11 +738,17 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   model.fit_t_begin_s = fit.t_s.front();
   model.fit_t_end_s = fit.t_s.back();
   model.median_step_s = MedianStep(fit);
+  model.input_ranges = InputRanges(fit);
   std::set<std::string> needed;
   for (int j : which) {
-    Structure s = Structure::kJoint;  // auto
-    if (o.model != "auto") ParseStructure(o.model, &s);
-    OutputModel best = FitOutput(fit, j, s, o);
+    OutputModel best;
+    if (o.model == "auto") {
+      best = FitAuto(fit, j, o);
+    } else {
+      Structure s = Structure::kJoint;
+      ParseStructure(o.model, &s);
+      best = FitOutput(fit, j, s, o);
+    }
     ComputeFeatures(fit, best.regressors, nullptr, &best.end_state);
     for (const auto& r : best.regressors) needed.insert(r.input);
     model.outputs.push_back(std::move(best));
@@ -606,24 +765,186 @@ Eigen::VectorXd PredictOutput(const OutputModel& m, const TimeSeries& ts) {
   return y;
 }
 
-Prediction Predict(const ThermalModel& model, const TimeSeries& ts) {
+bool PredictOptions::IsValid(std::string* error) const {
+  if (!(jump_factor > 1)) {
+    if (error) *error = "jump_factor: must be > 1";
+    return false;
+  }
+  if (!(jump_min >= 0)) {
+    if (error) *error = "jump_min: must be >= 0";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+std::vector<InputRange> InputRanges(const TimeSeries& ts) {
+  std::vector<char> gap(ts.rows(), 0);
+  for (size_t g : ts.gap_rows)
+    if (g < ts.rows()) gap[g] = 1;
+  std::vector<InputRange> out;
+  for (size_t j = 0; j < ts.input_names.size(); ++j) {
+    InputRange r;
+    r.input = ts.input_names[j];
+    const auto col = ts.inputs.col(static_cast<Eigen::Index>(j));
+    r.min = col.minCoeff();
+    r.max = col.maxCoeff();
+    for (Eigen::Index i = 1; i < col.size(); ++i)
+      if (!gap[static_cast<size_t>(i)])
+        r.max_step = std::max(r.max_step, std::abs(col(i) - col(i - 1)));
+    out.push_back(r);
+  }
+  return out;
+}
+
+// Temperature sensors that jump (see SensorJump); with `repair`, the values
+// from the jump on are shifted back by the step in `ts`.
+std::vector<SensorJump> FindJumps(const ThermalModel& model, TimeSeries* ts,
+                                  const PredictOptions& o) {
+  std::vector<SensorJump> out;
+  std::vector<char> gap(ts->rows(), 0);
+  for (size_t g : ts->gap_rows)
+    if (g < ts->rows()) gap[g] = 1;
+  for (const auto& r : model.input_ranges) {
+    if (IsSpeed(r.input)) continue;  // a speed may step: the program says so
+    const int j = ts->InputIndex(r.input);
+    if (j < 0) continue;
+    const double limit = std::max(o.jump_min, o.jump_factor * r.max_step);
+    for (Eigen::Index i = 1; i < ts->inputs.rows(); ++i) {
+      if (gap[static_cast<size_t>(i)]) continue;
+      const double step = ts->inputs(i, j) - ts->inputs(i - 1, j);
+      if (std::abs(step) <= limit) continue;
+      out.push_back(
+          {r.input, ts->t_s[static_cast<size_t>(i)], step, o.repair_jumps});
+      if (o.repair_jumps)
+        ts->inputs.col(j).tail(ts->inputs.rows() - i).array() -= step;
+    }
+  }
+  return out;
+}
+
+std::vector<Extrapolation> FindExtrapolations(const ThermalModel& model,
+                                              const TimeSeries& ts) {
+  std::vector<Extrapolation> out;
+  for (const auto& r : model.input_ranges) {
+    const int j = ts.InputIndex(r.input);
+    if (j < 0 || ts.rows() == 0) continue;
+    if (std::find(model.inputs.begin(), model.inputs.end(), r.input) ==
+        model.inputs.end())
+      continue;
+    const auto col = ts.inputs.col(j);
+    const double span = std::max(r.max - r.min, 1e-9);
+    Extrapolation e;
+    e.input = r.input;
+    e.fitted_min = r.min;
+    e.fitted_max = r.max;
+    e.seen_min = col.minCoeff();
+    e.seen_max = col.maxCoeff();
+    // A tolerance of 2 % of the range: sensor noise at the range's edge is
+    // not extrapolation.
+    const double tol = 0.02 * span;
+    int outside = 0;
+    for (Eigen::Index i = 0; i < col.size(); ++i) {
+      const double d = std::max(r.min - col(i), col(i) - r.max);
+      if (d > tol) ++outside;
+      e.excess = std::max(e.excess, d);
+    }
+    if (outside == 0) continue;
+    e.share_outside = static_cast<double>(outside) / col.size();
+    e.severe = e.excess > 0.1 * span;
+    out.push_back(e);
+  }
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json PredictionSummaryJson(const Prediction& p) {
+  nlohmann::json j;
+  j["rows"] = p.t_s.size();
+  j["continued"] = p.continued;
+  nlohmann::json outs = nlohmann::json::array();
+  for (size_t k = 0; k < p.outputs.size(); ++k)
+    outs.push_back({{"output", p.outputs[k]},
+                    {"cv_rms_um", std::isfinite(p.cv_rms_um[k])
+                                      ? nlohmann::json(p.cv_rms_um[k])
+                                      : nlohmann::json()}});
+  j["outputs"] = outs;
+  nlohmann::json ex = nlohmann::json::array();
+  for (const auto& e : p.extrapolations)
+    ex.push_back({{"input", e.input},
+                  {"fitted_range", {e.fitted_min, e.fitted_max}},
+                  {"seen_range", {e.seen_min, e.seen_max}},
+                  {"share_outside", e.share_outside},
+                  {"excess", e.excess},
+                  {"severe", e.severe}});
+  j["extrapolations"] = ex;
+  nlohmann::json jumps = nlohmann::json::array();
+  for (const auto& s : p.jumps)
+    jumps.push_back({{"input", s.input},
+                     {"t_s", s.t_s},
+                     {"step", s.step},
+                     {"repaired", s.repaired}});
+  j["sensor_jumps"] = jumps;
+  j["warnings"] = p.warnings;
+  return j;
+}
+
+Prediction Predict(const ThermalModel& model, const TimeSeries& input_ts,
+                   const PredictOptions& po) {
+  std::string why;
+  if (!po.IsValid(&why)) throw InputError("predict options", 0, "", why);
   for (const auto& name : model.inputs) {
-    if (ts.InputIndex(name) < 0) {
-      throw InputError(ts.source, 0, name,
+    if (input_ts.InputIndex(name) < 0) {
+      throw InputError(input_ts.source, 0, name,
                        "column needed by the model is missing from the log");
     }
   }
+  if (input_ts.rows() == 0)
+    throw InputError(input_ts.source, 0, "t_s", "the log has no data row");
+  TimeSeries ts = input_ts;
   Prediction p;
   p.t_s = ts.t_s;
+  p.jumps = FindJumps(model, &ts, po);
+  for (const auto& jmp : p.jumps)
+    p.warnings.push_back(fmt::format(
+        "{} jumps by {:+.2f} K at t = {:g} s (the fitted span's largest step "
+        "was {:.3g} K): a sensor fault, not the machine; {}",
+        jmp.input, jmp.step, jmp.t_s,
+        [&] {
+          for (const auto& r : model.input_ranges)
+            if (r.input == jmp.input) return r.max_step;
+          return 0.0;
+        }(),
+        jmp.repaired ? "its later values are shifted back by the step"
+                     : "not repaired: the prediction follows the jump"));
+  p.extrapolations = FindExtrapolations(model, ts);
+  for (const auto& e : p.extrapolations)
+    p.warnings.push_back(fmt::format(
+        "{} leaves the fitted range {:.4g}..{:.4g} on {:.0f}% of the rows "
+        "(seen {:.4g}..{:.4g}){}",
+        e.input, e.fitted_min, e.fitted_max, 100 * e.share_outside, e.seen_min,
+        e.seen_max,
+        e.severe ? ": the model extrapolates, its CV RMS does not describe "
+                   "those rows"
+                 : ""));
+  for (const auto& m : model.outputs) p.cv_rms_um.push_back(m.cv_rms_um);
   p.values_um.resize(static_cast<Eigen::Index>(ts.rows()),
                      static_cast<Eigen::Index>(model.outputs.size()));
   const double step = ts.t_s.front() - model.fit_t_end_s;
   p.continued = step > 0 && step <= kGapPeriods * model.median_step_s;
   if (step > kGapPeriods * model.median_step_s) {
     p.warnings.push_back(fmt::format(
-        "the log starts {:g} s after the fitted log's end: filters start from "
-        "its first row",
+        "the log starts {:g} s after the fitted log's end: filters start in "
+        "the steady state of its first row",
         step));
+  } else if (step <= 0) {
+    p.warnings.push_back(fmt::format(
+        "the log starts at t = {:g} s, not after the fitted log's end ({:g} "
+        "s): it is not taken as its continuation; filters start in the "
+        "steady state of its first row",
+        ts.t_s.front(), model.fit_t_end_s));
   }
   for (size_t k = 0; k < model.outputs.size(); ++k) {
     const OutputModel& m = model.outputs[k];
@@ -647,6 +968,13 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
   j["fit_t_end_s"] = model.fit_t_end_s;
   j["median_step_s"] = model.median_step_s;
   j["inputs"] = model.inputs;
+  nlohmann::json ranges = nlohmann::json::array();
+  for (const auto& r : model.input_ranges)
+    ranges.push_back({{"input", r.input},
+                      {"min", r.min},
+                      {"max", r.max},
+                      {"max_step", r.max_step}});
+  j["input_ranges"] = ranges;
   const FitOptions& o = model.options;
   j["options"] = {{"model", o.model},
                   {"taus_s", o.taus_s},
@@ -659,7 +987,8 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
                   {"ridge", o.ridge},
                   {"criterion", o.criterion},
                   {"min_gain", o.min_gain},
-                  {"weight_half_life_s", o.weight_half_life_s}};
+                  {"weight_half_life_s", o.weight_half_life_s},
+                  {"auto_selected", o.auto_selected}};
   nlohmann::json outs = nlohmann::json::array();
   for (const auto& m : model.outputs) {
     nlohmann::json regs = nlohmann::json::array();
@@ -673,6 +1002,7 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
     outs.push_back(
         {{"output", m.output},
          {"structure", StructureName(m.structure)},
+         {"candidate", m.label},
          {"intercept_um", m.intercept_um},
          {"regressors", regs},
          {"ridge", m.ridge},
@@ -699,6 +1029,11 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
     model.fit_t_end_s = j.at("fit_t_end_s").get<double>();
     model.median_step_s = j.at("median_step_s").get<double>();
     model.inputs = j.at("inputs").get<std::vector<std::string>>();
+    if (j.contains("input_ranges"))
+      for (const auto& r : j.at("input_ranges"))
+        model.input_ranges.push_back(
+            {r.at("input").get<std::string>(), r.at("min").get<double>(),
+             r.at("max").get<double>(), r.at("max_step").get<double>()});
     const auto& o = j.at("options");
     model.options.model = o.value("model", "auto");
     model.options.taus_s = o.value("taus_s", model.options.taus_s);
@@ -706,11 +1041,13 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
         o.value("temperature_lag_s", model.options.temperature_lag_s);
     model.options.criterion = o.value("criterion", "cv");
     model.options.weight_half_life_s = o.value("weight_half_life_s", 0.0);
+    model.options.auto_selected = o.value("auto_selected", false);
     for (const auto& oj : j.at("outputs")) {
       OutputModel m;
       m.output = oj.at("output").get<std::string>();
       if (!ParseStructure(oj.at("structure").get<std::string>(), &m.structure))
         throw InputError(source, 0, "structure", "unknown structure");
+      m.label = oj.value("candidate", "");
       m.intercept_um = oj.at("intercept_um").get<double>();
       const auto& regs = oj.at("regressors");
       const Eigen::Index k = static_cast<Eigen::Index>(regs.size());
@@ -731,6 +1068,8 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
       m.ridge = oj.value("ridge", 0.0);
       m.cv_score = oj.value("score", 0.0);
       m.fit_rms_um = oj.value("fit_rms_um", 0.0);
+      if (oj.contains("cv_rms_um") && oj.at("cv_rms_um").is_number())
+        m.cv_rms_um = oj.at("cv_rms_um").get<double>();
       m.n_fit = oj.value("n_fit", 0);
       m.end_state = oj.value("end_state", nlohmann::json());
       if (!m.end_state.is_null()) {

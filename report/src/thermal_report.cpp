@@ -56,7 +56,7 @@ D.outputs.forEach(function(o, k){
     series: [{ label: "t (h)" },
       { label: "measured", stroke: "#0b4f8a", width: 1.5 },
       { label: "best: " + o.best, stroke: "#c2410c", width: 1.5 },
-      { label: "simplest: static", stroke: "#7b8794", width: 1, dash: [4, 3] }],
+      { label: "simplest: static on all temperatures", stroke: "#7b8794", width: 1, dash: [4, 3] }],
     hooks: { draw: [function(u){
       var x = u.valToPos(D.holdout_from_h, "x", true), ctx = u.ctx;
       ctx.save(); ctx.strokeStyle = "#444"; ctx.setLineDash([3, 3]);
@@ -159,14 +159,22 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
     const auto& dj = data.at("diagnosis").at(o.get<std::string>());
     for (const char* which : {"best", "simplest"}) {
       const auto& d = dj.at(which);
+      const double before = d.at("rms_um").get<double>();
+      const double after = d.at("extended_rms_um").get<double>();
+      const bool none = d.value("kind", "") == "none";
       diag += fmt::format(
-          "<li><b>{} {} ({})</b>: {}. Fix: {} &rarr; RMS {:.2f} &rarr; {:.2f} "
-          "um.</li>\n",
-          Escape(o.get<std::string>()), which,
-          Escape(d.at("model").get<std::string>()),
+          "<li><b>{} {} ({})</b>: {}. {}</li>\n", Escape(o.get<std::string>()),
+          which, Escape(d.at("model").get<std::string>()),
           Escape(d.at("problem").get<std::string>()),
-          Escape(d.at("extension").get<std::string>()),
-          d.at("rms_um").get<double>(), d.at("extended_rms_um").get<double>());
+          none
+              ? std::string("No extension indicated.")
+              : fmt::format(
+                    "Extension: {} &rarr; holdout RMS {:.2f} &rarr; {:.2f} "
+                    "um ({}).",
+                    Escape(d.at("extension").get<std::string>()), before, after,
+                    before - after > 0.005 * before
+                        ? fmt::format("gain {:.2f} um", before - after)
+                        : std::string("does not help")));
     }
   }
   diag += "</ul>";

@@ -83,6 +83,66 @@ Eigen::MatrixXd FitStatic(const models::TimeSeries& s,
   return a.householderQr().solve(b);
 }
 
+// The static baseline updated like TALC (OutputReplay::static_model): the
+// main loop's semantics with temperature regressors only and the
+// measurement rows TALC chose.
+std::vector<std::vector<double>> StaticUpdatedResiduals(
+    const models::TimeSeries& s, const std::vector<int>& outs,
+    const Strategy& st, const std::vector<size_t>& meas_rows, double cal_end) {
+  RegressorSpec spec;
+  spec.speed_lags_s.clear();
+  spec.speed_squared = false;
+  spec.temperatures = {"all"};
+  spec.temperature_lag_s = 0.0;
+  const Regressors reg = BuildRegressors(s, spec);
+  const int m = int(outs.size());
+  const int p = int(reg.rows.cols());
+  RecursiveLeastSquares rls(p, m, st.ridge);
+  Eigen::MatrixXd theta = Eigen::MatrixXd::Zero(p, m);
+  Eigen::VectorXd base = Eigen::VectorXd::Zero(m), last_y = base, y(m), pred(m);
+  bool started = false, any = false;
+  double last_update_t = s.t_s.front();
+  size_t next = 0, last_cal = 0;
+  std::vector<std::vector<double>> r(static_cast<size_t>(m));
+  for (size_t i = 0; i < s.rows(); ++i) {
+    const double t = s.t_s[i];
+    const auto phi = reg.rows.row(Eigen::Index(i));
+    if (!started && t >= cal_end) {
+      started = true;
+      theta = rls.Solve();
+      if (any && st.anchored)
+        base =
+            last_y - (reg.rows.row(Eigen::Index(last_cal)) * theta).transpose();
+    }
+    pred = started ? Eigen::VectorXd((phi * theta).transpose() + base) : last_y;
+    if (t >= cal_end)
+      for (int o = 0; o < m; ++o) {
+        const double yo = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
+        if (!std::isnan(yo)) r[size_t(o)].push_back(yo - pred(o));
+      }
+    if (next >= meas_rows.size() || meas_rows[next] != i) continue;
+    ++next;
+    for (int o = 0; o < m; ++o)
+      y(o) = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
+    const double lambda =
+        st.forgetting_per_h == 1.0
+            ? 1.0
+            : std::pow(st.forgetting_per_h, (t - last_update_t) / 3600.0);
+    rls.Update(phi.transpose(), y, 1.0, lambda);
+    last_update_t = t;
+    if (started) {
+      theta = rls.Solve();
+      base = st.anchored ? Eigen::VectorXd(y - (phi * theta).transpose())
+                         : Eigen::VectorXd::Zero(m);
+    } else {
+      last_cal = i;
+    }
+    last_y = y;
+    any = true;
+  }
+  return r;
+}
+
 }  // namespace
 
 ReplayResult Replay(const models::TimeSeries& series, const Strategy& strategy,
@@ -124,7 +184,7 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
   double last_t = -std::numeric_limits<double>::infinity();
   double last_update_t = t0;
   int ng_left = 0;
-  std::vector<size_t> cal_rows;
+  std::vector<size_t> cal_rows, meas_rows;
 
   std::vector<std::vector<double>> r_talc(static_cast<size_t>(m)),
       r_hold(static_cast<size_t>(m)), r_none(static_cast<size_t>(m));
@@ -240,19 +300,38 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
     last_t = t;
     any_measurement = true;
     res.measurement_times_s.push_back(t);
+    meas_rows.push_back(i);
   }
   res.measurements = int(res.measurement_times_s.size());
   res.q_prod = res.total_s > 0 ? 1.0 - double(res.measurements) *
                                            st.measuring_time_s / res.total_s
                                : 1.0;
 
-  // Static baseline on the calibration measurements.
-  Eigen::MatrixXd b_static;
+  // Static baselines: frozen after calibration, updated like TALC, and
+  // fitted once on the stated window.
+  Eigen::MatrixXd b_static, b_window;
   std::vector<int> temps;
+  std::vector<std::vector<double>> r_updated;
   if (opt.baselines) {
     for (size_t c = 0; c < s.input_names.size(); ++c)
       if (s.input_names[c].rfind("T_", 0) == 0) temps.push_back(int(c));
     b_static = FitStatic(s, temps, cal_rows, outs);
+    std::vector<size_t> window_rows;
+    for (size_t i = 0; i < n; ++i)
+      if (s.t_s[i] >= opt.static_window_from_s &&
+          s.t_s[i] <= opt.static_window_to_s && all_measured(i))
+        window_rows.push_back(i);
+    res.static_window_samples = int(window_rows.size());
+    if (!window_rows.empty()) {
+      res.static_window_from_s = s.t_s[window_rows.front()];
+      res.static_window_to_s = s.t_s[window_rows.back()];
+      b_window = FitStatic(s, temps, window_rows, outs);
+      res.static_window_in_sample = res.static_window_to_s >= cal_end;
+    } else {
+      res.warnings.push_back(
+          "the static window holds no sample with every output measured");
+    }
+    r_updated = StaticUpdatedResiduals(s, outs, st, meas_rows, cal_end);
   }
   res.outputs.resize(size_t(m));
   for (int o = 0; o < m; ++o) {
@@ -263,18 +342,24 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
     if (!opt.baselines) continue;
     out.none = ResidualFigures(std::move(r_none[size_t(o)]));
     out.hold = ResidualFigures(std::move(r_hold[size_t(o)]));
-    std::vector<double> r_static;
-    for (size_t i = 0; i < n; ++i) {
-      if (s.t_s[i] < cal_end) continue;
-      const double yo = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
-      if (std::isnan(yo)) continue;
-      double v = b_static(0, o);
-      for (size_t j = 0; j < temps.size(); ++j)
-        v += b_static(Eigen::Index(j) + 1, o) *
-             (s.inputs(Eigen::Index(i), temps[j]) - s.inputs(0, temps[j]));
-      r_static.push_back(yo - v);
-    }
-    out.static_model = ResidualFigures(std::move(r_static));
+    auto frozen = [&](const Eigen::MatrixXd& b) {
+      std::vector<double> r;
+      if (b.size() == 0) return r;
+      for (size_t i = 0; i < n; ++i) {
+        if (s.t_s[i] < cal_end) continue;
+        const double yo = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
+        if (std::isnan(yo)) continue;
+        double v = b(0, o);
+        for (size_t j = 0; j < temps.size(); ++j)
+          v += b(Eigen::Index(j) + 1, o) *
+               (s.inputs(Eigen::Index(i), temps[j]) - s.inputs(0, temps[j]));
+        r.push_back(yo - v);
+      }
+      return r;
+    };
+    out.static_frozen = ResidualFigures(frozen(b_static));
+    out.static_window = ResidualFigures(frozen(b_window));
+    out.static_model = ResidualFigures(std::move(r_updated[size_t(o)]));
   }
   if (res.outputs.front().talc.samples == 0)
     res.status = ReplayStatus::kNoEvaluatedSamples;
@@ -303,6 +388,9 @@ nlohmann::json ReplayToJson(const ReplayResult& r, const Strategy& s) {
   j["evaluated_from_s"] = r.evaluated_from_s;
   j["q_prod_percent"] = 100.0 * r.q_prod;
   j["measurement_times_s"] = r.measurement_times_s;
+  j["static_window_s"] = {r.static_window_from_s, r.static_window_to_s};
+  j["static_window_samples"] = r.static_window_samples;
+  j["static_window_in_sample"] = r.static_window_in_sample;
   j["warnings"] = r.warnings;
   nlohmann::json outs = nlohmann::json::array();
   for (const auto& o : r.outputs) {
@@ -312,6 +400,8 @@ nlohmann::json ReplayToJson(const ReplayResult& r, const Strategy& s) {
          {"none", FiguresJson(o.none)},
          {"hold", FiguresJson(o.hold)},
          {"static", FiguresJson(o.static_model)},
+         {"static_frozen", FiguresJson(o.static_frozen)},
+         {"static_window", FiguresJson(o.static_window)},
          {"theta", std::vector<double>(o.theta.data(),
                                        o.theta.data() + o.theta.size())}});
   }
@@ -327,15 +417,25 @@ std::string ReplayText(const ReplayResult& r, const Strategy& s) {
       r.evaluated_from_s / 3600.0, r.total_s / 3600.0);
   t += fmt::format("model: {} regressors, rank {} at the end of calibration\n",
                    r.regressor_names.size(), r.rank_at_start);
-  t += fmt::format("{:<12} {:>22} {:>22} {:>22} {:>22}\n", "output",
-                   "TALC rms/P99/PtV", "none", "hold last", "static");
+  t += fmt::format(
+      "static: on all temperatures, updated at TALC's measurements like "
+      "TALC; frozen: fitted on the calibration measurements only; window: "
+      "fitted once on every sample in {:.0f}..{:.0f} s ({} samples{})\n",
+      r.static_window_from_s, r.static_window_to_s, r.static_window_samples,
+      r.static_window_in_sample
+          ? ": it overlaps the evaluated span, in-sample, an optimistic bound"
+          : "");
+  t += fmt::format("{:<10} {:>20} {:>20} {:>20} {:>20} {:>20} {:>20}\n",
+                   "rms/P99/PtV", "TALC", "none", "hold last", "static",
+                   "static frozen", "static window");
   auto cell = [](const Figures& f) {
     return fmt::format("{:6.2f} {:6.2f} {:6.2f}", f.rms_um, f.p99_um, f.ptv_um);
   };
   for (const auto& o : r.outputs)
-    t += fmt::format("{:<12} {:>22} {:>22} {:>22} {:>22}\n", o.name,
-                     cell(o.talc), cell(o.none), cell(o.hold),
-                     cell(o.static_model));
+    t += fmt::format("{:<10} {:>20} {:>20} {:>20} {:>20} {:>20} {:>20}\n",
+                     o.name, cell(o.talc), cell(o.none), cell(o.hold),
+                     cell(o.static_model), cell(o.static_frozen),
+                     cell(o.static_window));
   for (const auto& w : r.warnings) t += "warning: " + w + "\n";
   return t;
 }

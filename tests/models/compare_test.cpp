@@ -2,6 +2,7 @@
 // constructed cases whose answer is known by construction.
 #include "ttp/models/compare.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -64,6 +65,63 @@ TEST(Compare, DiagnosesLagAndSensorJump) {
   const Diagnosis d = Diagnose(ts, 1000, 0, pred, "static");
   EXPECT_TRUE(d.jump_input.empty());
   EXPECT_EQ(d.problem.rfind("lag", 0), 0u) << d.problem;
+}
+
+// A spindle heated by a n + b n^2 (first-order node, 1200 s), measured by
+// two redundant sensors T_s1, T_s2; the displacement follows the spindle
+// temperature through a slower structure (5400 s). Speed blocks of 3 h.
+TimeSeries LaggingStructure(bool jump) {
+  TimeSeries ts;
+  ts.source = "lagging-structure";
+  ts.input_names = {"n_spindle", "T_s1", "T_s2"};
+  ts.output_names = {"d_x"};
+  const int n = 2400;  // 40 h at 60 s
+  ts.inputs.resize(n, 3);
+  ts.outputs_um.resize(n, 1);
+  const double levels[] = {2000, 0,    4000, 0,    1000, 0,    3000,
+                           0,    2500, 0,    3500, 0,    1500, 0};
+  double temp = 20, structure = 20;
+  for (int i = 0; i < n; ++i) {
+    const double t = 60.0 * i;
+    ts.t_s.push_back(t);
+    const double rpm = levels[static_cast<int>(t / 10800.0) % 14];
+    const double k = rpm / 1000.0;
+    const double target = 20 + 0.8 * k + 0.15 * k * k;
+    temp += (target - temp) * (1 - std::exp(-60.0 / 1200.0));
+    structure += (temp - structure) * (1 - std::exp(-60.0 / 5400.0));
+    ts.inputs(i, 0) = rpm;
+    ts.inputs(i, 1) = temp + 0.01 * std::sin(1.7 * i);
+    ts.inputs(i, 2) = temp + 0.01 * std::cos(1.3 * i) +
+                      (jump && t >= 30 * 3600.0 ? 3.0 : 0.0);
+    ts.outputs_um(i, 0) = 6 * (structure - 20);
+  }
+  return ts;
+}
+
+// The static model on all temperatures misses the structure's delay: the
+// comparison names the lag and its extension gains on the holdout; with a
+// jump of one redundant sensor in the holdout, the jump is named and leaving
+// the sensor out gains.
+TEST(Compare, NamesTheErrorAndMeasuresTheExtension) {
+  const double from = 26 * 3600.0;
+  const CompareResult r = CompareModels(LaggingStructure(false), from, {});
+  ASSERT_EQ(r.simplest.size(), 1u);
+  EXPECT_EQ(r.simplest[0], "static_all_T");
+  const Diagnosis& d = r.simplest_diag[0];
+  EXPECT_EQ(d.kind, ErrorKind::kLag) << d.problem;
+  EXPECT_LT(d.extended_rms_um, 0.5 * d.rms_um) << d.extension;
+  const CompareResult j = CompareModels(LaggingStructure(true), from, {});
+  const Diagnosis& e = j.simplest_diag[0];
+  EXPECT_EQ(e.kind, ErrorKind::kJump) << e.problem;
+  EXPECT_EQ(e.jump_input, "T_s2");
+  EXPECT_NE(e.extension.find("T_s2"), std::string::npos);
+  EXPECT_LT(e.extended_rms_um, e.rms_um) << e.extension;
+  // The text states the measured difference, not a canned line.
+  const std::string text = CompareText(j);
+  EXPECT_NE(
+      text.find(fmt::format("{:.2f} -> {:.2f}", e.rms_um, e.extended_rms_um)),
+      std::string::npos)
+      << text;
 }
 
 }  // namespace

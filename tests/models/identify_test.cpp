@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "ttp/geometry/error.h"
@@ -105,7 +106,9 @@ TEST(Identify, DynamicModelBeatsStaticOnTwoNodeNetwork) {
       PredictOutput(FitOutput(HeadOf(ts, kSplit), 0, Structure::kStatic, o),
                     ts),
       kSplit);
-  EXPECT_EQ(m.outputs[0].structure, Structure::kJoint);
+  // auto chose a dynamic structure by CV inside the fitted span.
+  EXPECT_NE(m.outputs[0].structure, Structure::kStatic) << m.outputs[0].label;
+  EXPECT_FALSE(m.outputs[0].label.empty());
   EXPECT_LT(auto_rms, 0.5 * static_rms)
       << "auto " << auto_rms << " static " << static_rms;
   EXPECT_LT(auto_rms, 0.35 * none) << auto_rms << " vs none " << none;
@@ -130,6 +133,7 @@ TEST(Identify, DynamicModelBeatsStaticOnTwoNodeNetwork) {
 TEST(Identify, JointWithTemperatureLagNearTheHiddenNode) {
   const TimeSeries ts = TwoNodeNetwork(7);
   FitOptions o;
+  o.model = "joint";
   o.temperature_lag_s = 14400;
   const ThermalModel m = FitThermalModel(ts, {}, o, kSplit);
   const double none = HoldoutRms(ts, Eigen::VectorXd::Zero(ts.rows()), kSplit);
@@ -152,7 +156,9 @@ TEST(Identify, PredictIsCausalAndIgnoresOutputs) {
   TimeSeries changed = ts;
   const Eigen::Index k = 2000;
   changed.inputs.bottomRows(changed.inputs.rows() - k).array() += 5.0;
-  const Prediction c = Predict(m, changed);
+  PredictOptions keep;  // a step of 5 K would be repaired as a sensor jump
+  keep.repair_jumps = false;
+  const Prediction c = Predict(m, changed, keep);
   EXPECT_EQ(
       (c.values_um.topRows(k) - p.values_um.topRows(k)).cwiseAbs().maxCoeff(),
       0.0);
@@ -236,52 +242,190 @@ TEST(Identify, MdlCriterionAndWlseRun) {
   EXPECT_LT(HoldoutRms(ts, PredictOutput(m.outputs[0], ts), kSplit), none);
 }
 
+TEST(Identify, AutoNeverSeesTheHoldout) {
+  const TimeSeries ts = TwoNodeNetwork(5);
+  FitOptions o;
+  o.auto_selected = false;  // the fixed candidates suffice here (cheap)
+  const ThermalModel m = FitThermalModel(ts, {}, o, kSplit);
+  TimeSeries changed = ts;
+  for (size_t i = 0; i < ts.rows(); ++i)
+    if (ts.t_s[i] >= kSplit) {
+      changed.outputs_um.row(static_cast<Eigen::Index>(i)).setConstant(1e3);
+      changed.inputs.row(static_cast<Eigen::Index>(i)).array() += 7.0;
+    }
+  const ThermalModel c = FitThermalModel(changed, {}, o, kSplit);
+  ASSERT_EQ(m.outputs.size(), c.outputs.size());
+  EXPECT_EQ(m.outputs[0].label, c.outputs[0].label);
+  EXPECT_EQ(m.outputs[0].coef, c.outputs[0].coef);
+  EXPECT_EQ(m.outputs[0].intercept_um, c.outputs[0].intercept_um);
+}
+
+TEST(Identify, AutoTakesTheLowestCvScoreOfItsCandidates) {
+  const TimeSeries ts = TwoNodeNetwork(7);
+  const TimeSeries fit = HeadOf(ts, kSplit);
+  FitOptions o;
+  o.auto_selected = false;
+  const OutputModel a = FitAuto(fit, 0, o);
+  const OutputModel st =
+      FitFixed(fit, 0, AllTemperatureRegressors(fit), Structure::kStatic, o);
+  const OutputModel lag =
+      FitFixed(fit, 0, SpeedLagRegressors(fit, o.taus_s), Structure::kLag, o);
+  EXPECT_LE(a.cv_score, st.cv_score);
+  EXPECT_LE(a.cv_score, lag.cv_score);
+  // Every candidate is listed with its score, the chosen one marked.
+  int marked = 0;
+  for (const auto& line : a.selection_log)
+    if (line.rfind("* ", 0) == 0) ++marked;
+  EXPECT_EQ(marked, 1);
+  // More candidates (the forward-selected ones, nested CV): the minimum
+  // can only go down.
+  FitOptions with = o;
+  with.auto_selected = true;
+  with.model = "auto";
+  const OutputModel b = FitAuto(fit, 0, with);
+  EXPECT_LE(b.cv_score, a.cv_score);
+}
+
+TEST(Identify, PredictWarnsAndRepairsAJumpingSensor) {
+  const TimeSeries ts = TwoNodeNetwork(3);
+  FitOptions o;
+  o.model = "joint";
+  const ThermalModel m = FitThermalModel(ts, {}, o, kSplit);
+  TimeSeries jumped = ts;
+  const int j = ts.InputIndex("T_spindle");
+  ASSERT_GE(j, 0);
+  const Eigen::Index k = 2500;
+  jumped.inputs.col(j).tail(ts.rows() - k).array() += 5.0;
+  const Prediction clean = Predict(m, ts);
+  const Prediction repaired = Predict(m, jumped);
+  ASSERT_EQ(repaired.jumps.size(), 1u);
+  EXPECT_EQ(repaired.jumps[0].input, "T_spindle");
+  EXPECT_EQ(repaired.jumps[0].t_s, ts.t_s[k]);
+  bool named = false;
+  for (const auto& w : repaired.warnings)
+    if (w.find("T_spindle jumps") != std::string::npos) named = true;
+  EXPECT_TRUE(named);
+  // Repaired: the machine's own step at that row is also removed, so the
+  // prediction is close to the clean one, not equal; followed: off by
+  // several um.
+  PredictOptions keep;
+  keep.repair_jumps = false;
+  const Prediction followed = Predict(m, jumped, keep);
+  const double off_followed =
+      (followed.values_um - clean.values_um).cwiseAbs().maxCoeff();
+  const double off_repaired =
+      (repaired.values_um - clean.values_um).cwiseAbs().maxCoeff();
+  EXPECT_GT(off_followed, 1.0);
+  EXPECT_LT(off_repaired, 0.1 * off_followed);
+}
+
+TEST(Identify, PredictNamesInputsOutsideTheFittedRange) {
+  const TimeSeries ts = TwoNodeNetwork(3);
+  FitOptions o;
+  o.model = "lag";
+  const ThermalModel m = FitThermalModel(ts, {}, o, kSplit);
+  const Prediction inside = Predict(m, HeadOf(ts, kSplit));
+  EXPECT_TRUE(inside.extrapolations.empty());
+  TimeSeries fast = ts;
+  const int n = ts.InputIndex("n_spindle");
+  fast.inputs.col(n) *= 1.5;
+  const Prediction p = Predict(m, fast);
+  ASSERT_FALSE(p.extrapolations.empty());
+  EXPECT_EQ(p.extrapolations[0].input, "n_spindle");
+  EXPECT_TRUE(p.extrapolations[0].severe);
+  ASSERT_EQ(p.cv_rms_um.size(), 1u);
+  EXPECT_TRUE(std::isfinite(p.cv_rms_um[0]));
+}
+
+TEST(Identify, PredictsALogWithoutOutputColumns) {
+  const TimeSeries ts = TwoNodeNetwork(3);
+  FitOptions o;
+  o.model = "static";
+  const ThermalModel m = FitThermalModel(ts, {}, o, kSplit);
+  TimeSeries inputs_only = ts;
+  inputs_only.output_names.clear();
+  inputs_only.outputs_um.resize(static_cast<Eigen::Index>(ts.rows()), 0);
+  const Prediction p = Predict(m, inputs_only);
+  EXPECT_EQ(p.values_um.rows(), static_cast<Eigen::Index>(ts.rows()));
+  EXPECT_EQ(p.outputs, std::vector<std::string>{"d_z"});
+  EXPECT_LT((p.values_um - Predict(m, ts).values_um).cwiseAbs().maxCoeff(),
+            1e-12);
+}
+
 // Real data: the FL spindle test, fitted on the first part and predicted
-// from the inputs alone. The simple models (static on all 16 temperatures;
-// lags of n and n^2) are measured here on the same split.
+// from the inputs alone, against the simple models of the README on the
+// same split (static on all 16 temperatures; lags of n and n^2, time
+// constant by CV). auto with its default candidates (the fixed sets).
 struct Rms {
-  double none, simple, static_all_t, mine;
+  double none, static_all_t, lag_speed, mine;
+  double simple() const { return std::min(static_all_t, lag_speed); }
 };
+double RmsFrom(const TimeSeries& ts, int j, double from,
+               const Eigen::VectorXd& pred) {
+  double s = 0;
+  int n = 0;
+  for (size_t i = 0; i < ts.rows(); ++i)
+    if (ts.t_s[i] >= from && std::isfinite(ts.outputs_um(i, j))) {
+      const double r = ts.outputs_um(i, j) - pred(static_cast<Eigen::Index>(i));
+      s += r * r, ++n;
+    }
+  return std::sqrt(s / n);
+}
 std::vector<Rms> RealSplit(const TimeSeries& ts, double holdout_from_s) {
-  const CompareResult r = CompareModels(ts, holdout_from_s, FitOptions());
-  auto entry = [&](const std::string& name) -> const CompareEntry& {
-    for (const auto& e : r.entries)
-      if (e.name == name) return e;
-    throw std::runtime_error(name);
-  };
+  const TimeSeries fit = HeadOf(ts, holdout_from_s);
+  FitOptions o;
+  o.auto_selected = false;
   std::vector<Rms> out;
-  for (size_t k = 0; k < r.outputs.size(); ++k) {
-    const double st = entry("static_all_T").stats[k].rms_um;
-    out.push_back({entry("none").stats[k].rms_um,
-                   std::min(st, entry("lag_speed").stats[k].rms_um), st,
-                   entry("auto").stats[k].rms_um});
+  for (int j = 0; j < static_cast<int>(ts.output_names.size()); ++j) {
+    Rms r;
+    r.none = RmsFrom(ts, j, holdout_from_s, Eigen::VectorXd::Zero(ts.rows()));
+    r.static_all_t =
+        RmsFrom(ts, j, holdout_from_s,
+                PredictOutput(FitFixed(fit, j, AllTemperatureRegressors(fit),
+                                       Structure::kStatic, o),
+                              ts));
+    OutputModel lag;
+    lag.cv_score = std::numeric_limits<double>::infinity();
+    for (double tau : o.taus_s) {
+      OutputModel m =
+          FitFixed(fit, j, SpeedLagRegressors(fit, {tau}), Structure::kLag, o);
+      if (m.cv_score < lag.cv_score) lag = m;
+    }
+    r.lag_speed = RmsFrom(ts, j, holdout_from_s, PredictOutput(lag, ts));
+    r.mine =
+        RmsFrom(ts, j, holdout_from_s, PredictOutput(FitAuto(fit, j, o), ts));
+    out.push_back(r);
   }
   return out;
 }
 
 // Fit on the first 15 h (1250 and 2500 1/min), predict the next 8 h (3750
-// 1/min, a speed never seen in the fit). Measured (docs/THERMAL.md): auto
-// is 2.3 to 4 times better than the better simple model on d_ch1, d_ch2,
-// d_ch5; on d_ch3 and d_ch4 the static model on all 16 temperatures is
-// better (2.0, 2.8 um against 2.9, 3.1 um), both about a tenth of no
-// compensation.
+// 1/min, never seen in the fit). Measured (docs/THERMAL.md): auto 2.6 /
+// 2.7 / 4.3 / 4.4 / 10.5 um; the better simple model 5.8 / 7.1 / 2.0 / 2.8
+// / 12.3: auto better on d_ch1, d_ch2, d_ch5, worse than the static model
+// on d_ch3, d_ch4 (its CV inside the 15 h prefers the speed lags there).
 TEST(Identify, RealSpindleTestUnseenSpeed) {
   const TimeSeries ts = ReadThermalLog(std::string(TTP_DATA_DIR) +
                                        "/reference/fl-thermal/train.csv");
   const std::vector<Rms> r = RealSplit(ts, 54000);
   ASSERT_EQ(r.size(), 5u);
-  for (int k : {0, 1, 4})
-    EXPECT_LT(r[k].mine, 0.5 * r[k].simple)
+  for (int k : {0, 1})
+    EXPECT_LT(r[k].mine, 0.5 * r[k].simple())
         << "d_ch" << k + 1 << ": auto " << r[k].mine << " simple "
-        << r[k].simple;
+        << r[k].simple();
+  EXPECT_LT(r[4].mine, r[4].simple()) << "d_ch5";
   for (int k : {2, 3}) {
-    EXPECT_LT(r[k].mine, 0.15 * r[k].none) << "d_ch" << k + 1;
-    EXPECT_LT(r[k].mine, 1.6 * r[k].static_all_t) << "d_ch" << k + 1;
+    EXPECT_LT(r[k].mine, 0.2 * r[k].none) << "d_ch" << k + 1;
+    EXPECT_LT(r[k].mine, 2.5 * r[k].static_all_t) << "d_ch" << k + 1;
   }
 }
 
-// Inside the first 15 h: fit on 10 h, predict the next 5 h. auto beats the
-// better simple model (or no compensation) on every channel.
+// Inside the first 15 h: fit on 10 h (1250 1/min, rest, 2 h of 2500),
+// predict 36000..54000 s. Measured: auto 2.1 / 3.5 / 8.9 / 8.3 / 5.9 um,
+// better simple model 4.4 / 3.5 / 8.9 / 8.7 / 4.0, none 11.0 / 12.1 / 8.2 /
+// 9.0 / 29.1: the inner CV (folds trained on the 1250 block alone) picks
+// the static model on d_ch2, d_ch3; auto is ahead on d_ch1, behind the
+// speed lags on d_ch5.
 TEST(Identify, RealSpindleTestInsideTheFirstHalf) {
   const TimeSeries ts =
       HeadOf(ReadThermalLog(std::string(TTP_DATA_DIR) +
@@ -289,10 +433,11 @@ TEST(Identify, RealSpindleTestInsideTheFirstHalf) {
              54000);
   const std::vector<Rms> r = RealSplit(ts, 36000);
   ASSERT_EQ(r.size(), 5u);
-  for (size_t k = 0; k < r.size(); ++k)
-    EXPECT_LT(r[k].mine, 0.75 * std::min(r[k].simple, r[k].none))
-        << "d_ch" << k + 1 << ": auto " << r[k].mine << " simple "
-        << r[k].simple << " none " << r[k].none;
+  EXPECT_LT(r[0].mine, 0.6 * r[0].simple()) << "d_ch1 " << r[0].mine;
+  for (int k : {1, 2, 3})
+    EXPECT_LT(r[k].mine, 1.1 * r[k].static_all_t)
+        << "d_ch" << k + 1 << ": auto " << r[k].mine;
+  EXPECT_LT(r[4].mine, 0.25 * r[4].none) << "d_ch5 " << r[4].mine;
 }
 
 }  // namespace

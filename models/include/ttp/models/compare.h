@@ -30,8 +30,13 @@ ResidualStats ComputeStats(const Eigen::VectorXd& measured,
                            double none_rms_um);
 double Percentile(std::vector<double> values, double fraction);
 
+// The error a diagnosis names, in the order it is looked for.
+enum class ErrorKind { kNone, kJump, kLag, kDrift };
+const char* ErrorKindName(ErrorKind k);
+
 // What a model gets wrong on the holdout.
 struct Diagnosis {
+  ErrorKind kind = ErrorKind::kNone;
   std::string model;
   std::string leading_input;  // temperature most correlated with the output
   double loop_area_um_k = 0;  // residual vs leading temperature
@@ -70,6 +75,8 @@ struct CompareResult {
   std::vector<std::string> leading_inputs;
   Eigen::MatrixXd leading_values;  // rows x outputs
   std::vector<std::string> warnings;
+  // Per output: auto's candidates with their CV scores (FitAuto's log).
+  std::vector<std::vector<std::string>> auto_selection;
 };
 
 CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,

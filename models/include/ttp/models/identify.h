@@ -63,6 +63,10 @@ struct FitOptions {
   // WLSE: weight 2^(-(t_end - t) / half_life) on each sample (0 = ordinary
   // least squares; thesis eq. 4.20).
   double weight_half_life_s = 0;
+  // `auto`: also the forward-selected structures among the candidates
+  // (each scored by nested CV, which refits the selection in every fold:
+  // about a hundred times the cost of the fixed candidates).
+  bool auto_selected = false;
 
   bool IsValid(std::string* error) const;
 };
@@ -70,6 +74,7 @@ struct FitOptions {
 struct OutputModel {
   std::string output;  // d_* column
   Structure structure = Structure::kStatic;
+  std::string label;  // `auto`: the candidate chosen, e.g. "joint, ..."
   std::vector<Regressor> regressors;
   Eigen::VectorXd coef;  // um per regressor unit
   double intercept_um = 0;
@@ -83,8 +88,18 @@ struct OutputModel {
   nlohmann::json end_state;  // filter state at the end of the fitted log
 };
 
+// What the fitted span saw of one input: its range and the largest step
+// between neighbouring rows (gaps excluded). Predict compares a new log
+// with it (extrapolation, a sensor that jumps).
+struct InputRange {
+  std::string input;
+  double min = 0, max = 0;
+  double max_step = 0;
+};
+
 struct ThermalModel {
   std::string source;
+  std::vector<InputRange> input_ranges;       // every input of the fitted span
   double fit_t_begin_s = 0, fit_t_end_s = 0;  // last fitted row
   double median_step_s = 0;
   std::vector<std::string> inputs;  // columns the model needs
@@ -103,25 +118,77 @@ ThermalModel FitThermalModel(
 OutputModel FitOutput(const TimeSeries& fit, int output, Structure structure,
                       const FitOptions& options);
 
+// `auto`: every candidate structure scored by the same chronological CV
+// inside `fit`, the lowest score wins (see FitAuto in identify.cpp and
+// docs/THERMAL.md). Candidates: static on all temperatures; lags of n and
+// n^2 at every time constant; both together; `joint` at each temperature
+// lag in taus_s; and (auto_selected) the forward-selected static, fir, lag,
+// arx and combined structures, whose score is a nested CV.
+OutputModel FitAuto(const TimeSeries& fit, int output,
+                    const FitOptions& options);
+
+// The reference regressor sets: every temperature as it is; n and n^2
+// through a lag at each time constant.
+std::vector<Regressor> AllTemperatureRegressors(const TimeSeries& ts);
+std::vector<Regressor> SpeedLagRegressors(const TimeSeries& ts,
+                                          const std::vector<double>& taus_s);
+
 // Fixed regressors (no selection; ridge still by CV), e.g. the reference
 // models "static on all temperatures", "lags of n and n^2".
 OutputModel FitFixed(const TimeSeries& fit, int output,
                      const std::vector<Regressor>& regressors,
                      Structure structure, const FitOptions& options);
 
+// An input of the predicted log outside what the fit saw.
+struct Extrapolation {
+  std::string input;
+  double fitted_min = 0, fitted_max = 0;
+  double seen_min = 0, seen_max = 0;
+  double share_outside = 0;  // of the rows
+  double excess = 0;         // largest distance outside, in input units
+  // Beyond the fitted range by more than a tenth of that range: the
+  // model's CV RMS does not describe these rows.
+  bool severe = false;
+};
+
+// A temperature that steps between two rows by more than both
+// PredictOptions::jump_factor times the largest step of the fitted span and
+// jump_min: a sensor that jumps, not the machine's temperature.
+struct SensorJump {
+  std::string input;
+  double t_s = 0;
+  double step = 0;
+  bool repaired = false;  // later values shifted back by the step
+};
+
+struct PredictOptions {
+  double jump_factor = 10;
+  double jump_min = 0.3;     // degC
+  bool repair_jumps = true;  // shift a jumping sensor back by its step
+  bool IsValid(std::string* error) const;
+};
+
 struct Prediction {
   std::vector<double> t_s;
   std::vector<std::string> outputs;
   Eigen::MatrixXd values_um;  // rows x outputs
-  bool continued = false;     // started from the model's end state
+  // The chronological CV RMS inside the fitted span, per output: the
+  // expected error where the inputs stay inside the fitted range (NaN when
+  // the model was not cross-validated).
+  std::vector<double> cv_rms_um;
+  bool continued = false;  // started from the model's end state
+  std::vector<Extrapolation> extrapolations;
+  std::vector<SensorJump> jumps;
   std::vector<std::string> warnings;
 };
+nlohmann::json PredictionSummaryJson(const Prediction& p);
 
 // Causal prediction of every modelled output at every row of `ts` from its
 // inputs alone (outputs in `ts` are ignored). When ts starts after the
 // fitted log's end (within ten sampling periods) the filters continue from
 // the model's end state; otherwise they start from the first row.
-Prediction Predict(const ThermalModel& model, const TimeSeries& ts);
+Prediction Predict(const ThermalModel& model, const TimeSeries& ts,
+                   const PredictOptions& options = {});
 // One output over a whole series, filters from its first row.
 Eigen::VectorXd PredictOutput(const OutputModel& m, const TimeSeries& ts);
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,11 +29,21 @@ struct Figures {
 
 struct OutputReplay {
   std::string name;
-  Figures talc;           // the strategy's compensation
-  Figures none;           // no compensation (outputs are relative to start)
-  Figures hold;           // the last measurement held (same times)
-  Figures static_model;   // linear on all temperatures, fitted on the
-                          // calibration measurements, then frozen
+  Figures talc;  // the strategy's compensation
+  Figures none;  // no compensation (outputs are relative to start)
+  Figures hold;  // the last measurement held (same times)
+  // Linear on all temperatures (their change since the start), updated
+  // exactly as TALC is: the same measurement times, calibration phase,
+  // recursive least squares (ridge, forgetting) and anchoring. The fair
+  // static baseline: only the structure differs from TALC's.
+  Figures static_model;
+  // The same static model fitted once on the calibration measurements,
+  // then frozen (extrapolates to speeds the calibration did not see).
+  Figures static_frozen;
+  // The same static model fitted once, by least squares, on every sample
+  // with all outputs measured in ReplayResult's static window (default:
+  // the whole log, i.e. in-sample: an optimistic bound for a static model).
+  Figures static_window;
   Eigen::VectorXd theta;  // model parameters at the end
 };
 
@@ -49,6 +60,11 @@ struct ReplayResult {
   double total_s = 0.0;
   double evaluated_from_s = 0.0;  // end of the calibration phase
   double q_prod = 1.0;            // 1 - N t_M / t_total (fraction)
+  // The window OutputReplay::static_window was fitted on (s) and the
+  // samples used.
+  double static_window_from_s = 0.0, static_window_to_s = 0.0;
+  int static_window_samples = 0;
+  bool static_window_in_sample = false;  // overlaps the evaluated span
   std::vector<OutputReplay> outputs;
   // Compensation value at every sample (rows x outputs), when kept.
   Eigen::MatrixXd predictions_um;
@@ -58,6 +74,10 @@ struct ReplayResult {
 struct ReplayOptions {
   bool keep_predictions = false;
   bool baselines = true;  // hold / static / none figures
+  // The window the `static_window` baseline is fitted on (s; clipped to
+  // the log).
+  double static_window_from_s = -std::numeric_limits<double>::infinity();
+  double static_window_to_s = std::numeric_limits<double>::infinity();
 };
 
 ReplayResult Replay(const models::TimeSeries& series, const Strategy& strategy,
