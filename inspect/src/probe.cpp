@@ -151,7 +151,8 @@ std::vector<LogRow> ReadFanucLog(const std::string& text,
 }
 
 std::vector<LogRow> ReadCsvRows(const std::string& text,
-                                const std::string& source, int* header_line) {
+                                const std::string& source, int* header_line,
+                                bool* has_pass) {
   const CsvTable table = ParseCsv(text, source);
   *header_line = table.header_line;
   const int c_id = table.Require("point_id");
@@ -161,6 +162,7 @@ std::vector<LogRow> ReadCsvRows(const std::string& text,
   const int c_c = table.Require("c_deg");
   const int c_feature = table.Has("feature") ? table.Require("feature") : -1;
   const int c_pass = table.Has("pass") ? table.Require("pass") : -1;
+  *has_pass = c_pass >= 0;
   std::vector<LogRow> rows;
   for (const CsvRow& r : table.rows) {
     LogRow row;
@@ -217,9 +219,11 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   for (const auto& p : planned) by_id[p.id] = &p;
 
   int header_line = 1;
+  // The probing program's own logs hold program-frame (G54) positions.
+  bool program_log = IsFanucLog(csv_text);
   const std::vector<LogRow> rows =
-      IsFanucLog(csv_text) ? ReadFanucLog(csv_text, source)
-                           : ReadCsvRows(csv_text, source, &header_line);
+      program_log ? ReadFanucLog(csv_text, source)
+                  : ReadCsvRows(csv_text, source, &header_line, &program_log);
   ProbeImport out;
 
   // Stylus qualification: a sphere through the ball centres at the five
@@ -239,7 +243,14 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
       for (size_t i = 0; i < q.size(); ++i) m.col(i) = q[i];
       fit::FitOptions fo;
       fo.compute_covariance = false;
-      const fit::SphereFit sf = fit::FitSphere(m, fo);
+      fit::SphereFit sf;
+      try {
+        sf = fit::FitSphere(m, fo);
+      } catch (const InputError& e) {
+        throw InputError(
+            source, last_line, "qualify",
+            "the sphere touches give no sphere (" + e.problem() + ")");
+      }
       const double r_eff = sf.radius_mm - config.machine.sphere_radius_mm;
       if (!sf.summary.Usable() || !(std::abs(r_eff - r_stylus) <= 0.1))
         throw InputError(
@@ -318,7 +329,8 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
     double off = 0, along = 0;
     if (!frame_decided) {
       frame_decided = true;
-      if (options.frame == ProbeFrame::kProgram) {
+      if (options.frame == ProbeFrame::kProgram ||
+          (options.frame == ProbeFrame::kAuto && program_log)) {
         program_frame = true;
       } else if (options.frame == ProbeFrame::kAuto) {
         double off_m, along_m, off_p, along_p;

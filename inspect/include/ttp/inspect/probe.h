@@ -29,8 +29,10 @@ namespace ttp::inspect {
 // Which frame the x, y, z columns are in. measurements.md says the machine
 // frame M; the probing program of `ttp plan probe` prints the skip
 // position #5061..#5063, which FANUC and LinuxCNC give in the work offset
-// (program frame P, G54). kAuto takes M unless the first point lands on
-// its planned surface only when read as P (then a warning says so).
+// (program frame P, G54). kAuto takes P for the program's logs (a `pass`
+// column, or the FANUC log) and, for a plain CSV, M unless the first point
+// lands on its planned surface only when read as P (then a warning says
+// so).
 enum class ProbeFrame { kAuto, kMachine, kProgram };
 
 struct ProbeReadOptions {
