@@ -13,6 +13,7 @@
 #include "ttp/inspect/dmis.h"
 #include "ttp/plan/dmis_writer.h"
 #include "ttp/plan/plan.h"
+#include "ttp/plan/probe_program.h"
 #include "ttp/plan/setup_sheet.h"
 
 namespace ttp::app {
@@ -79,27 +80,39 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "start of each probing move off the surface");
   probe->add_option("--overtravel-mm", o->probe.overtravel_mm,
                     "probing move length beyond the surface");
+  probe->add_option("--touch-window-mm", o->probe.touch_window_mm,
+                    "FANUC: alarm when a touch is further than this from its "
+                    "nominal (or missing)");
+  probe->add_option("--log-file", o->probe.log_file,
+                    "LinuxCNC: the file (LOGOPEN) the program writes its "
+                    "results to");
+  probe->add_flag("!--no-qualify", o->probe.qualify,
+                  "skip the stylus qualification on the R-test sphere");
+  probe->add_flag("!--no-drift", o->probe.drift,
+                  "skip re-probing the reference facets at the end");
   AddPlanOptions(probe, *o);
   probe->callback([&global, o] {
     const Config config = global.LoadConfig();
     const auto dialect = gcode::ParseDialect(o->dialect, "--dialect");
-    const auto points = plan::PlanPoints(config.part, o->plan);
-    const std::string text = gcode::WriteProgram(
-        plan::BuildProbeProgram(config, points, o->probe), dialect, config);
+    const auto points = plan::PlanProbePoints(config, o->plan, o->probe);
+    const std::string text =
+        plan::WriteProbeProgram(config, points, dialect, o->probe);
     OutputBatch outputs;  // the program and its point list, or neither
     outputs.Add(o->output, text);
     if (!o->points_csv.empty())
       outputs.Add(o->points_csv, plan::PointsToCsv(points));
     outputs.Commit();
-    // The controller reports the trigger position in the active work
-    // offset (G54: W's origin at C = 0), not in the machine frame M of
-    // measurements.md; `ttp inspect` reads either (--probe-frame).
     Say(global,
-        fmt::format("{} points; the program prints point id, X, Y, Z (stylus "
-                    "centre, program frame G54 = M - (0, 0, {:g}) mm) and C "
-                    "per point: collect them as CSV point_id,x,y,z,c_deg and "
-                    "run `ttp inspect` on it",
-                    points.size(), WorkpieceOriginHeightMm(config)));
+        fmt::format(
+            "{} points; the program qualifies the stylus on the R-test "
+            "sphere, checks every touch and writes one row per touch {}: "
+            "run `ttp inspect` on that file{}",
+            points.size(),
+            dialect == gcode::Dialect::kFanuc
+                ? "to the DPRNT port (FANUC)"
+                : "to " + o->probe.log_file + " (LinuxCNC LOG)",
+            o->points_csv.empty() ? ""
+                                  : " with --probe-points " + o->points_csv));
   });
 
   auto* cmm = cmd->add_subcommand(

@@ -1,4 +1,5 @@
-// Probe results CSV (point_id,x,y,z,c_deg) against the default plan.
+// Probe results (CSV point_id,x,y,z,c_deg[,feature,pass] or the FANUC
+// probing log) against the default plan.
 #include "fuzz_common.h"
 #include "ttp/inspect/probe.h"
 

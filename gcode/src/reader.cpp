@@ -36,6 +36,9 @@ struct Block {
   std::vector<std::string> comments;
   std::optional<std::string> dprnt;  // FANUC DPRNT[...] contents
   bool popen = false, pclos = false;
+  // FANUC touch check of a probing program: IF [ABS[#50xx-<nominal>] GT
+  // <window>] THEN #3000=<n> (<message>); no canonical effect.
+  bool touch_check = false;
 };
 
 class Lexer {
@@ -60,6 +63,23 @@ class Lexer {
       }
       if (up == "PCLOS") {
         block.pclos = true;
+        return block;
+      }
+      if (up.rfind("IF", 0) == 0) {
+        // The one macro statement probing programs use: an alarm when the
+        // skip position is further than a window from its nominal.
+        static const std::regex kTouchCheck(
+            R"(IF\s*\[\s*ABS\s*\[\s*#(\d+)\s*[-+]\s*\d+(\.\d*)?\s*\]\s*GT\s*)"
+            R"(\d+(\.\d*)?\s*\]\s*THEN\s*#3000\s*=\s*\d+\s*(\([^()]*\))?)");
+        std::smatch m;
+        if (!std::regex_match(up, m, kTouchCheck))
+          Fail("IF",
+               "only IF [ABS[#50xx-<nominal>] GT <window>] THEN #3000=<n> "
+               "(touch check) is supported");
+        const int var = std::stoi(m[1]);
+        if (var < 5061 || var > 5068)
+          Fail("IF", "the touch check must test a skip position #5061..#5068");
+        block.touch_check = true;
         return block;
       }
       if (up.rfind("DPRNT", 0) == 0) {
@@ -228,6 +248,7 @@ class Interpreter {
       port_open_ = false;
       return true;
     }
+    if (block.touch_check) return true;
     if (block.dprnt) {
       if (!port_open_) Fail("DPRNT", "DPRNT before POPEN");
       builder_.Report(DprntText(*block.dprnt));
@@ -294,12 +315,12 @@ class Interpreter {
     return std::nullopt;
   }
 
-  // M-code groups: spindle 1, tool 2, coolant 3, end 4, C turning 5,
-  // clamp 6, digital outputs 7, B clamp 8, probe on/off 9, FANUC
-  // non-buffered M-code of the profile 10.
+  // M-code groups: spindle 1 (M19 orients it: no canonical effect), tool 2,
+  // coolant 3, end 4, C turning 5, clamp 6, digital outputs 7, B clamp 8,
+  // probe on/off 9, FANUC non-buffered M-code of the profile 10.
   std::optional<int> MGroupOf(int m) const {
     const MachineProfile& p = config_.machine;
-    if (m == 3 || m == 4 || m == 5) return 1;
+    if (m == 3 || m == 4 || m == 5 || m == 19) return 1;
     if (m == 6) return 2;
     if (m == 8 || m == 9) return 3;
     if (m == 30 || m == 2) return 4;
@@ -321,7 +342,9 @@ class Interpreter {
     std::map<int, const Word*> m_groups;
     const std::string allowed = Fanuc() ? "NOGMXYZBCFSTHP" : "NGMXYZBCFSTHP$";
     for (const Word& w : block.words) {
-      if (allowed.find(w.letter) == std::string::npos) {
+      // LinuxCNC M19 R<angle>: spindle orientation angle.
+      const bool orient_angle = !Fanuc() && w.letter == 'R' && HasM(block, 19);
+      if (allowed.find(w.letter) == std::string::npos && !orient_angle) {
         if (w.letter == 'O') Fail(w.raw, "O-word control is not supported");
         Fail(w.raw, "unsupported word");
       }
@@ -476,11 +499,13 @@ class Interpreter {
       const int m = HasM(block, 64) ? 64 : 65;
       if (pw && pw->value == p.linuxcnc_c_clamp_output)
         builder_.SetClamp(m == 64);
-      else if (!pw || pw->value != p.linuxcnc_b_clamp_output)
+      else if (!pw || (pw->value != p.linuxcnc_b_clamp_output &&
+                       pw->value != p.linuxcnc_probe_output))
         Fail(fmt::format("M{}", m),
-             fmt::format("only outputs P{} (C clamp) and P{} (B clamp) are "
-                         "used",
-                         p.linuxcnc_c_clamp_output, p.linuxcnc_b_clamp_output));
+             fmt::format("only outputs P{} (C clamp), P{} (B clamp) and P{} "
+                         "(probe) are used",
+                         p.linuxcnc_c_clamp_output, p.linuxcnc_b_clamp_output,
+                         p.linuxcnc_probe_output));
     }
     if (const Word* b = Find(block, 'B')) {
       if (Scaled(*b) != 0)

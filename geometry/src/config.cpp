@@ -111,6 +111,7 @@ void VisitMachine(V& v, MachineProfile& m) {
   v("fanuc_sync_block", m.fanuc_sync_block);
   v("m_probe_on", m.m_probe_on);
   v("m_probe_off", m.m_probe_off);
+  v("linuxcnc_probe_output", m.linuxcnc_probe_output);
   v("fanuc_skip_variables", m.fanuc_skip_variables);
   v("linuxcnc_probe_variables", m.linuxcnc_probe_variables);
 }
@@ -705,6 +706,11 @@ void ValidateConfig(const Config& c, const std::string& source) {
               m.linuxcnc_c_clamp_output != m.linuxcnc_b_clamp_output,
           source, "machine.linuxcnc_b_clamp_output",
           "must be distinct outputs >= 0");
+  Require(m.linuxcnc_probe_output >= 0 &&
+              m.linuxcnc_probe_output != m.linuxcnc_c_clamp_output &&
+              m.linuxcnc_probe_output != m.linuxcnc_b_clamp_output,
+          source, "machine.linuxcnc_probe_output",
+          "must be an output >= 0 other than the C and B clamps'");
   Require(m.fanuc_sync_block == "G53" ||
               (m.fanuc_sync_block.size() > 1 && m.fanuc_sync_block[0] == 'M' &&
                m.fanuc_sync_block.find_first_not_of("0123456789", 1) ==

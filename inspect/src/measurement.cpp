@@ -85,6 +85,9 @@ MeasurementKind SniffMeasurement(const std::string& head,
     return MeasurementKind::kDmis;
   const std::string header = FirstDataLine(head.substr(0, 4096));
   if (header.rfind("point_id", 0) == 0) return MeasurementKind::kProbe;
+  // The FANUC probing program's DPRNT output (plan/probe_program.h).
+  if (lower.find("ttp probe log") != std::string::npos)
+    return MeasurementKind::kProbe;
   if (header.find("feature") != std::string::npos &&
       header.find("reading_um") != std::string::npos)
     return MeasurementKind::kDial;

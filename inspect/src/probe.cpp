@@ -1,11 +1,15 @@
 #include "ttp/inspect/probe.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <cerrno>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <regex>
+#include <sstream>
 
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
@@ -15,6 +19,7 @@
 #include "ttp/geometry/frames.h"
 #include "ttp/inspect/plane_result.h"
 #include "ttp/plan/plan.h"
+#include "ttp/plan/probe_program.h"
 
 namespace ttp::inspect {
 namespace {
@@ -70,6 +75,110 @@ Plane FitPlaneKnownSigma(const std::vector<Eigen::Vector3d>& pts,
   return pl;
 }
 
+// One touch of the results file, whatever its form.
+struct LogRow {
+  int line = 0;
+  plan::ProbePass pass = plan::ProbePass::kMeasure;
+  std::string id_text;
+  std::string feature;  // empty when the file does not say
+  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+  double c_deg = 0;
+};
+
+plan::ProbePass ParsePass(const std::string& text, const std::string& source,
+                          int line) {
+  const std::string t = Lower(Trim(text));
+  if (t == "qualify") return plan::ProbePass::kQualify;
+  if (t == "measure") return plan::ProbePass::kMeasure;
+  if (t == "drift") return plan::ProbePass::kDrift;
+  throw InputError(source, line, "pass",
+                   "'" + text + "' is not qualify, measure or drift");
+}
+
+// The FANUC program's DPRNT output: `TTP PROBE LOG ...` and then
+// `<PASS> <id> <feature> X<x> Y<y> Z<z> C<c> T<clock>`.
+bool IsFanucLog(const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) {
+    const std::string t = Upper(Trim(line));
+    if (t.empty() || t == "%") continue;
+    return t.rfind("TTP PROBE LOG", 0) == 0;
+  }
+  return false;
+}
+
+std::vector<LogRow> ReadFanucLog(const std::string& text,
+                                 const std::string& source) {
+  std::vector<LogRow> rows;
+  std::istringstream in(text);
+  std::string line;
+  int number = 0;
+  // DPRNT prints a letter, then the value with leading blanks (and its
+  // sign, perhaps apart from the digits).
+  static const std::regex kValue(R"(([XYZCT])\s*([+-]?)\s*(\d*\.?\d+)\.?)");
+  while (std::getline(in, line)) {
+    ++number;
+    const std::string t = Upper(Trim(line));
+    if (t.empty() || t == "%" || t.rfind("TTP PROBE LOG", 0) == 0) continue;
+    std::istringstream words(t);
+    std::string pass, id, feature;
+    words >> pass >> id >> feature;
+    LogRow row;
+    row.line = number;
+    row.pass = ParsePass(pass, source, number);
+    row.id_text = id;
+    row.feature = feature;
+    std::string rest;
+    std::getline(words, rest);
+    std::map<char, double> values;
+    for (auto it = std::sregex_iterator(rest.begin(), rest.end(), kValue);
+         it != std::sregex_iterator(); ++it) {
+      const char letter = (*it)[1].str()[0];
+      const std::string number_text = (*it)[2].str() + (*it)[3].str();
+      values[letter] = ParseFiniteNumber(number_text, source, number,
+                                         std::string(1, letter));
+    }
+    for (char letter : {'X', 'Y', 'Z', 'C'})
+      if (!values.count(letter))
+        throw InputError(source, number, std::string(1, letter),
+                         "missing in the probe log line");
+    row.xyz = Eigen::Vector3d(values['X'], values['Y'], values['Z']);
+    row.c_deg = values['C'];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::vector<LogRow> ReadCsvRows(const std::string& text,
+                                const std::string& source, int* header_line,
+                                bool* has_pass) {
+  const CsvTable table = ParseCsv(text, source);
+  *header_line = table.header_line;
+  const int c_id = table.Require("point_id");
+  const int c_x = table.Require("x");
+  const int c_y = table.Require("y");
+  const int c_z = table.Require("z");
+  const int c_c = table.Require("c_deg");
+  const int c_feature = table.Has("feature") ? table.Require("feature") : -1;
+  const int c_pass = table.Has("pass") ? table.Require("pass") : -1;
+  *has_pass = c_pass >= 0;
+  std::vector<LogRow> rows;
+  for (const CsvRow& r : table.rows) {
+    LogRow row;
+    row.line = r.line;
+    row.id_text = table.Text(r, c_id);
+    row.xyz = Eigen::Vector3d(table.Number(r, c_x), table.Number(r, c_y),
+                              table.Number(r, c_z));
+    row.c_deg = table.Number(r, c_c);
+    if (c_feature >= 0) row.feature = Trim(table.Text(r, c_feature));
+    if (c_pass >= 0)
+      row.pass = ParsePass(table.Text(r, c_pass), source, r.line);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
 }  // namespace
 
 bool ProbeReadOptions::IsValid(std::string* error) const {
@@ -103,25 +212,77 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   const PartSpec& part = config.part;
   const std::vector<plan::PlannedPoint> planned =
       options.points_csv_path.empty()
-          ? plan::PlanPoints(part)
+          ? plan::PlanProbePoints(config)
           : plan::PointsFromCsv(ReadTextFile(options.points_csv_path),
                                 options.points_csv_path);
   std::map<int, const plan::PlannedPoint*> by_id;
   for (const auto& p : planned) by_id[p.id] = &p;
 
-  const CsvTable table = ParseCsv(csv_text, source);
-  const int c_id = table.Require("point_id");
-  const int c_x = table.Require("x");
-  const int c_y = table.Require("y");
-  const int c_z = table.Require("z");
-  const int c_c = table.Require("c_deg");
-  const double r_stylus = config.process.probe.diameter_mm / 2;
-  std::map<int, int> seen;  // id -> line
+  int header_line = 1;
+  // The probing program's own logs hold program-frame (G54) positions.
+  bool program_log = IsFanucLog(csv_text);
+  const std::vector<LogRow> rows =
+      program_log ? ReadFanucLog(csv_text, source)
+                  : ReadCsvRows(csv_text, source, &header_line, &program_log);
   ProbeImport out;
+
+  // Stylus qualification: a sphere through the ball centres at the five
+  // sphere touches; effective radius = its radius - the sphere's.
+  double r_stylus = config.process.probe.diameter_mm / 2;
+  std::string qualification_warning;  // after the rows' own warnings
+  {
+    std::vector<Eigen::Vector3d> q;
+    int last_line = 0;
+    for (const LogRow& row : rows)
+      if (row.pass == plan::ProbePass::kQualify) {
+        q.push_back(row.xyz);
+        last_line = row.line;
+      }
+    if (q.size() >= 5) {
+      Eigen::Matrix3Xd m(3, q.size());
+      for (size_t i = 0; i < q.size(); ++i) m.col(i) = q[i];
+      fit::FitOptions fo;
+      fo.compute_covariance = false;
+      fit::SphereFit sf;
+      try {
+        sf = fit::FitSphere(m, fo);
+      } catch (const InputError& e) {
+        throw InputError(
+            source, last_line, "qualify",
+            "the sphere touches give no sphere (" + e.problem() + ")");
+      }
+      const double r_eff = sf.radius_mm - config.machine.sphere_radius_mm;
+      if (!sf.summary.Usable() || !(std::abs(r_eff - r_stylus) <= 0.1))
+        throw InputError(
+            source, last_line, "qualify",
+            "the sphere touches give an effective stylus radius of " +
+                std::to_string(r_eff) + " mm against " +
+                std::to_string(r_stylus) +
+                " mm nominal: the sphere (machine.sphere_radius_mm) or the "
+                "stylus (process.probe.diameter_mm) is not the one the "
+                "profile describes");
+      r_stylus = r_eff;
+      out.qualified = true;
+      out.qualification_rms_um = sf.summary.rms_mm * 1e3;
+    } else {
+      qualification_warning =
+          (q.empty() ? "no stylus qualification in the results: the nominal "
+                       "ball radius is used"
+                     : "fewer than 5 sphere touches: the stylus is not "
+                       "qualified, the nominal ball radius is used");
+    }
+  }
+  out.stylus_radius_mm = r_stylus;
+
+  std::map<int, int> seen;                    // id -> line (measure)
+  std::map<int, int> seen_drift;              // id -> line (drift)
+  std::map<int, Eigen::Vector3d> measured_w;  // id -> surface point in W
   bool frame_decided = false, program_frame = false;
   std::map<std::string, std::vector<Touch>> by_feature;
-  for (const CsvRow& row : table.rows) {
-    const std::string& id_text = table.Text(row, c_id);
+  std::map<std::string, std::vector<double>> drift_um;
+  for (const LogRow& row : rows) {
+    if (row.pass == plan::ProbePass::kQualify) continue;
+    const std::string& id_text = row.id_text;
     char* end = nullptr;
     errno = 0;
     const long id = std::strtol(id_text.c_str(), &end, 10);
@@ -134,19 +295,26 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
       throw InputError(source, row.line, "point_id",
                        "point " + id_text + " is not in the point list (" +
                            std::to_string(planned.size()) + " points)");
-    if (auto [pos, fresh] = seen.emplace(static_cast<int>(id), row.line);
+    const bool drift = row.pass == plan::ProbePass::kDrift;
+    if (auto [pos, fresh] =
+            (drift ? seen_drift : seen).emplace(static_cast<int>(id), row.line);
         !fresh)
       throw InputError(source, row.line, "point_id",
                        "point " + id_text + " is given twice (first on line " +
                            std::to_string(pos->second) + ")");
-    const Eigen::Vector3d xyz(table.Number(row, c_x), table.Number(row, c_y),
-                              table.Number(row, c_z));
-    const double c_deg = table.Number(row, c_c);
+    const plan::PlannedPoint& pp = *it->second;
+    if (!row.feature.empty() && Upper(row.feature) != Upper(pp.feature))
+      throw InputError(source, row.line, "feature",
+                       "point " + id_text + " is " + row.feature +
+                           " in the results but " + pp.feature +
+                           " in the point list (--probe-points must be the "
+                           "list the program was written for)");
+    const Eigen::Vector3d xyz = row.xyz;
+    const double c_deg = row.c_deg;
     if (std::abs(c_deg) > 3600.0)
       throw InputError(
           source, row.line, "c_deg",
-          table.Text(row, c_c) + " deg is beyond the limit of +-3600 deg");
-    const plan::PlannedPoint& pp = *it->second;
+          std::to_string(c_deg) + " deg is beyond the limit of +-3600 deg");
     // Stylus centre -> W; the surface is one stylus radius further along
     // the approach (-outward normal). Returns the offsets from the plan.
     const auto to_w = [&](bool program_frame, double* off, double* along) {
@@ -161,7 +329,8 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
     double off = 0, along = 0;
     if (!frame_decided) {
       frame_decided = true;
-      if (options.frame == ProbeFrame::kProgram) {
+      if (options.frame == ProbeFrame::kProgram ||
+          (options.frame == ProbeFrame::kAuto && program_log)) {
         program_frame = true;
       } else if (options.frame == ProbeFrame::kAuto) {
         double off_m, along_m, off_p, along_p;
@@ -186,10 +355,41 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
               std::to_string(std::abs(off) > 1.0 ? off : along) +
               " mm from where the plan puts it: machine frame (M), c_deg and "
               "the point list must match the probing program");
+    if (drift) {
+      auto m = measured_w.find(static_cast<int>(id));
+      if (m == measured_w.end())
+        throw InputError(
+            source, row.line, "point_id",
+            "drift row of point " + id_text + " before its measurement");
+      drift_um[pp.feature].push_back((w - m->second).dot(pp.normal_w) * 1e3);
+      continue;
+    }
+    measured_w[static_cast<int>(id)] = w;
     by_feature[pp.feature].push_back(Touch{w, &pp, row.line});
   }
-  if (table.rows.empty())
-    throw InputError(source, table.header_line, "", "no probe results");
+  if (by_feature.empty())
+    throw InputError(source, header_line, "", "no probe results");
+
+  if (!drift_um.empty()) {
+    std::string text =
+        "probe drift over the run (reference facets probed again at the "
+        "end, along their normals):";
+    double worst = 0;
+    for (const auto& [feature, values] : drift_um) {
+      ProbeDrift d;
+      d.feature = feature;
+      d.points = static_cast<int>(values.size());
+      for (double v : values) {
+        d.mean_um += v / values.size();
+        d.max_abs_um = std::max(d.max_abs_um, std::abs(v));
+      }
+      worst = std::max(worst, d.max_abs_um);
+      text += fmt::format(" {} {:+.2f} um;", feature, d.mean_um);
+      out.drift.push_back(d);
+    }
+    text += fmt::format(" largest |drift| {:.2f} um", worst);
+    out.warnings.push_back(text);
+  }
 
   const double sigma = options.repeatability_um * 1e-3;
   auto points_of = [&](const std::string& id) {
@@ -333,6 +533,8 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
     r.var_angle_rad2 = pl.covariance(1, 1);
     out.results[nominal.id] = r;
   }
+  if (!qualification_warning.empty())
+    out.warnings.push_back(qualification_warning);
   return out;
 }
 

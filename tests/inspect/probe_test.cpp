@@ -5,14 +5,22 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <fstream>
 #include <random>
+#include <regex>
 #include <sstream>
 
+#include "test_dir.h"
+#include "ttp/gcode/reader.h"
+#include "ttp/gcode/rs274.h"
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
 #include "ttp/inspect/inspect.h"
+#include "ttp/inspect/measurement.h"
 #include "ttp/plan/plan.h"
+#include "ttp/plan/probe_program.h"
 
 namespace ttp::inspect {
 namespace {
@@ -296,6 +304,235 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
     EXPECT_EQ(imp.results.count("X2-3"), 1u);
     ASSERT_FALSE(imp.warnings.empty());
     EXPECT_NE(imp.warnings[0].find("X2-4 has 2 points"), std::string::npos);
+  }
+}
+
+// ---- The probing program's own logs -------------------------------------
+
+// A finished piece whose facets and strips sit delta_mm off nominal along
+// their normals, an R-test sphere off its profile position, a stylus whose
+// effective radius is not the nominal, and the reference facets grown by
+// drift_mm by the end of the run. Contacts are computed along the probe
+// moves as the controller executes them (start and end of each move from
+// the interpreter's canon), independently of the reader.
+struct TrueRun {
+  std::map<std::string, double> delta_mm;
+  Eigen::Vector3d sphere_offset_mm{0.31, -0.22, 0.17};
+  double r_eff_mm = 1.4962;
+  double drift_mm = 0.0007;
+  InspectionResult truth;
+};
+
+TrueRun MakeTrueRun(const Config& config, uint32_t seed) {
+  TrueRun run;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> dev(0.0, 5e-3);
+  for (const NominalFeature& f : TestFeatures(config.part)) {
+    const double delta = dev(rng);
+    run.delta_mm[f.id] = delta;
+    FeatureResult r;
+    r.present = true;
+    r.d_mm = f.kind == FeatureKind::kStrip
+                 ? -(config.part.strip_floor_z_mm + delta)
+                 : f.size_mm + delta;
+    run.truth.features[f.id] = r;
+  }
+  ComputeResultFigures(config.part, &run.truth);
+  return run;
+}
+
+// Ball centre (program frame) where the move a -> b at table angle c first
+// touches the true surface of `feature` (planned point p for planes).
+Eigen::Vector3d TrueContact(const Config& config, const TrueRun& run,
+                            const std::string& feature, const std::string& pass,
+                            const plan::PlannedPoint* p,
+                            const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                            double c_rad) {
+  const double r = run.r_eff_mm;
+  // |q + s (b - a) - centre| = radius, first root.
+  const auto sphere_hit =
+      [&](const Eigen::Vector3d& q, const Eigen::Vector3d& d,
+          const Eigen::Vector3d& centre, double radius, int dims) {
+        Eigen::Vector3d qq = q - centre, dd = d;
+        if (dims == 2) qq.z() = dd.z() = 0;
+        const double A = dd.squaredNorm(), B = 2 * qq.dot(dd),
+                     C = qq.squaredNorm() - radius * radius;
+        const double disc = B * B - 4 * A * C;
+        EXPECT_GE(disc, 0) << feature << ": the move misses the surface";
+        return (-B - std::sqrt(std::max(0.0, disc))) / (2 * A);
+      };
+  if (feature == "SPHERE") {
+    const MachineProfile& m = config.machine;
+    const Eigen::Vector3d centre =
+        MachineToProgram(
+            config, Eigen::Vector3d(m.sphere_distance_mm, 0,
+                                    m.table_top_z_mm + m.sphere_height_mm)) +
+        run.sphere_offset_mm;
+    const double s = sphere_hit(a, b - a, centre, m.sphere_radius_mm + r, 3);
+    return a + s * (b - a);
+  }
+  // In W: the surface does not turn with the move.
+  const auto to_w = [&](const Eigen::Vector3d& q) {
+    return MachineToWorkpiece(config, ProgramToMachine(config, q), c_rad);
+  };
+  const Eigen::Vector3d aw = to_w(a), dw = to_w(b) - aw;
+  double s = 0;
+  if (feature == "CYL199") {
+    s = sphere_hit(aw, dw, Eigen::Vector3d::Zero(), 99.5 + r, 2);
+  } else {
+    const Eigen::Vector3d n = p->normal_w;
+    double d = n.dot(p->point_w_mm);
+    auto it = run.delta_mm.find(feature);
+    if (it != run.delta_mm.end()) d += it->second;
+    if (pass == "drift") d += run.drift_mm;
+    s = (d + r - n.dot(aw)) / n.dot(dw);
+  }
+  EXPECT_GT(s, 0.0) << feature;
+  EXPECT_LT(s, 1.0) << feature;
+  return a + s * (b - a);
+}
+
+void ExpectTruth(const TrueRun& run, const ProbeImport& imp, double tol_mm) {
+  EXPECT_TRUE(imp.qualified);
+  EXPECT_NEAR(imp.stylus_radius_mm, run.r_eff_mm, tol_mm);
+  for (const auto& [id, f] : run.truth.features)
+    EXPECT_NEAR(imp.results.at(id).d_mm, f.d_mm, tol_mm) << id;
+  InspectionResult r;
+  r.features = imp.results;
+  ComputeResultFigures(Config{}.part, &r);
+  ASSERT_EQ(r.figures.size(), run.truth.figures.size());
+  for (size_t c = 0; c < r.figures.size(); ++c) {
+    EXPECT_NEAR(r.figures[c].e_x_mm, run.truth.figures[c].e_x_mm, tol_mm);
+    EXPECT_NEAR(r.figures[c].e_y_mm, run.truth.figures[c].e_y_mm, tol_mm);
+    EXPECT_NEAR(r.figures[c].e_z_mm, run.truth.figures[c].e_z_mm, tol_mm);
+    EXPECT_NEAR(r.figures[c].e_ttp_mm, run.truth.figures[c].e_ttp_mm, tol_mm);
+  }
+  ASSERT_EQ(imp.drift.size(), 4u);
+  for (const ProbeDrift& d : imp.drift) {
+    EXPECT_NEAR(d.mean_um, run.drift_mm * 1e3, tol_mm * 1e3 * 2) << d.feature;
+    EXPECT_EQ(d.points, 6) << d.feature;
+  }
+}
+
+// The LinuxCNC log: LinuxCNC's interpreter runs the program; each (LOG,...)
+// row it reports (canon LOG, parameters substituted with %lf) is written
+// with the probe position the controller would have at the true contact of
+// the canon's STRAIGHT_PROBE before it. The file goes back through `ttp
+// inspect`'s reader as it is.
+TEST(ProbeTest, LinuxCncLogFromRs274ComesBackToTheFigures) {
+  if (!gcode::Rs274Available()) GTEST_SKIP() << "rs274 not installed";
+  const Config config;
+  const auto points = plan::PlanProbePoints(config);
+  std::map<int, const plan::PlannedPoint*> by_id;
+  for (const auto& p : points) by_id[p.id] = &p;
+  const auto rs = gcode::RunRs274(
+      plan::WriteProbeProgram(config, points, gcode::Dialect::kLinuxCnc),
+      config);
+  const TrueRun run = MakeTrueRun(config, 7);
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> moves;
+  std::vector<double> c_of_move;
+  for (size_t i = 1; i < rs.statements.size(); ++i)
+    if (rs.statements[i].kind == gcode::CanonKind::kProbe) {
+      moves.emplace_back(rs.statements[i - 1].end_mm, rs.statements[i].end_mm);
+      c_of_move.push_back(rs.statements[i].end_c_rad);
+    }
+  static const std::regex log_re(
+      R"re(^\s*\d+\s+N[.\d]+\s*LOG\("(.*)"\)\s*$)re");
+  std::istringstream in(rs.canon_text);
+  std::string line, log;
+  size_t k = 0;
+  while (std::getline(in, line)) {
+    std::smatch m;
+    if (!std::regex_match(line, m, log_re)) continue;
+    const std::string body = m[1];
+    if (log.empty()) {
+      log = body + "\n";
+      continue;
+    }
+    std::vector<std::string> cells;
+    std::istringstream cs(body);
+    std::string c;
+    while (std::getline(cs, c, ',')) cells.push_back(c);
+    ASSERT_EQ(cells.size(), 7u);
+    ASSERT_LT(k, moves.size());
+    const plan::PlannedPoint* p =
+        cells[5] == "SPHERE" ? nullptr : by_id.at(std::stoi(cells[0]));
+    const Eigen::Vector3d q =
+        TrueContact(config, run, cells[5], cells[6], p, moves[k].first,
+                    moves[k].second, c_of_move[k]);
+    log += fmt::format("{},{:.6f},{:.6f},{:.6f},{},{},{}\n", cells[0], q.x(),
+                       q.y(), q.z(), cells[4], cells[5], cells[6]);
+    ++k;
+  }
+  EXPECT_EQ(k, moves.size());
+  const ProbeImport imp = ReadProbeResults(config, log, "ttp-probe-log.csv");
+  ExpectTruth(run, imp, 0.02e-3);
+  // The same log read with the nominal radius would be 3.8 um off: the
+  // qualified radius is the one in use.
+  EXPECT_GT(std::abs(run.r_eff_mm - config.process.probe.diameter_mm / 2),
+            0.003);
+}
+
+// The FANUC program's DPRNT output, formatted as the control prints
+// #5061[44] (four decimals), read through the measurement loader (the file
+// is recognised by its first line).
+TEST(ProbeTest, FanucDprntOutputComesBackToTheFigures) {
+  const Config config;
+  const auto points = plan::PlanProbePoints(config);
+  std::map<int, const plan::PlannedPoint*> by_id;
+  for (const auto& p : points) by_id[p.id] = &p;
+  const std::string text =
+      plan::WriteProbeProgram(config, points, gcode::Dialect::kFanuc);
+  const auto canon =
+      gcode::ReadProgram(text, gcode::Dialect::kFanuc, config, "probe.nc");
+  const TrueRun run = MakeTrueRun(config, 8);
+  std::string out = "%\nTTP PROBE LOG O1002 D20261125 T 93015\n";
+  int clock = 93016;
+  for (size_t i = 1; i + 1 < canon.size(); ++i) {
+    if (canon[i].kind != gcode::CanonKind::kProbe) continue;
+    const auto& report = canon[i + 1];
+    ASSERT_EQ(report.kind, gcode::CanonKind::kReport);
+    std::vector<std::string> parts;
+    std::istringstream ps(report.text);
+    std::string part;
+    while (std::getline(ps, part, ',')) parts.push_back(part);
+    ASSERT_GE(parts.size(), 3u) << report.text;
+    ASSERT_NE(report.text.find("C#5065[33]"), std::string::npos);
+    const std::string pass = Lower(parts[0]);
+    const plan::PlannedPoint* p =
+        parts[2] == "SPHERE" ? nullptr : by_id.at(std::stoi(parts[1]));
+    const Eigen::Vector3d q =
+        TrueContact(config, run, parts[2], pass, p, canon[i - 1].end_mm,
+                    canon[i].end_mm, canon[i].end_c_rad);
+    out +=
+        fmt::format("{} {} {} X{:10.4f} Y{:10.4f} Z{:10.4f} C{:8.3f} T{:6d}\n",
+                    parts[0], parts[1], parts[2], q.x(), q.y(), q.z(),
+                    canon[i].end_c_rad / kDeg, clock++);
+  }
+  out += "%\n";
+  const std::filesystem::path file = test::TestDir("probe_log") / "probe.txt";
+  std::ofstream(file) << out;
+  const Measurement m = LoadMeasurement(config, file.string());
+  EXPECT_EQ(m.kind, MeasurementKind::kProbe);
+  const ProbeImport imp = ReadProbeResults(config, out, "probe.txt");
+  // Four decimals: 0.05 um per touch.
+  ExpectTruth(run, imp, 0.2e-3);
+  for (const auto& [id, f] : run.truth.features)
+    EXPECT_NEAR(m.result.features.at(id).d_mm, f.d_mm, 0.2e-3) << id;
+}
+
+// A log whose feature names do not match the point list (another plan) is
+// refused, naming the line.
+TEST(ProbeTest, LogOfAnotherPlanIsRefused) {
+  const std::string log =
+      "point_id,x,y,z,c_deg,feature,pass\n"
+      "1,10,10,1.5,0,X1-5,measure\n";
+  try {
+    ReadProbeResults(Config{}, log, "log.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "feature");
+    EXPECT_NE(std::string(e.what()).find("log.csv:2"), std::string::npos);
   }
 }
 

@@ -16,8 +16,12 @@
 //   increments (X10 = 0.010 mm, G04 X1000 = 1 s), as on the control.
 // - FANUC DPRNT[CUT*<feature>*C<deg>] and LinuxCNC (print,cut,<feature>,<deg>)
 //   give kReport with text "cut,<feature>,<deg>" (deg as written).
-// - Probe moves: FANUC G31, LinuxCNC G38.2 -> kProbe.
-// Not supported (InputError): macros/#variables, WHILE, subprograms, O-word
+// - Probe moves: FANUC G31, LinuxCNC G38.2 -> kProbe. M19 (spindle
+//   orientation, LinuxCNC M19 R<deg>) and the probing program's FANUC touch
+//   check `IF [ABS[#50xx-<nominal>] GT <window>] THEN #3000=<n> (...)` have
+//   no canonical effect; LinuxCNC M64/M65 P of the profile's probe output
+//   neither.
+// Not supported (InputError): other macros/#variables, WHILE, subprograms, O-word
 // control in LinuxCNC, arcs, canned cycles, G55-G59, inverse-time feed.
 #pragma once
 

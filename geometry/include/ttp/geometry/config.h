@@ -170,6 +170,8 @@ struct MachineProfile {
   // Touch probe on/off M-codes.
   int m_probe_on = 80;
   int m_probe_off = 81;
+  // LinuxCNC: digital output (M64/M65 P<n>) that switches the probe on.
+  int linuxcnc_probe_output = 2;
   // System variables of the skip / probe position of X, Y, Z and C: on an
   // XYZBC machine FANUC numbers the axes X Y Z B C (#5061.. #5065), LinuxCNC
   // uses fixed letters (#5061 X .. #5066 C; #5070 = 1 when the probe

@@ -55,26 +55,7 @@ std::vector<PlannedPoint> PointsFromCsv(const std::string& text,
 std::string PointsToDmis(const std::vector<PlannedPoint>& points,
                          const PartSpec& part);
 
-// The probe itself (tool number, stylus diameter, probing feed) is
-// config.process.probe.
-struct ProbeOptions {
-  double clearance_mm = 4.0;   // start of the probing move off the surface
-  double overtravel_mm = 2.0;  // the move ends this far beyond the surface
-  double safe_z_mm = 20.0;     // program Z for moves between points
-  void Validate() const;
-};
-
-// On-machine probing program: for every point the table is indexed so that
-// the point's normal is along machine +X (horizontal normals) or +Z (top,
-// strips), so only one linear axis moves while probing. Each touch is
-// followed by a report of the skip position (FANUC: G31 and DPRNT of the
-// profile's skip variables, C = #5065 on XYZBC; LinuxCNC: G38.2, which
-// stops with an error when the probe does not trip, and (print,...) of
-// #5061 X, #5062 Y, #5063 Z, #5066 C), which the operator saves as
-// the probe results CSV `point_id,x,y,z,c_deg` (measurements.md section 2).
-gcode::Program BuildProbeProgram(const Config& config,
-                                 const std::vector<PlannedPoint>& points,
-                                 const ProbeOptions& options = {});
+// The on-machine probing program: ttp/plan/probe_program.h.
 
 // Dial gauge: a printable HTML sheet (which facet or strip, where to set
 // zero, which way the reading counts) and the CSV template to fill in
