@@ -47,10 +47,10 @@ void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
                   "thesis eq. 4.23)");
   cmd->add_option("--temperature-lag-s", o->temperature_lag_s,
                   "joint: the lag each temperature passes through "
-                  "besides its direct path (default 3600 s; auto tries "
+                  "besides its direct path (default 3600 s; select tries "
                   "every time constant)");
   cmd->add_flag("--auto-selected", o->auto_selected,
-                "auto: also the forward-selected structures among the "
+                "select: also the forward-selected structures among the "
                 "candidates (scored by nested CV; slow)");
   cmd->add_option("--max-terms", o->max_terms,
                   "most regressors per output (default 8)");
@@ -106,8 +106,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "outputs to model, comma separated (default: every d_)");
     cmd->add_option(
         "--model", o->model,
-        "auto (default: chosen per output by chronological CV), static, "
-        "fir, lag, arx, combined or joint");
+        "auto (default: joint, the method validated on the real data), "
+        "select (chosen per output by chronological CV), static, fir, lag, "
+        "arx, combined or joint");
     cmd->add_option("--json", *json_out, "also write a fit summary as JSON");
     AddFitOptions(cmd, o.get());
     cmd->callback([&global, log, out, outputs, json_out, o] {

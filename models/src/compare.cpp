@@ -246,12 +246,13 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
 
   std::vector<std::string> names = {"none", "static_all_T", "lag_speed"};
   for (Structure s : AllStructures()) names.push_back(StructureName(s));
+  names.push_back("select");
   names.push_back("auto");
   for (const auto& name : names) {
     CompareEntry e;
     e.name = name;
     e.kind = name == "none"                                    ? "baseline"
-             : name == "auto"                                  ? "auto"
+             : (name == "auto" || name == "select")            ? "auto"
              : (name == "static_all_T" || name == "lag_speed") ? "reference"
                                                                : "structure";
     res.entries.push_back(e);
@@ -300,8 +301,8 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
            lag_model.regressors.empty() ? Eigen::VectorXd::Zero(n_rows)
                                         : PredictOutput(lag_model, ts),
            "lag", int(lag_model.regressors.size()));
-    // Every structure, and auto (chosen by CV inside the fitted span).
-    Eigen::VectorXd auto_pred;
+    // Every structure, select (chosen per output by CV inside the fitted
+    // span) and auto (joint with its default temperature lag).
     size_t entry = 3;
     for (Structure s : AllStructures()) {
       OutputModel m = FitOutput(fit, j, s, o);
@@ -310,10 +311,17 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
       ++entry;
     }
     {
-      const OutputModel am = FitAuto(fit, j, o);
-      auto_pred = PredictOutput(am, ts);
-      record(entry, auto_pred, am.label, int(am.regressors.size()));
-      res.auto_selection.push_back(am.selection_log);
+      const OutputModel sm = FitAuto(fit, j, o);
+      record(entry, PredictOutput(sm, ts), sm.label,
+             int(sm.regressors.size()));
+      res.select_candidates.push_back(sm.selection_log);
+      ++entry;
+      FitOptions ao = o;
+      ao.model = "auto";
+      const OutputModel am = FitThermalModel(fit, {fit.output_names[j]}, ao)
+                                 .outputs.front();
+      record(entry, PredictOutput(am, ts), am.label,
+             int(am.regressors.size()));
     }
     // Best on this holdout (a diagnostic chosen after the fact, not a model
     // choice) and the simplest: the static model on every temperature.
@@ -342,8 +350,12 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
         std::vector<Regressor> regs = SpeedLagRegressors(series, opt.taus_s);
         regs.insert(regs.end(), extra.begin(), extra.end());
         m = FitFixed(head, j, regs, Structure::kLag, opt);
-      } else if (name == "auto") {
+      } else if (name == "select") {
         m = FitAuto(head, j, opt);
+      } else if (name == "auto") {
+        FitOptions ao = opt;
+        ao.model = "auto";
+        m = FitThermalModel(head, {head.output_names[j]}, ao).outputs.front();
       } else if (ParseStructure(name, &s)) {
         m = FitOutput(head, j, s, opt);
       } else {
@@ -512,9 +524,9 @@ nlohmann::json CompareToJson(const CompareResult& r) {
   }
   j["diagnosis"] = diag;
   nlohmann::json sel = nlohmann::json::object();
-  for (size_t k = 0; k < r.auto_selection.size(); ++k)
-    sel[r.outputs[k]] = r.auto_selection[k];
-  j["auto_selection"] = sel;
+  for (size_t k = 0; k < r.select_candidates.size(); ++k)
+    sel[r.outputs[k]] = r.select_candidates[k];
+  j["select_candidates"] = sel;
   j["warnings"] = r.warnings;
   return j;
 }
@@ -534,10 +546,11 @@ std::string CompareText(const CompareResult& r) {
     s += "\n";
   }
   for (const auto& e : r.entries)
-    if (e.name == "auto")
+    if (e.name == "select")
       for (size_t k = 0; k < e.structures.size(); ++k)
-        s += fmt::format("auto {}: {} (chosen by CV inside the fitted span)\n",
-                         r.outputs[k], e.structures[k]);
+        s += fmt::format(
+            "select {}: {} (chosen by CV inside the fitted span)\n",
+            r.outputs[k], e.structures[k]);
   for (size_t k = 0; k < r.outputs.size(); ++k) {
     for (const Diagnosis* d : {&r.best_diag[k], &r.simplest_diag[k]}) {
       const double gain = d->rms_um - d->extended_rms_um;

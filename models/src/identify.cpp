@@ -473,9 +473,10 @@ bool FitOptions::IsValid(std::string* error) const {
     return false;
   };
   Structure s;
-  if (model != "auto" && !ParseStructure(model, &s))
+  if (model != "auto" && model != "select" && !ParseStructure(model, &s))
     return fail("model: '" + model +
-                "' is not auto, static, fir, lag, arx, combined or joint");
+                "' is not auto, select, static, fir, lag, arx, combined or "
+                "joint");
   if (taus_s.empty()) return fail("taus_s: at least one time constant");
   for (double t : taus_s)
     if (!(t > 0)) return fail("taus_s: time constants must be > 0");
@@ -742,8 +743,12 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   std::set<std::string> needed;
   for (int j : which) {
     OutputModel best;
-    if (o.model == "auto") {
+    if (o.model == "select") {
       best = FitAuto(fit, j, o);
+    } else if (o.model == "auto") {
+      best = FitOutput(fit, j, Structure::kJoint, o);
+      best.label = fmt::format("joint, temperature lag {:g} s (auto)",
+                               o.temperature_lag_s);
     } else {
       Structure s = Structure::kJoint;
       ParseStructure(o.model, &s);

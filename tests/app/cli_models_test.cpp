@@ -89,7 +89,9 @@ TEST(CliModels, FitPredictContinuesAndCompare) {
              (dir / "cmp.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto cmp = ReadJson(dir / "cmp.json");
-  EXPECT_EQ(cmp["models"].size(), 10u);  // 3 references, 6 structures, auto
+  // 3 references, 6 structures, select, auto
+  EXPECT_EQ(cmp["models"].size(), 11u);
+  EXPECT_TRUE(cmp.contains("select_candidates"));
   EXPECT_TRUE(cmp["diagnosis"].contains("d_ch5"));
   EXPECT_NE(r.output.find("simplest"), std::string::npos);
 }

@@ -54,7 +54,7 @@ Diagnosis Diagnose(const TimeSeries& ts, size_t first_holdout_row, int output,
                    const Eigen::VectorXd& predicted, const std::string& model);
 
 struct CompareEntry {
-  std::string name;  // none, static_all_T, lag_speed, static, ..., auto
+  std::string name;  // none, static_all_T, lag_speed, static, ..., select, auto
   std::string kind;  // "baseline", "reference", "structure", "auto"
   std::vector<ResidualStats> stats;     // per output
   std::vector<std::string> structures;  // per output (auto: its choice)
@@ -75,8 +75,8 @@ struct CompareResult {
   std::vector<std::string> leading_inputs;
   Eigen::MatrixXd leading_values;  // rows x outputs
   std::vector<std::string> warnings;
-  // Per output: auto's candidates with their CV scores (FitAuto's log).
-  std::vector<std::vector<std::string>> auto_selection;
+  // Per output: select's candidates with their CV scores (FitAuto's log).
+  std::vector<std::vector<std::string>> select_candidates;
 };
 
 CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
