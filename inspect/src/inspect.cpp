@@ -66,8 +66,9 @@ void ComputeResultFigures(const PartSpec& part, InspectionResult* result) {
     double sum = 0, var = 0;
     bool all = true;
     for (Segment s : kSegments) {
-      const auto a = out.features.find(FacetId(s, j));
-      const auto b = out.features.find(FacetId(s, part.reference_index));
+      const auto a = out.features.find(FeatureId::Facet(s, j));
+      const auto b =
+          out.features.find(FeatureId::Facet(s, part.reference_index));
       if (a == out.features.end() || b == out.features.end() ||
           !a->second.present || !b->second.present) {
         all = false;
@@ -135,10 +136,10 @@ nlohmann::json InspectionToJson(const InspectionResult& r) {
   }
   nlohmann::json facets = nlohmann::json::object(),
                  strips = nlohmann::json::object();
-  for (const auto& [id, fr] : r.features) {
-    const std::optional<FeatureId> fid = FeatureId::Parse(id);
-    if (!fid || !fid->IsTestFeature()) continue;
-    if (fid->kind == FeatureKind::kFacet) {
+  for (const auto& [fid, fr] : r.features) {
+    if (!fid.IsTestFeature()) continue;
+    const std::string id = fid.ToString();
+    if (fid.kind == FeatureKind::kFacet) {
       facets[id] = {
           {"distance_mm", fr.present ? Num(fr.d_mm) : nlohmann::json(nullptr)},
           {"angle_error_urad",
