@@ -9,20 +9,14 @@
 #include <sstream>
 
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/format.h"
 
 namespace ttp::inspect {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Fixed-point text without "-0.000" and with "-" for a missing value.
-std::string Fixed(double v, int decimals) {
-  if (!std::isfinite(v)) return "-";
-  std::string s = fmt::format("{:.{}f}", v, decimals);
-  if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos)
-    s.erase(0, 1);
-  return s;
-}
+std::string Fixed(double v, int decimals) { return FormatNumber(v, decimals); }
 
 // Shortest text of a limit (5, 15, 2.5).
 std::string Short(double v) { return fmt::format("{:g}", v); }
