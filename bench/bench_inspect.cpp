@@ -180,7 +180,7 @@ int RunPcl(const std::string& ply, const std::string& pose_json,
     const Eigen::Vector3d n(c.values[0], c.values[1], c.values[2]);
     const double nn = n.norm();
     const PlaneInW plane{-c.values[3] / nn * n / nn, n / nn};
-    results[f.id] = FeatureResultFromPlane(f, plane);
+    results[f.Key()] = FeatureResultFromPlane(f, plane);
   }
   const auto t2 = Clock::now();
   nlohmann::json doc;

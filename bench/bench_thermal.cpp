@@ -144,7 +144,7 @@ int main() {
     double angle_ss = 0;
     int angle_n = 0;
     for (const auto& [id, value] : truth["facet_angle_err_urad"].items()) {
-      const double a = sim.results.at(id).angle_rad * 1e6;
+      const double a = sim.results.at(FeatureId::Parse(id).value()).angle_rad * 1e6;
       angle_ss += (a - value.get<double>()) * (a - value.get<double>());
       ++angle_n;
     }

@@ -813,7 +813,7 @@ ObservationEffect EffectOnObservations(Cause cause,
     }
   }
   for (size_t i = 0; i < obs.angles(); ++i) {
-    auto it = deltas.find(obs.angle_feature[i].ToString());
+    auto it = deltas.find(obs.angle_feature[i]);
     if (it != deltas.end()) out.angle_urad[i] = it->second.angle_rad * 1e6;
   }
   return out;
@@ -1021,13 +1021,11 @@ MeasuredPiece MeasuredPieceFromFeatures(const PartSpec& part,
   for (const auto& [id, r] : features) {
     if (!r.present) continue;
     FeatureResult& f = m.features[id] = r;
-    FeatureKind kind;
-    Segment s;
-    int j;
-    if (!ParseFeatureId(id, &kind, &s, &j)) continue;
+    if (!id.IsTestFeature()) continue;
+    const FeatureKind kind = id.kind;
     SetFeatureVariance(part, kind, form_fraction, &f);
     if (kind == FeatureKind::kFacet && std::isfinite(r.angle_rad))
-      m.facet_angle_rad[id] = r.angle_rad;
+      m.facet_angle_rad[id.ToString()] = r.angle_rad;
   }
   m.figures = ComputeFigures(part, m.features);
   return m;
@@ -1100,15 +1098,20 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   // Every measured feature must have been cut in the log: otherwise the
   // log does not cover the measured piece (or belongs to another piece).
   std::vector<std::string> uncut;
-  auto check_cut = [&](const std::string& id) {
+  auto check_cut = [&](const FeatureId& id) {
     auto it = run.simulation.results.find(id);
     if (it == run.simulation.results.end() || !it->second.present)
-      if (std::find(uncut.begin(), uncut.end(), id) == uncut.end())
-        uncut.push_back(id);
+      if (std::find(uncut.begin(), uncut.end(), id.ToString()) == uncut.end())
+        uncut.push_back(id.ToString());
   };
   for (const auto& [id, r] : measured.features)
     if (r.present) check_cut(id);
-  for (const auto& [id, a] : measured.facet_angle_rad) check_cut(id);
+  for (const auto& [id, a] : measured.facet_angle_rad)
+    if (const std::optional<FeatureId> fid = FeatureId::Parse(id)) {
+      check_cut(*fid);
+    } else if (std::find(uncut.begin(), uncut.end(), id) == uncut.end()) {
+      uncut.push_back(id);
+    }
   for (const CycleFigures& m : measured.figures) {
     if (m.cycle < 1 ||
         m.cycle > static_cast<int>(run.simulation.figures.size()))
@@ -1196,17 +1199,18 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                                                      : 0.0));
   }
   for (const auto& [id, angle] : measured.facet_angle_rad) {
-    auto it = run.simulation.results.find(id);
-    if (it == run.simulation.results.end() || !it->second.present) continue;
     const std::optional<FeatureId> facet = FeatureId::Parse(id);
-    if (!facet || !facet->IsTestFeature()) continue;
+    if (!facet) continue;
+    auto it = run.simulation.results.find(*facet);
+    if (it == run.simulation.results.end() || !it->second.present) continue;
+    if (!facet->IsTestFeature()) continue;
     const int j = facet->index;
     obs.angle_feature.push_back(*facet);
     obs.angle_cycle.push_back(CycleForIndex(part, j));
     obs.angle_t_s.push_back(time_of(CycleForIndex(part, j)));
     obs.angle_value_urad.push_back((angle - it->second.angle_rad) * 1e6);
     double u = 0;
-    auto mf = measured.features.find(id);
+    auto mf = measured.features.find(*facet);
     if (mf != measured.features.end() &&
         std::isfinite(mf->second.var_angle_rad2))
       u = std::sqrt(mf->second.var_angle_rad2) * 1e6;

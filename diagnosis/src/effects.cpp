@@ -72,6 +72,7 @@ CutState MakeCutState(const Config& config, const std::string& feature,
   if (!ParseFeatureId(feature, &kind, &segment, &index))
     throw std::invalid_argument("not a test feature: " + feature);
   s.is_facet = kind == FeatureKind::kFacet;
+  s.id = s.is_facet ? FeatureId::Facet(segment, index) : FeatureId::Strip(index);
   if (s.is_facet) {
     s.phi_w_rad = FacetPhiDeg(part, segment, index) * M_PI / 180.0;
     s.radius_mm = part.facet_final_distance_mm;
@@ -191,7 +192,7 @@ EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
         }
         break;
     }
-    out[s.feature] = d;
+    out[s.id] = d;
   }
   return out;
 }

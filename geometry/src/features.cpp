@@ -1,6 +1,7 @@
 #include "ttp/geometry/features.h"
 
 #include <cmath>
+#include <ostream>
 #include <regex>
 
 namespace ttp {
@@ -102,6 +103,17 @@ std::optional<FeatureId> FeatureId::Parse(const std::string& text) {
     if (um > 0) return Datum(FeatureKind::kCylinder, static_cast<int>(um));
   }
   return std::nullopt;
+}
+
+std::ostream& operator<<(std::ostream& os, const FeatureId& id) {
+  return os << id.ToString();
+}
+
+FeatureId NominalFeature::Key() const {
+  if (kind == FeatureKind::kFacet && segment)
+    return FeatureId::Facet(*segment, index);
+  if (kind == FeatureKind::kStrip) return FeatureId::Strip(index);
+  return FeatureId::Parse(id).value_or(FeatureId::Datum(kind, index));
 }
 
 bool FeatureId::operator<(const FeatureId& o) const {

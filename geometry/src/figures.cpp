@@ -1,5 +1,6 @@
 #include "ttp/geometry/figures.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -28,7 +29,7 @@ std::pair<double, double> Combine(std::initializer_list<Term> terms,
   return {value, std::sqrt(var)};
 }
 
-const FeatureResult* Find(const FeatureResults& r, const std::string& id) {
+const FeatureResult* Find(const FeatureResults& r, const FeatureId& id) {
   auto it = r.find(id);
   return it == r.end() ? nullptr : &it->second;
 }
@@ -39,11 +40,24 @@ nlohmann::json NumberOrNull(double v) {
 
 }  // namespace
 
+std::vector<FeatureId> IdsInNameOrder(const FeatureResults& results) {
+  std::vector<std::pair<std::string, FeatureId>> named;
+  for (const auto& entry : results)
+    named.emplace_back(entry.first.ToString(), entry.first);
+  std::sort(named.begin(), named.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<FeatureId> out;
+  for (const auto& entry : named) out.push_back(entry.second);
+  return out;
+}
+
 std::vector<CycleFigures> ComputeFigures(const PartSpec& part,
                                          const FeatureResults& results) {
   const int ref = part.reference_index;
-  auto facet = [&](Segment s, int j) { return Find(results, FacetId(s, j)); };
-  auto strip = [&](int k) { return Find(results, StripId(k)); };
+  auto facet = [&](Segment s, int j) {
+    return Find(results, FeatureId::Facet(s, j));
+  };
+  auto strip = [&](int k) { return Find(results, FeatureId::Strip(k)); };
   std::vector<CycleFigures> out;
   for (int cycle = 1; cycle <= part.cycles(); ++cycle) {
     const int j = IndexForCycle(part, cycle);

@@ -91,17 +91,17 @@ FeatureResults ReadDialReadings(const std::string& csv_text,
       r.d_mm = f.size_mm - reading_um * 1e-3;
     }
     r.var_d_mm2 = reference ? 0.0 : var_reading_mm2;
-    results[id] = r;
+    results[f.Key()] = r;
   }
   // The references are the zero of the readings: present even if not listed.
   for (const NominalFeature& f : nominal) {
-    if (f.index != part.reference_index || results.count(f.id)) continue;
+    if (f.index != part.reference_index || results.count(f.Key())) continue;
     FeatureResult r;
     r.present = true;
     r.d_mm = f.kind == FeatureKind::kStrip ? -part.strip_floor_z_mm : f.size_mm;
     r.angle_rad = nan;
     r.var_angle_rad2 = nan;
-    results[f.id] = r;
+    results[f.Key()] = r;
   }
   return results;
 }

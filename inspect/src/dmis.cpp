@@ -320,7 +320,7 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     r.var_d_mm2 = u_mm * u_mm;
     r.var_angle_rad2 = 2.0 * u_mm * u_mm / (extent_mm * extent_mm);
     r.points = 0;
-    out.results[nominal.id] = r;
+    out.results[nominal.Key()] = r;
   }
   if (!reversed.empty()) {
     std::string list;

@@ -44,10 +44,11 @@ FittedFeatures FitFeatures(const PartSpec& part, const Eigen::Matrix3Xd& w,
   rejection.k_sigma = o.stray_sigma;
   rejection.floor_mm = o.stray_floor_mm;
   rejection.max_rounds = 8;
-  auto fit_feature = [&](const std::string& id,
+  auto fit_feature = [&](const NominalFeature& nominal_feature,
                          const std::vector<Eigen::Index>& idx,
                          const Eigen::Vector3d& n_nom,
                          const Eigen::Vector3d& u_nom, auto&& finish) {
+    const std::string& id = nominal_feature.id;
     FeatureDiagnostic diag;
     diag.id = id;
     diag.candidates = static_cast<int>(idx.size());
@@ -75,11 +76,11 @@ FittedFeatures FitFeatures(const PartSpec& part, const Eigen::Matrix3Xd& w,
                              std::to_string(diag.candidates) +
                              " points in its region)");
     }
-    out.features[id] = r;
+    out.features[nominal_feature.Key()] = r;
     out.diagnostics.push_back(diag);
   };
-  std::map<std::string, NominalFeature> nominal;
-  for (const NominalFeature& f : TestFeatures(part)) nominal[f.id] = f;
+  std::map<FeatureId, NominalFeature> nominal;
+  for (const NominalFeature& f : TestFeatures(part)) nominal[f.Key()] = f;
   // d, angle and tilt as every measurement path has them; the variances
   // are this fit's.
   const auto set_shape = [](const FeatureResult& shape, FeatureResult* r) {
@@ -98,11 +99,11 @@ FittedFeatures FitFeatures(const PartSpec& part, const Eigen::Matrix3Xd& w,
   };
   for (int s = 0; s < 4; ++s) {
     for (int j = 1; j <= facets; ++j) {
-      const NominalFeature& nom = nominal.at(FacetId(kSegments[s], j));
+      const NominalFeature& nom = nominal.at(FeatureId::Facet(kSegments[s], j));
       const Eigen::Vector3d& n_nom = nom.normal;
       const Eigen::Vector3d u_nom = Eigen::Vector3d::UnitZ().cross(n_nom);
       fit_feature(
-          nom.id, seg.facets[s * facets + j - 1], n_nom, u_nom,
+          nom, seg.facets[s * facets + j - 1], n_nom, u_nom,
           [&](const fit::PlaneFit& pl, FeatureResult* r) {
             set_shape(FeatureResultFromPlane(nom, {pl.point, pl.normal}), r);
             // d is the plane's distance from the origin; the origin's
@@ -118,9 +119,9 @@ FittedFeatures FitFeatures(const PartSpec& part, const Eigen::Matrix3Xd& w,
     }
   }
   for (int k = 1; k <= facets; ++k) {
-    const NominalFeature& nom = nominal.at(StripId(k));
+    const NominalFeature& nom = nominal.at(FeatureId::Strip(k));
     fit_feature(
-        nom.id, seg.strips[k - 1], Eigen::Vector3d::UnitZ(),
+        nom, seg.strips[k - 1], Eigen::Vector3d::UnitZ(),
         Eigen::Vector3d::UnitX(),
         [&](const fit::PlaneFit& pl, FeatureResult* r) {
           const Eigen::Vector3d& nn = pl.normal;

@@ -9,20 +9,14 @@
 #include <sstream>
 
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/format.h"
 
 namespace ttp::inspect {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Fixed-point text without "-0.000" and with "-" for a missing value.
-std::string Fixed(double v, int decimals) {
-  if (!std::isfinite(v)) return "-";
-  std::string s = fmt::format("{:.{}f}", v, decimals);
-  if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos)
-    s.erase(0, 1);
-  return s;
-}
+std::string Fixed(double v, int decimals) { return FormatNumber(v, decimals); }
 
 // Shortest text of a limit (5, 15, 2.5).
 std::string Short(double v) { return fmt::format("{:g}", v); }
@@ -43,6 +37,39 @@ std::string FigureList(const std::vector<Figure>& figures) {
 const std::vector<Figure>& ThesisFigures() {
   static const std::vector<Figure> kThesis = GradeLimits{}.figures;
   return kThesis;
+}
+
+// Where a figure of CycleFigures is and its scale to um (um/m).
+struct FigureField {
+  double CycleFigures::*value;
+  double CycleFigures::*u;  // standard uncertainty (k = 1)
+  double scale;
+};
+const FigureField& FieldOf(Figure f) {
+  static const FigureField kX{&CycleFigures::e_x_mm, &CycleFigures::u_x_mm,
+                              1e3};
+  static const FigureField kY{&CycleFigures::e_y_mm, &CycleFigures::u_y_mm,
+                              1e3};
+  static const FigureField kZ{&CycleFigures::e_z_mm, &CycleFigures::u_z_mm,
+                              1e3};
+  static const FigureField kB{&CycleFigures::e_b_rad, &CycleFigures::u_b_rad,
+                              1e6};
+  static const FigureField kTtp{&CycleFigures::e_ttp_mm,
+                                &CycleFigures::u_ttp_mm, 1e3};
+  switch (f) {
+    case Figure::kEX:
+      return kX;
+    case Figure::kEY:
+      return kY;
+    case Figure::kEZ:
+      return kZ;
+    case Figure::kEB:
+      return kB;
+    case Figure::kETTP:
+    case Figure::kEC:  // in CycleExtras, not here: the caller reads it
+      break;
+  }
+  return kTtp;
 }
 
 }  // namespace
@@ -210,35 +237,17 @@ GradeResult GradeFigures(const std::vector<CycleFigures>& figures,
       g.figure = fig;
       g.limit = fg.limit;
       double v = kNaN, u = kNaN;
-      switch (fig) {
-        case Figure::kEX:
-          v = cf.e_x_mm * 1e3;
-          u = 2e3 * cf.u_x_mm;
-          break;
-        case Figure::kEY:
-          v = cf.e_y_mm * 1e3;
-          u = 2e3 * cf.u_y_mm;
-          break;
-        case Figure::kEZ:
-          v = cf.e_z_mm * 1e3;
-          u = 2e3 * cf.u_z_mm;
-          break;
-        case Figure::kEB:
-          v = cf.e_b_rad * 1e6;
-          u = 2e6 * cf.u_b_rad;
-          break;
-        case Figure::kETTP:
-          v = cf.e_ttp_mm * 1e3;
-          u = 2e3 * cf.u_ttp_mm;
-          break;
-        case Figure::kEC:
-          for (const CycleExtras& ex : extras) {
-            if (ex.cycle == cf.cycle) {
-              v = ex.e_c_rad * 1e6;
-              u = 2e6 * ex.u_c_rad;
-            }
+      if (fig == Figure::kEC) {
+        for (const CycleExtras& ex : extras) {
+          if (ex.cycle == cf.cycle) {
+            v = ex.e_c_rad * 1e6;
+            u = 2e6 * ex.u_c_rad;
           }
-          break;
+        }
+      } else {
+        const FigureField& field = FieldOf(fig);
+        v = cf.*field.value * field.scale;
+        u = 2 * field.scale * cf.*field.u;
       }
       g.value = std::isfinite(v) ? v : kNaN;
       g.u = std::isfinite(v) && std::isfinite(u) ? u : kNaN;

@@ -5,12 +5,14 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fmt/format.h>
 #include <limits>
 #include <optional>
 #include <sstream>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/format.h"
 #include "ttp/inspect/cloud_stages.h"
 
 namespace ttp::inspect {
@@ -66,8 +68,9 @@ void ComputeResultFigures(const PartSpec& part, InspectionResult* result) {
     double sum = 0, var = 0;
     bool all = true;
     for (Segment s : kSegments) {
-      const auto a = out.features.find(FacetId(s, j));
-      const auto b = out.features.find(FacetId(s, part.reference_index));
+      const auto a = out.features.find(FeatureId::Facet(s, j));
+      const auto b =
+          out.features.find(FeatureId::Facet(s, part.reference_index));
       if (a == out.features.end() || b == out.features.end() ||
           !a->second.present || !b->second.present) {
         all = false;
@@ -135,10 +138,10 @@ nlohmann::json InspectionToJson(const InspectionResult& r) {
   }
   nlohmann::json facets = nlohmann::json::object(),
                  strips = nlohmann::json::object();
-  for (const auto& [id, fr] : r.features) {
-    const std::optional<FeatureId> fid = FeatureId::Parse(id);
-    if (!fid || !fid->IsTestFeature()) continue;
-    if (fid->kind == FeatureKind::kFacet) {
+  for (const auto& [fid, fr] : r.features) {
+    if (!fid.IsTestFeature()) continue;
+    const std::string id = fid.ToString();
+    if (fid.kind == FeatureKind::kFacet) {
       facets[id] = {
           {"distance_mm", fr.present ? Num(fr.d_mm) : nlohmann::json(nullptr)},
           {"angle_error_urad",
@@ -215,10 +218,8 @@ std::string InspectionTable(const InspectionResult& r) {
   std::ostringstream s;
   char buf[256];
   auto cell = [](double v, double u) {
-    char b[48];
     if (!std::isfinite(v)) return std::string("       missing");
-    std::snprintf(b, sizeof b, "%7.2f +-%5.2f", v, u);
-    return std::string(b);
+    return fmt::format("{:>7} +-{:>5}", FormatNumber(v, 2), FormatNumber(u, 2));
   };
   s << "Inspection of " << r.source << ": " << r.points_total << " points, "
     << r.points_assigned << " used, " << r.points_rejected
@@ -235,8 +236,7 @@ std::string InspectionTable(const InspectionResult& r) {
       << cell(f.e_b_rad * 1e6, 2e6 * f.u_b_rad) << "  "
       << cell(f.e_ttp_mm * 1e3, 2e3 * f.u_ttp_mm) << "  "
       << cell(e.e_c_rad * 1e6, 2e6 * e.u_c_rad);
-    std::snprintf(buf, sizeof buf, "  %6.3f\n", e.delta_t_k);
-    s << buf;
+    s << fmt::format("  {:>6}\n", FormatNumber(e.delta_t_k, 3));
   }
   s << "(+- is the expanded uncertainty U, k = 2)\n";
   for (const auto& w : r.warnings) s << "warning: " << w << "\n";

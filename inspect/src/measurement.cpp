@@ -105,7 +105,7 @@ namespace {
 void CompleteFeatures(const PartSpec& part, InspectionResult* r) {
   r->diagnostics.clear();
   for (const NominalFeature& f : TestFeatures(part)) {
-    FeatureResult& fr = r->features[f.id];
+    FeatureResult& fr = r->features[f.Key()];
     FeatureDiagnostic d;
     d.id = f.id;
     d.candidates = d.used = fr.points;
@@ -172,10 +172,11 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
     if (!known.count(id))
       throw InputError(source, 0, where, "is not a feature of the piece");
     if (!v.is_object()) throw InputError(source, 0, where, "must be an object");
+    const FeatureId fid = *FeatureId::Parse(id);  // a known test feature
     FeatureResult fr;
     const double d = NumberOrNaN(v, d_key, source, where);
     if (!std::isfinite(d)) {
-      r->features[id] = fr;  // missing
+      r->features[fid] = fr;  // missing
       continue;
     }
     fr.present = true;
@@ -207,7 +208,7 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
         Within(NumberOrNaN(v, "rms_um", source, where), limits::kMaxFigureMicro,
                source, where + ".rms_um", "um");
     fr.rms_mm = std::isfinite(rms) ? rms * 1e-3 : 0.0;
-    r->features[id] = fr;
+    r->features[fid] = fr;
   }
 }
 

@@ -509,7 +509,7 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
       r.var_angle_rad2 = cov(1, 1);
       r.points = static_cast<int>(pts.size());
       r.rms_mm = std::sqrt(ss / pts.size());
-      out.results[nominal.id] = r;
+      out.results[nominal.Key()] = r;
       continue;
     }
     const Eigen::Vector3d hint_u =
@@ -531,7 +531,7 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
     const Eigen::Vector2d n2 = pl.normal.head<2>();
     r.var_d_mm2 = g.dot(pl.covariance * g) + n2.dot(origin_cov * n2);
     r.var_angle_rad2 = pl.covariance(1, 1);
-    out.results[nominal.id] = r;
+    out.results[nominal.Key()] = r;
   }
   if (!qualification_warning.empty())
     out.warnings.push_back(qualification_warning);

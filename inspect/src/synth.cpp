@@ -78,7 +78,7 @@ FeatureResults RandomDeviations(const PartSpec& part, const SynthOptions& o) {
                                : part.facet_final_distance_mm;
     r.d_mm = nominal + o.deviation_d_um * 1e-3 * rng.Normal();
     r.angle_rad = o.deviation_angle_urad * 1e-6 * rng.Normal();
-    out[f.id] = r;
+    out[f.Key()] = r;
   }
   return out;
 }
@@ -173,7 +173,7 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
   std::vector<Dev> dev(mesh.feature_ids.size());
   for (const NominalFeature& f : TestFeatures(part)) {
     const int k = mesh.FeatureIndex(f.id);
-    auto it = deviations.find(f.id);
+    auto it = deviations.find(f.Key());
     if (k < 0 || it == deviations.end() || !it->second.present) continue;
     Dev& d = dev[k];
     d.on = true;
@@ -272,7 +272,7 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
   truth.source = out.cloud.source;
   for (const NominalFeature& f : TestFeatures(part)) {
     FeatureResult r;
-    auto it = deviations.find(f.id);
+    auto it = deviations.find(f.Key());
     if (it != deviations.end()) {
       r = it->second;
     } else {
@@ -284,7 +284,7 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
     r.tilt_rad = 0;
     if (std::find(o.missing.begin(), o.missing.end(), f.id) != o.missing.end())
       r.present = false;
-    truth.features[f.id] = r;
+    truth.features[f.Key()] = r;
   }
   ComputeResultFigures(part, &truth);
   return out;

@@ -151,14 +151,9 @@ json AssembleReportData(const Config& config, const ReportInputs& in,
   }
   data["figures"] = figures;
   json facets = json::object();
-  for (const auto& [id, r] : measured.features) {
-    FeatureKind kind;
-    Segment segment;
-    int index = 0;
-    if (!ParseFeatureId(id, &kind, &segment, &index) ||
-        kind != FeatureKind::kFacet) {
-      continue;
-    }
+  for (const auto& [fid, r] : measured.features) {
+    if (fid.kind != FeatureKind::kFacet) continue;
+    const std::string id = fid.ToString();
     // An angle the instrument did not measure (dial gauge) is null: shown
     // as "not measured", never as 0.
     facets[id] = {{"distance_mm", r.present ? NumberOrNull(r.d_mm) : json()},

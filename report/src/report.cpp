@@ -16,7 +16,7 @@
 #include "report_schema.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
-#include "ttp/report/format.h"
+#include "ttp/geometry/format.h"
 
 namespace ttp::report_assets {
 extern const char* const kUplotJsPieces[];

@@ -48,7 +48,7 @@ std::map<std::string, Plane> Planes(const PartSpec& part,
                                     const FeatureResults& features) {
   std::map<std::string, Plane> planes;
   for (const NominalFeature& f : TestFeatures(part)) {
-    const auto it = features.find(f.id);
+    const auto it = features.find(f.Key());
     if (it == features.end() || !it->second.present) continue;
     const FeatureResult& r = it->second;
     const double angle = std::isfinite(r.angle_rad) ? r.angle_rad : 0.0;
@@ -78,7 +78,7 @@ std::string DialCsv(const PartSpec& part, const FeatureResults& features,
     const std::string group =
         f.kind == FeatureKind::kStrip ? "Z" : f.id.substr(0, 2);
     if (f.index == part.reference_index)
-      reference[group] = features.at(f.id).d_mm;
+      reference[group] = features.at(f.Key()).d_mm;
   }
   for (const NominalFeature& f : TestFeatures(part)) {
     if (f.kind != FeatureKind::kFacet && f.kind != FeatureKind::kStrip)
@@ -87,7 +87,7 @@ std::string DialCsv(const PartSpec& part, const FeatureResults& features,
         f.kind == FeatureKind::kStrip ? "Z" : f.id.substr(0, 2);
     double reading = 0;
     if (f.index != part.reference_index) {
-      const double delta_um = (features.at(f.id).d_mm - reference[group]) * 1e3;
+      const double delta_um = (features.at(f.Key()).d_mm - reference[group]) * 1e3;
       // A facet further out reads less (the gauge is pushed in); a deeper
       // strip reads more.
       reading =

@@ -434,7 +434,7 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     cut_length_m += (u_max - u_min + 2 * overrun_mm) * 1e-3;
     FeatureResult r = thermal::CutFeatureResult(
         part, g, e_machine, e_pred, config.machine.sphere_distance_mm, extra);
-    run.true_results[c.feature] = r;
+    run.true_results[g.feature.Key()] = r;
     FeatureResult m = r;
     const double sd = facet ? noise.facet_d_mm : noise.strip_d_mm;
     const double sa = facet ? noise.facet_angle_rad : noise.strip_angle_rad;
@@ -444,7 +444,7 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     m.var_angle_rad2 = sa * sa;
     m.points = facet ? noise.facet_points : noise.strip_points;
     m.rms_mm = options.point_noise_um * 1e-3;  // the fit's residual RMS
-    run.measured[c.feature] = m;
+    run.measured[g.feature.Key()] = m;
   }
 
   // --- the TALC log ---
@@ -538,9 +538,9 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
                        {"E_TTP", f.e_ttp_mm * 1e3}});
   truth["figures"] = figures;
   nlohmann::json angles = nlohmann::json::object();
-  for (const auto& c : cuts)
-    if (c.feature[0] != 'Z')
-      angles[c.feature] = run.true_results.at(c.feature).angle_rad * 1e6;
+  for (const auto& [id, r] : run.true_results)
+    if (id.kind == FeatureKind::kFacet)
+      angles[id.ToString()] = r.angle_rad * 1e6;
   truth["facet_angle_err_urad"] = angles;
   // The measurement is per-feature results in W: identity pose.
   truth["pose"] = {{"yaw_deg", 0.0},
@@ -565,9 +565,10 @@ nlohmann::json MeasuredInspectionJson(const PartSpec& part,
   result.source = "ttp twin";
   result.features = measured;
   result.figures = ComputeFigures(part, measured);
-  for (const auto& [id, r] : measured) {
+  for (const FeatureId& id : IdsInNameOrder(measured)) {
+    const FeatureResult& r = measured.at(id);
     inspect::FeatureDiagnostic d;
-    d.id = id;
+    d.id = id.ToString();
     d.candidates = d.used = r.points;
     d.status = r.present ? "ok" : "missing";
     result.diagnostics.push_back(d);
@@ -666,8 +667,9 @@ FeatureResults MeasureWith(const PartSpec& part, const FeatureResults& truth,
   std::normal_distribution<double> gauss(0.0, 1.0);
   FitNoise cloud = CloudFitNoise(part, point_noise_um, 20000);
   FeatureResults out;
-  for (const auto& [id, r] : truth) {
-    const bool facet = id[0] != 'Z';
+  for (const FeatureId& id : IdsInNameOrder(truth)) {
+    const FeatureResult& r = truth.at(id);
+    const bool facet = id.kind != FeatureKind::kStrip;
     FeatureResult m = r;
     double sd = 0, sa = 0;
     int points = 0;

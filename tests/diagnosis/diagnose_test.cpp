@@ -16,6 +16,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/thermal/talc_log.h"
+#include "feature_ids.h"
 
 namespace ttp::diagnosis {
 namespace {
@@ -73,7 +74,7 @@ TEST(Diagnose, InspectionJsonMissingFeatureIsLeftOut) {
   doc["facets"]["X1-3"]["angle_error_urad"] = nullptr;
   const MeasuredPiece m =
       LoadMeasuredPiece(config, TempFile("piece.json", doc.dump()).string());
-  EXPECT_EQ(m.features.count("X1-3"), 0u);
+  EXPECT_EQ(m.features.count(test::Fid("X1-3")), 0u);
   EXPECT_EQ(m.facet_angle_rad.size(), 35u);
 }
 
@@ -106,10 +107,10 @@ TEST(Diagnose, UnmeasuredAnglesAndMissingFeaturesAreLeftOut) {
   const Config config;
   const TwinRun twin = RunTwin(config, TwinOptions{});
   FeatureResults features = twin.measured;
-  features.at("X1-2").angle_rad = std::numeric_limits<double>::quiet_NaN();
-  features.at("X1-3").present = false;
+  features.at(test::Fid("X1-2")).angle_rad = std::numeric_limits<double>::quiet_NaN();
+  features.at(test::Fid("X1-3")).present = false;
   const MeasuredPiece m = MeasuredPieceFromFeatures(config.part, features);
-  EXPECT_EQ(m.features.count("X1-3"), 0u);
+  EXPECT_EQ(m.features.count(test::Fid("X1-3")), 0u);
   EXPECT_EQ(m.facet_angle_rad.count("X1-2"), 0u);
   EXPECT_EQ(m.facet_angle_rad.size(), 34u);
   const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin");
@@ -347,7 +348,7 @@ TEST(Diagnose, ToolWearIsNeverNegative) {
       PrepareRun(thermal::ParseTalcLog(run.log_text, "twin"), config,
                  MeasuredPieceFromFeatures(config.part, grown));
   for (const CutState& s : prepared.context.cuts)
-    if (s.is_facet) grown[s.feature].d_mm -= 3e-3 * s.cut_length_mid_m;
+    if (s.is_facet) grown[s.id].d_mm -= 3e-3 * s.cut_length_mid_m;
   const DiagnosisReport report =
       DiagnoseRun(thermal::ParseTalcLog(run.log_text, "twin"), config,
                   MeasuredPieceFromFeatures(config.part, grown));

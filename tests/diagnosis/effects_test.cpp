@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "ttp/geometry/features.h"
+#include "feature_ids.h"
 
 namespace ttp::diagnosis {
 namespace {
@@ -46,37 +47,37 @@ TEST(Effects, EachCauseShowsWhereTheSpecSays) {
   double last_wear = -1;
   for (const CutState& s : ctx.cuts) {
     if (!s.is_facet) {
-      EXPECT_EQ(wear.at(s.feature).d_mm, 0) << s.feature;  // radial only
-      EXPECT_EQ(index.at(s.feature).angle_rad, 0);
-      EXPECT_GT(wp.at(s.feature).d_mm, 0);  // hot adapter: strip deeper
+      EXPECT_EQ(wear.at(s.id).d_mm, 0) << s.feature;  // radial only
+      EXPECT_EQ(index.at(s.id).angle_rad, 0);
+      EXPECT_GT(wp.at(s.id).d_mm, 0);  // hot adapter: strip deeper
       continue;
     }
     // Tool wear: grows with every cut, no angle.
-    EXPECT_GT(wear.at(s.feature).d_mm, last_wear);
-    last_wear = wear.at(s.feature).d_mm;
-    EXPECT_NEAR(wear.at(s.feature).d_mm, 2e-3 * s.cut_length_mid_m, 1e-12);
+    EXPECT_GT(wear.at(s.id).d_mm, last_wear);
+    last_wear = wear.at(s.id).d_mm;
+    EXPECT_NEAR(wear.at(s.id).d_mm, 2e-3 * s.cut_length_mid_m, 1e-12);
     // Clamping: three lobes in the facet's angle, and the turn about Z
     // their slope across the facet implies (-du/dphi / R).
     EXPECT_NEAR(
-        clamp.at(s.feature).d_mm,
+        clamp.at(s.id).d_mm,
         1e-3 * (std::cos(3 * s.phi_w_rad) + 0.5 * std::sin(3 * s.phi_w_rad)),
         1e-12);
     const double h = 1e-6;
     auto u = [&](double phi) {
       return 1e-3 * (std::cos(3 * phi) + 0.5 * std::sin(3 * phi));
     };
-    EXPECT_NEAR(clamp.at(s.feature).angle_rad,
+    EXPECT_NEAR(clamp.at(s.id).angle_rad,
                 -(u(s.phi_w_rad + h) - u(s.phi_w_rad - h)) / (2 * h) /
                     s.radius_mm,
                 1e-9);
     // C indexing: normals turned, distances unchanged.
-    EXPECT_EQ(index.at(s.feature).d_mm, 0);
+    EXPECT_EQ(index.at(s.id).d_mm, 0);
     EXPECT_NEAR(
-        index.at(s.feature).angle_rad,
+        index.at(s.id).angle_rad,
         ctx.c_sense * 1e-6 * (100 * std::cos(s.c_rad) + 50 * std::sin(s.c_rad)),
         1e-15);
   }
-  EXPECT_EQ(PredictEffect(Cause::kNone, {}, ctx).at("X1-1").d_mm, 0);
+  EXPECT_EQ(PredictEffect(Cause::kNone, {}, ctx).at(test::Fid("X1-1")).d_mm, 0);
 }
 
 // C indexing: a sum of harmonics of the table angle, their number from the
@@ -89,7 +90,7 @@ TEST(Effects, CAxisIndexingIsASumOfHarmonics) {
   for (const CutState& s : ctx.cuts) {
     if (!s.is_facet) continue;
     const double c = s.c_rad;
-    EXPECT_NEAR(index.at(s.feature).angle_rad,
+    EXPECT_NEAR(index.at(s.id).angle_rad,
                 ctx.c_sense * 1e-6 *
                     (10 * std::cos(c) + 20 * std::sin(2 * c) +
                      5 * std::cos(4 * c) - 5 * std::sin(4 * c)),

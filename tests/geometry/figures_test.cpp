@@ -32,7 +32,7 @@ TEST(Figures, RigidShiftGivesTheShift) {
       fr.d_mm = 12.1 + 0.5e-3 * f.cycle;
       fr.angle_rad = 1e-6 * f.cycle;
     }
-    r[f.id] = fr;
+    r[f.Key()] = fr;
   }
   auto figs = ComputeFigures(p, r);
   ASSERT_EQ(figs.size(), 8u);
@@ -54,7 +54,7 @@ TEST(Figures, GrowthIsPositiveTtp) {
     fr.present = true;
     // A hotter piece at cut time ends up smaller when cold.
     fr.d_mm = f.size_mm - (f.kind == FeatureKind::kFacet ? 1e-3 * f.cycle : 0);
-    r[f.id] = fr;
+    r[f.Key()] = fr;
   }
   for (const auto& f : ComputeFigures(p, r)) {
     EXPECT_NEAR(f.e_ttp_mm, 1e-3 * f.cycle, 1e-12);
@@ -64,8 +64,8 @@ TEST(Figures, GrowthIsPositiveTtp) {
 TEST(Figures, MissingFeatureGivesNaNOnlyWhereNeeded) {
   PartSpec p;
   FeatureResults r;
-  for (const auto& f : TestFeatures(p)) r[f.id] = {true, f.size_mm};
-  r.erase("X1-3");
+  for (const auto& f : TestFeatures(p)) r[f.Key()] = {true, f.size_mm};
+  r.erase(FeatureId::Facet(Segment::kX1, 3));
   auto figs = ComputeFigures(p, r);
   EXPECT_TRUE(std::isnan(figs[2].e_x_mm));
   EXPECT_TRUE(std::isnan(figs[2].e_ttp_mm));

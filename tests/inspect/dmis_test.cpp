@@ -11,6 +11,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {
@@ -130,7 +131,7 @@ TEST(DmisTest, RecoversDeviationsInAnyPoseFromTheDatums) {
   EXPECT_TRUE(got.aligned_from_datums);
   ASSERT_EQ(got.results.size(), truth.size());
   for (const auto& [id, t] : truth) {
-    const FeatureResult& r = got.results.at(id);
+    const FeatureResult& r = got.results.at(test::Fid(id));
     EXPECT_NEAR(r.d_mm, t.first, 1e-9) << id;
     EXPECT_NEAR(r.angle_rad, t.second, 1e-10) << id;
     EXPECT_GT(r.var_d_mm2, 0) << id;
@@ -156,8 +157,8 @@ TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
       part);
   EXPECT_FALSE(got.aligned_from_datums);
   ASSERT_EQ(got.warnings.size(), 1u);
-  EXPECT_NEAR(got.results.at("X1-1").angle_rad, 20e-6, 1e-12);
-  EXPECT_NEAR(got.results.at("X1-1").d_mm, x11.size_mm + 0.001, 1e-9);
+  EXPECT_NEAR(got.results.at(test::Fid("X1-1")).angle_rad, 20e-6, 1e-12);
+  EXPECT_NEAR(got.results.at(test::Fid("X1-1")).d_mm, x11.size_mm + 0.001, 1e-9);
 }
 
 // Units that do not fit the piece's size, a plane normal reported into the
@@ -186,8 +187,8 @@ TEST(DmisTest, RefusesWhatCannotBeThisPiece) {
       DmisToFeatureResults(ParseDmisOutput(out_text, "o"), part);
   const DmisImport b =
       DmisToFeatureResults(ParseDmisOutput(in_text, "i"), part);
-  EXPECT_EQ(a.results.at("X1-5").d_mm, b.results.at("X1-5").d_mm);
-  EXPECT_EQ(a.results.at("X1-5").angle_rad, b.results.at("X1-5").angle_rad);
+  EXPECT_EQ(a.results.at(test::Fid("X1-5")).d_mm, b.results.at(test::Fid("X1-5")).d_mm);
+  EXPECT_EQ(a.results.at(test::Fid("X1-5")).angle_rad, b.results.at(test::Fid("X1-5")).angle_rad);
   EXPECT_EQ(b.warnings.size(), a.warnings.size() + 1);
   EXPECT_THROW(
       ParseDmisOutput("FA(X1_5)=FEAT/PLANE,CART,1e300,0,-6,1,0,0\n", "h"),

@@ -58,18 +58,18 @@ TEST(FitFeatures, KnownPlanesComeBackWithinTheirUncertainty) {
   o.instrument = Instrument::kNone;
   const FittedFeatures f =
       FitFeatures(part, w, seg, Eigen::Matrix2d::Zero(), o);
-  const FeatureResult& facet = f.features.at(FacetId(Segment::kX1, 3));
+  const FeatureResult& facet = f.features.at(FeatureId::Facet(Segment::kX1, 3));
   ASSERT_TRUE(facet.present);
   EXPECT_EQ(facet.points, 396);
   EXPECT_NEAR(facet.d_mm, d, 4 * std::sqrt(facet.var_d_mm2));
   EXPECT_NEAR(facet.angle_rad, angle, 4 * std::sqrt(facet.var_angle_rad2));
   EXPECT_LT(std::sqrt(facet.var_d_mm2), 0.2e-3);
-  const FeatureResult& strip = f.features.at(StripId(7));
+  const FeatureResult& strip = f.features.at(FeatureId::Strip(7));
   ASSERT_TRUE(strip.present);
   EXPECT_NEAR(strip.d_mm, strip_d, 4 * std::sqrt(strip.var_d_mm2));
   EXPECT_NEAR(strip.angle_rad, beta, 4 * std::sqrt(strip.var_angle_rad2));
   EXPECT_EQ(f.points_rejected, 4);
-  EXPECT_FALSE(f.features.at(FacetId(kSegments[3], 1)).present);
+  EXPECT_FALSE(f.features.at(FeatureId::Facet(kSegments[3], 1)).present);
   EXPECT_EQ(f.diagnostics.size(), 5u * facets);
   int missing = 0;
   for (const FeatureDiagnostic& dg : f.diagnostics)

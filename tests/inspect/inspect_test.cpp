@@ -9,6 +9,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/inspect/synth.h"
+#include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {
@@ -134,7 +135,7 @@ TEST(InspectCloudTest, MissingFeaturesLeaveTheRestComputed) {
     EXPECT_TRUE(d.id == facet || d.id == strip) << d.id;
   }
   EXPECT_EQ(missing, 2);
-  EXPECT_FALSE(r.features.at(facet).present);
+  EXPECT_FALSE(r.features.at(test::Fid(facet)).present);
   const nlohmann::json doc = InspectionToJson(r);
   for (size_t c = 0; c < r.figures.size(); ++c) {
     const bool hit = r.figures[c].cycle == 3;

@@ -80,9 +80,9 @@ TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
     fr.var_d_mm2 = std::pow(u(rng), 2);
     fr.angle_rad = dev(rng) * 1e-2;
     fr.var_angle_rad2 = std::pow(u(rng) * 1e-2, 2);
-    r.features[f.id] = fr;
+    r.features[f.Key()] = fr;
   }
-  r.features["Y2-3"].present = false;  // cycle of index 3 loses E_Y, E_TTP
+  r.features[FeatureId::Facet(Segment::kY2, 3)].present = false;  // cycle of index 3 loses E_Y, E_TTP
   ComputeResultFigures(part, &r);
   const nlohmann::json doc = InspectionToJson(r);
   const fs::path p = Write("inspection.json", doc.dump(1));

@@ -21,6 +21,7 @@
 #include "ttp/inspect/measurement.h"
 #include "ttp/plan/plan.h"
 #include "ttp/plan/probe_program.h"
+#include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {
@@ -58,7 +59,7 @@ ProbingRun SimulateProbing(const Config& config, uint32_t seed, double noise_um,
     r.d_mm = f.kind == FeatureKind::kStrip ? -part.strip_floor_z_mm + dev_d(rng)
                                            : f.size_mm + dev_d(rng);
     r.angle_rad = dev_a(rng);
-    run.truth.features[f.id] = r;
+    run.truth.features[f.Key()] = r;
     if (f.kind == FeatureKind::kStrip) {
       // z = -d + s x  <=>  (-s, 0, 1) . x = -d, normalised.
       const Eigen::Vector3d n(-std::tan(r.angle_rad), 0, 1);
@@ -300,8 +301,8 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
     for (size_t i = 1; i < v.size(); ++i)
       if (pts[i - 1].feature != "X2-4" || kept++ < 2) keep.push_back(v[i]);
     imp = ReadProbeResults(config, join(keep), "probe.csv");
-    EXPECT_EQ(imp.results.count("X2-4"), 0u);
-    EXPECT_EQ(imp.results.count("X2-3"), 1u);
+    EXPECT_EQ(imp.results.count(test::Fid("X2-4")), 0u);
+    EXPECT_EQ(imp.results.count(test::Fid("X2-3")), 1u);
     ASSERT_FALSE(imp.warnings.empty());
     EXPECT_NE(imp.warnings[0].find("X2-4 has 2 points"), std::string::npos);
   }

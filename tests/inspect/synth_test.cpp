@@ -7,6 +7,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {
@@ -46,15 +47,15 @@ TEST(SynthTest, PointsLieOnTheDeviatedPlanes) {
     const double radial = p.x() * std::cos(phi) + p.y() * std::sin(phi);
     if (std::abs(radial - f.size_mm) < 0.1 && std::abs(tang) < 4 &&
         p.z() < -1 && p.z() > -11) {
-      const double a = phi + dev.at("X1-2").angle_rad;
+      const double a = phi + dev.at(test::Fid("X1-2")).angle_rad;
       const Eigen::Vector3d n(std::cos(a), std::sin(a), 0);
-      EXPECT_NEAR(n.dot(p), dev.at("X1-2").d_mm, 1e-9);
+      EXPECT_NEAR(n.dot(p), dev.at(test::Fid("X1-2")).d_mm, 1e-9);
       ++on_facet;
     }
     const double yk = StripY(part, 3);
     if (std::abs(p.y() - yk) < 5 && std::abs(p.x()) > 7 &&
         std::abs(p.x()) < 80 && std::abs(p.z() - part.strip_floor_z_mm) < 0.1) {
-      const FeatureResult& z3 = dev.at("Z3");
+      const FeatureResult& z3 = dev.at(test::Fid("Z3"));
       EXPECT_NEAR(p.z(), -z3.d_mm + std::tan(z3.angle_rad) * p.x(), 1e-9);
       ++on_strip;
     }
@@ -78,9 +79,9 @@ TEST(SynthTest, PoseStraysAndMissingFeatures) {
           .norm(),
       0.0, 1e-12);
   EXPECT_NEAR(s.rotation.determinant(), 1.0, 1e-12);
-  EXPECT_FALSE(s.truth.features.at("Y1-4").present);
-  EXPECT_FALSE(s.truth.features.at("Z2").present);
-  EXPECT_TRUE(s.truth.features.at("Y1-5").present);
+  EXPECT_FALSE(s.truth.features.at(test::Fid("Y1-4")).present);
+  EXPECT_FALSE(s.truth.features.at(test::Fid("Z2")).present);
+  EXPECT_TRUE(s.truth.features.at(test::Fid("Y1-5")).present);
   // Same seed, same cloud.
   const SynthPiece t =
       SynthesizePiece(part, Finished(), RandomDeviations(part, o), o);

@@ -10,6 +10,7 @@
 #include "test_dir.h"
 #include "ttp/inspect/inspect.h"
 #include "ttp/thermal/talc_log.h"
+#include "feature_ids.h"
 
 namespace ttp::sim {
 namespace {
@@ -49,11 +50,12 @@ TEST(Twin, CloudInspectsBackToTheCutGeometry) {
   for (const auto& [id, truth] : run.true_results) {
     const FeatureResult& m = r.features.at(id);
     ASSERT_TRUE(m.present) << id;
-    if (id[0] == 'Z') continue;
+    if (id.kind == FeatureKind::kStrip) continue;
     ++facets;
     // Within 5 sigma of the fit noise the twin assumes for a facet (plus
     // the datum alignment's share).
-    EXPECT_NEAR(m.d_mm, truth.d_mm, 5 * noise.facet_d_mm + 0.3e-3) << id;
+    EXPECT_NEAR(m.d_mm, truth.d_mm, 5 * noise.facet_d_mm + 0.3e-3)
+        << id;
     EXPECT_NEAR(m.angle_rad, truth.angle_rad, 5 * noise.facet_angle_rad + 5e-6)
         << id;
   }
@@ -90,8 +92,8 @@ TEST(Twin, EffectsShowWhereTheirPhysicsPutsThem) {
   auto delta = [&](const TwinOptions& o, const std::string& id) {
     const TwinRun r = RunTwin(config, o);
     return std::make_pair(
-        (r.true_results.at(id).d_mm - none.true_results.at(id).d_mm) * 1e3,
-        (r.true_results.at(id).angle_rad - none.true_results.at(id).angle_rad) *
+        (r.true_results.at(test::Fid(id)).d_mm - none.true_results.at(test::Fid(id)).d_mm) * 1e3,
+        (r.true_results.at(test::Fid(id)).angle_rad - none.true_results.at(test::Fid(id)).angle_rad) *
             1e6);
   };
   TwinOptions wear = base;

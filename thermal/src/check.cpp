@@ -10,6 +10,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/format.h"
 
 namespace ttp::thermal {
 
@@ -272,8 +273,7 @@ std::string CheckTable(const CheckResult& r) {
                    "figure", "measured +- U", "simulated +- U", "diff",
                    "U comb", "");
   auto num = [](double v, int width) {
-    return std::isfinite(v) ? fmt::format("{:{}.2f}", v, width)
-                            : fmt::format("{:>{}}", "-", width);
+    return fmt::format("{:>{}}", FormatNumber(v, 2), width);
   };
   for (const CycleCheck& c : r.cycles) {
     for (int f = 0; f < kFigureCount; ++f) {

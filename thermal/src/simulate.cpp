@@ -178,8 +178,8 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
                                  d_half, extra);
     sc.result_linear = CutFeatureResult(config.part, g, sc.machine_linear,
                                         sc.predicted, d_half, extra);
-    sim.results[sc.feature] = sc.result;
-    sim.results_linear[sc.feature] = sc.result_linear;
+    sim.results[g.feature.Key()] = sc.result;
+    sim.results_linear[g.feature.Key()] = sc.result_linear;
     sim.cuts.push_back(sc);
   }
   sim.figures = ComputeFigures(config.part, sim.results);

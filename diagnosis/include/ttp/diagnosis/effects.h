@@ -35,6 +35,7 @@ using thermal::kTableAlphaPerK;
 // One test feature as cut.
 struct CutState {
   std::string feature;  // "X1-3", "Z3"
+  FeatureId id;         // the same, typed
   bool is_facet = false;
   double t_s = 0;                    // end of the cut
   double c_rad = 0;                  // commanded table angle
@@ -67,7 +68,7 @@ struct FeatureDelta {
   double d_mm = 0;       // facet distance / strip depth change
   double angle_rad = 0;  // facet normal rotation about Z
 };
-using EffectDeltas = std::map<std::string, FeatureDelta>;
+using EffectDeltas = std::map<FeatureId, FeatureDelta>;
 
 // Parameters per cause (units in the names):
 //  workpiece_expansion: tau_wp_s, gain_K_per_K (piece temperature change

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <iosfwd>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,6 +31,8 @@ enum class FeatureKind {
 
 enum class Stage { kBlank, kPreMachined, kFinished };
 
+struct FeatureId;
+
 struct NominalFeature {
   std::string id;  // "X1-5", "Z3", "TOP", "FLANK+Y", "CYL199", ...
   FeatureKind kind;
@@ -46,6 +49,10 @@ struct NominalFeature {
   std::optional<Segment> segment;
   int index = 0;
   int cycle = -1;  // test cycle that cuts it (0 = reference), -1 = none
+
+  // The typed identity that results are keyed by (`id` is its name):
+  // facets and strips from segment and index, datums from the name.
+  FeatureId Key() const;
 };
 
 // Facet normal angle phi(S, j) in W, degrees.
@@ -97,6 +104,8 @@ struct FeatureId {
   bool operator!=(const FeatureId& o) const { return !(*this == o); }
   bool operator<(const FeatureId& o) const;
 };
+// Writes the name (messages, test failures).
+std::ostream& operator<<(std::ostream& os, const FeatureId& id);
 
 // Parses a test feature's name (a facet or a strip) of talc-log.md section
 // 5. Returns false if it is not one (the caller reports it). Equivalent to

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "ttp/geometry/config.h"
+#include "ttp/geometry/features.h"
 
 namespace ttp {
 
@@ -28,7 +29,14 @@ struct FeatureResult {
   double rms_mm = 0;
 };
 
-using FeatureResults = std::map<std::string, FeatureResult>;
+// Keyed by the typed id; the names ("X1-5", "Z3") appear only where
+// results are read or written (FeatureId::ToString / Parse).
+using FeatureResults = std::map<FeatureId, FeatureResult>;
+
+// The ids of `results` in the order of their names ("X1-1" < "X2-1" <
+// "Y1-1" < "Z1"): the order in which seeded noise is drawn and lists are
+// written, so that a seed and an input keep giving the same output.
+std::vector<FeatureId> IdsInNameOrder(const FeatureResults& results);
 
 // Which figures a cycle has; NaN marks a figure that cannot be computed
 // (a feature it needs is missing).

@@ -1,4 +1,4 @@
-#include "ttp/report/format.h"
+#include "ttp/geometry/format.h"
 
 #include <fmt/format.h>
 
