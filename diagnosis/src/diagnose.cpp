@@ -40,7 +40,7 @@ double OvalityMm(const PartSpec& part, const FeatureResults& results,
     const double sign =
         s == Segment::kX1 || s == Segment::kX2 ? 0.25 : -0.25;
     for (int k : {j, ref}) {
-      auto it = results.find(FacetId(s, k));
+      auto it = results.find(FeatureId::Facet(s, k));
       if (it == results.end() || !it->second.present ||
           !std::isfinite(it->second.d_mm))
         return std::numeric_limits<double>::quiet_NaN();

@@ -336,7 +336,7 @@ TrueRun MakeTrueRun(const Config& config, uint32_t seed) {
     r.d_mm = f.kind == FeatureKind::kStrip
                  ? -(config.part.strip_floor_z_mm + delta)
                  : f.size_mm + delta;
-    run.truth.features[f.id] = r;
+    run.truth.features[f.Key()] = r;
   }
   ComputeResultFigures(config.part, &run.truth);
   return run;

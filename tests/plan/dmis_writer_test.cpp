@@ -370,7 +370,7 @@ class SimulatedCmm {
       }
     }
     for (const auto& [id, f] : nominal_) {
-      const FeatureResult& r = truth_.at(id);
+      const FeatureResult& r = truth_.at(f.Key());
       if (f.kind == FeatureKind::kStrip) {  // z = -d + tan(beta) x
         const double t =
             plane_t(Eigen::Vector3d(-std::tan(r.angle_rad), 0, 1), -r.d_mm);
