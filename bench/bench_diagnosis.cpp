@@ -97,7 +97,7 @@ int Calibrate(const Config& config, int runs, double scale) {
     o.threads = threads;
     if (scale > 0) o.diagnosis.estimator_sigma_scale = scale;
     const BatteryResult r = RunBattery(config, o);
-    std::vector<double> bic, chi2, z, step, machine;
+    std::vector<double> bic, chi2, z, step, machine, pooled;
     for (const BatteryRun& run : r.runs) {
       if (run.c.expected != "none") continue;
       if (!run.correct)
@@ -111,21 +111,32 @@ int Calibrate(const Config& config, int runs, double scale) {
       z.push_back(run.structure_z);
       step.push_back(run.step_chi2);
       machine.push_back(run.machine_z);
+      pooled.push_back(run.machine_pooled_z);
     }
     auto line = [&](const char* name, const std::vector<double>& v) {
-      fmt::print("  {:<34} median {:7.2f}  95 % {:7.2f}  99 % {:7.2f}  max "
-                 "{:7.2f}\n",
-                 name, Quantile(v, 0.5), Quantile(v, 0.95), Quantile(v, 0.99),
-                 Quantile(v, 1.0));
+      fmt::print(
+          "  {:<34} median {:7.2f}  95 % {:7.2f}  99 % {:7.2f}  max "
+          "{:7.2f}\n",
+          name, Quantile(v, 0.5), Quantile(v, 0.95), Quantile(v, 0.99),
+          Quantile(v, 1.0));
     };
-    fmt::print("{:>5.0f} s: {} runs without a cause, {} named, {} unexplained\n",
-               spacing, bic.size(), r.false_names,
-               std::count_if(r.runs.begin(), r.runs.end(), [](const BatteryRun& x) { return x.outcome == "unexplained"; }));
+    fmt::print(
+        "{:>5.0f} s: {} runs without a cause, {} named, {} unexplained\n",
+        spacing, bic.size(), r.false_names,
+        std::count_if(r.runs.begin(), r.runs.end(), [](const BatteryRun& x) {
+          return x.outcome == "unexplained";
+        }));
     line("evidence (-delta BIC, best cause)", bic);
     line("chi2 per degree of freedom", chi2);
     line("largest per-kind chi2 deviate", z);
     line("largest chi2 explained by a step", step);
     line("largest E_X/E_Y/E_Z chi2 deviate", machine);
+    line("E_X, E_Y, E_Z pooled chi2 deviate", pooled);
+    fmt::print("  pooled deviate above named_machine_z ({:g}): {} runs\n",
+               o.diagnosis.named_machine_z,
+               std::count_if(pooled.begin(), pooled.end(), [&](double v) {
+                 return v > o.diagnosis.named_machine_z;
+               }));
   }
   return 0;
 }

@@ -223,6 +223,7 @@ BatteryRun RunBatteryCase(const Config& config, const BatteryCase& c,
   r.structure_z = report.structure_z;
   r.step_chi2 = report.step_chi2;
   r.machine_z = report.machine_z;
+  r.machine_pooled_z = report.machine_pooled_z;
   r.best_delta_bic = std::numeric_limits<double>::infinity();
   for (const auto& cand : report.candidates)
     if (!cand.causes.empty() && cand.delta_bic < r.best_delta_bic)

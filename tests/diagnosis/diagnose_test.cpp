@@ -303,6 +303,10 @@ TEST(Diagnose, OptionsValidateThemselves) {
   o.max_c_harmonics = 0;
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("max_c_harmonics"), std::string::npos);
+  o = DiagnosisOptions{};
+  o.named_machine_z = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("named_machine_z"), std::string::npos);
 }
 
 // The samples: run-a hides a workpiece expansion, run-b nothing.

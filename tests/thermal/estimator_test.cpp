@@ -283,6 +283,15 @@ TEST(Estimator, SecondOrderPlantWithAnUnloggedInput) {
   EXPECT_LT(sparse.rms_z, 1.5) << sparse.largest_z;
   EXPECT_GT(sparse.rms_z, 0.3);
   EXPECT_LT(sparse.largest_z, 4.0);
+  // The stated uncertainty grows with the distance to the nearest R-test:
+  // next to one it is smaller than in the middle of the gap that follows.
+  {
+    const TalcLog log = ParseTalcLog(plant.Text(), "second-order.csv");
+    const auto est = MachineErrorEstimator::Fit(log);
+    ASSERT_GE(log.rtests.size(), 8u);
+    const double t0 = log.rtests[3].t_ref_s, t1 = log.rtests[4].t_ref_s;
+    EXPECT_LT(est.ErrorSigmaAt(2, t0 + 60), est.ErrorSigmaAt(2, (t0 + t1) / 2));  // E_Z0T moves most
+  }
   std::cout << "dense " << dense.rms_um << " um z " << dense.rms_z << " max "
             << dense.largest_z << "; sparse " << sparse.rms_um << " um z "
             << sparse.rms_z << " max " << sparse.largest_z << "\n";

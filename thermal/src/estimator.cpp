@@ -433,7 +433,27 @@ double MachineErrorEstimator::ErrorSigmaAt(int e, double t_s) const {
   const double outside = std::max(
       {0.0, rtest_t_.front() - t_s, t_s - rtest_t_.back()});
   const double spacing = std::max(MeanRTestSpacingS(), 1.0);
-  return s * std::sqrt(1.0 + std::pow(outside / spacing, 2));
+  // Between R-tests the estimator's error grows with the distance to them
+  // like a Brownian bridge (variance x (gap - x) / gap at x into the gap):
+  // the cross-validation measured it at the held-out R-tests of a block (x
+  // = j spacings into a gap of block + 1), so a cut close to an R-test gets
+  // less than a cut in the middle of its gap, never below the fraction the
+  // R-tests cannot show. With fewer than four blocks the cross-validation
+  // error rests on too few gaps to be scaled: one number per run.
+  const int b = std::max(1, options_.cv_block_rtests);
+  if (outside > 0 || static_cast<int>(rtest_t_.size()) < 4 * b)
+    return s * std::sqrt(1.0 + std::pow(outside / spacing, 2));
+  const auto hi = std::upper_bound(rtest_t_.begin(), rtest_t_.end(), t_s);
+  if (hi == rtest_t_.begin() || hi == rtest_t_.end()) return s;
+  const double ta = *(hi - 1), tb = *hi, gap = tb - ta;
+  if (!(gap > 0)) return s;
+  double ref = 0;
+  for (int j = 1; j <= b; ++j) ref += j * (b + 1.0 - j) / (b + 1.0);
+  ref *= spacing / b;
+  const double bridge = (t_s - ta) * (tb - t_s) / gap;
+  const double excess = std::sqrt(std::max(cv * cv - noise * noise, 0.0));
+  return std::max(excess * std::sqrt(bridge / ref),
+                  options_.cut_time_error_fraction * cv);
 }
 
 double MachineErrorEstimator::InputAt(int input, int tau, double t_s) const {

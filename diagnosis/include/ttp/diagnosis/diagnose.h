@@ -116,6 +116,10 @@ struct DiagnosisOptions {
   // and which no catalogue cause changes much) keep a chi2 deviate beyond
   // this after the best model.
   double refuse_z = 7.0;
+  // `refused` instead of named when E_X, E_Y and E_Z pooled keep a chi2
+  // deviate beyond this after the named cause (calibrated on runs without
+  // a cause: docs/DIAGNOSIS.md).
+  double named_machine_z = 2.5;
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
 
@@ -174,6 +178,8 @@ struct DiagnosisReport {
   // The largest per-kind deviate over E_X, E_Y, E_Z (the figures that
   // follow the machine's location errors).
   double machine_z = 0;
+  // The same over E_X, E_Y and E_Z pooled (one chi2 deviate).
+  double machine_pooled_z = 0;
   // Held-out cycles (the whole selection repeated without each cycle):
   // RMS of the held-out residuals, nominal vs the fold's chosen model.
   double heldout_baseline_rms_um = 0, heldout_extended_rms_um = 0;

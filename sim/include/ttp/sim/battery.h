@@ -46,6 +46,7 @@ struct BatteryRun {
   // The decision's statistics (DiagnosisReport): what the thresholds are
   // calibrated on.
   double best_evidence = 0, structure_z = 0, step_chi2 = 0, machine_z = 0;
+  double machine_pooled_z = 0;  // E_X, E_Y, E_Z pooled
   std::string reason;  // the diagnosis' sentence
 };
 
