@@ -58,6 +58,20 @@ TEST(CliThermal, SimulateWritesFiguresAndTheInterpolationComparison) {
           << run << " " << k;
     }
     EXPECT_GT(w[1]["max_line_um"].get<double>(), 1.0) << run;
+    // Held-out R-tests are counted once however many phases hold them out:
+    // never more than the log has.
+    std::ifstream log(kSamples + run + "/talc.csv");
+    int rtests = 0;
+    for (std::string line; std::getline(log, line);)
+      if (line.find(",rtest,") != std::string::npos) ++rtests;
+    ASSERT_GT(rtests, 0) << run;
+    for (int k = 0; k < 2; ++k) {
+      EXPECT_GT(w[k]["held_out_rtests"].get<int>(), 0) << run << " " << k;
+      EXPECT_LE(w[k]["held_out_rtests"].get<int>(), rtests) << run << " " << k;
+      EXPECT_GE(w[k]["held_out_evaluations"].get<int>(),
+                w[k]["held_out_rtests"].get<int>())
+          << run << " " << k;
+    }
   }
 }
 

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 
 #include "ttp/geometry/error.h"
@@ -655,6 +656,8 @@ InterpolationComparison CompareInterpolation(const TalcLog& log,
   const std::vector<double> changes = LoadChangeTimes(log);
   std::vector<InterpolationWindow> windows(changes.size());
   std::vector<std::array<double, 7>> sm(changes.size()), sl(changes.size());
+  // An R-test is held out in several phases; it counts once.
+  std::vector<std::set<int>> held_out(changes.size());
   for (size_t c = 0; c < changes.size(); ++c) {
     windows[c].label = c == 0 ? "warm-up start" : "cool-down start";
     windows[c].load_change_s = changes[c];
@@ -700,26 +703,28 @@ InterpolationComparison CompareInterpolation(const TalcLog& log,
             w.max_line_um = std::max(w.max_line_um, std::abs(l[e] - yv[e]));
           }
         }
-        ++w.held_out;
+        ++w.evaluations;
+        held_out[c].insert(k);
       }
     }
   }
   for (size_t c = 0; c < changes.size(); ++c) {
     InterpolationWindow& w = windows[c];
-    if (w.held_out == 0) continue;
+    if (w.evaluations == 0) continue;
+    w.held_out = static_cast<int>(held_out[c].size());
     w.mean_bracket_s = w.bracket_from_s / out.phases;
     w.bracket_from_s = 0;
     double am = 0, al = 0;
     for (int e = 0; e < 7; ++e) {
-      w.rms_model[e] = std::sqrt(sm[c][e] / w.held_out);
-      w.rms_line[e] = std::sqrt(sl[c][e] / w.held_out);
+      w.rms_model[e] = std::sqrt(sm[c][e] / w.evaluations);
+      w.rms_line[e] = std::sqrt(sl[c][e] / w.evaluations);
       if (e < 4) {
         am += sm[c][e];
         al += sl[c][e];
       }
     }
-    w.rms_model_um = std::sqrt(am / (4.0 * w.held_out));
-    w.rms_line_um = std::sqrt(al / (4.0 * w.held_out));
+    w.rms_model_um = std::sqrt(am / (4.0 * w.evaluations));
+    w.rms_line_um = std::sqrt(al / (4.0 * w.evaluations));
     out.windows.push_back(w);
   }
   return out;
@@ -740,6 +745,7 @@ nlohmann::json InterpolationToJson(const InterpolationComparison& c) {
                        {"t_s", w.load_change_s},
                        {"mean_bracket_s", w.mean_bracket_s},
                        {"held_out_rtests", w.held_out},
+                       {"held_out_evaluations", w.evaluations},
                        {"rms_model", model},
                        {"rms_line", line},
                        {"rms_model_linear_errors_um", w.rms_model_um},
@@ -761,8 +767,9 @@ std::string InterpolationText(const InterpolationComparison& c) {
   for (const InterpolationWindow& w : c.windows) {
     s += fmt::format(
         "  {} at t_s {:.0f} (kept R-tests {:.0f} s apart around it on "
-        "average, {} held-out R-tests)\n",
-        w.label, w.load_change_s, w.mean_bracket_s, w.held_out);
+        "average, {} held-out R-tests, {} evaluations over the phases)\n",
+        w.label, w.load_change_s, w.mean_bracket_s, w.held_out,
+        w.evaluations);
     s += "     error   model    line   (RMS, um or um/m)\n";
     for (int e = 0; e < 7; ++e) {
       s += fmt::format("    {:>6} {:7.3f} {:7.3f}\n", kErrorNames[e],

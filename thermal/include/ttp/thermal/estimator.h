@@ -203,7 +203,8 @@ struct InterpolationWindow {
   double load_change_s = 0;
   double bracket_from_s = 0;  // internal
   double mean_bracket_s = 0;  // time between the bracketing kept R-tests
-  int held_out = 0;           // R-tests inside the brackets used as reference
+  int held_out = 0;     // distinct R-tests inside the brackets (reference)
+  int evaluations = 0;  // held-out R-tests summed over the phases (RMS base)
   // RMS over the held-out R-tests, per error (um, um/m) and over the four
   // linear errors (um), and the largest |error| of the line and the model
   // over the four linear errors (um).
