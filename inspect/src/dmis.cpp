@@ -751,7 +751,10 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
   int meas_line = 0, declared = 0, taken = 0;
   std::string meas_label;
   const auto need = [&](const DmisStatement& s, const std::string& word) {
-    const auto [type, name] = LabelRef(word);
+    // Plain copies, not a structured binding: a lambda may not capture a
+    // binding in C++17 (clang refuses it).
+    const auto ref = LabelRef(word);
+    const std::string type = ref.first, name = ref.second;
     if (type.empty()) return;
     const auto missing = [&](const std::set<std::string>& set,
                              const std::string& what) {
