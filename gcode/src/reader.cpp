@@ -358,7 +358,8 @@ class Interpreter {
           Fail(w.raw,
                "conflicts with " + it->second->raw + " (same modal group)");
       } else if (w.letter == 'M') {
-        if (w.value != std::floor(w.value)) Fail(w.raw, "unsupported M-code");
+        if (w.value != std::floor(w.value) || !(std::abs(w.value) < 1e6))
+          Fail(w.raw, "unsupported M-code");
         const auto group = MGroupOf(static_cast<int>(w.value));
         if (!group) Fail(w.raw, "unsupported M-code");
         auto [it, inserted] = m_groups.emplace(*group, &w);
@@ -405,7 +406,7 @@ class Interpreter {
   }
   static bool HasM(const Block& b, int m) {
     for (const Word& w : b.words)
-      if (w.letter == 'M' && static_cast<int>(w.value) == m) return true;
+      if (w.letter == 'M' && w.value == static_cast<double>(m)) return true;
     return false;
   }
 
@@ -464,15 +465,21 @@ class Interpreter {
     if (const Word* f = Find(block, 'F')) feed_ = f->value;
     int spindle = 0;
     if (const Word* sel = Find(block, '$')) {
+      if (!(sel->value >= 0 && sel->value <= 1))
+        Fail(sel->raw, "only spindles 0 and 1 exist");
       spindle = static_cast<int>(sel->value);
-      if (spindle > 1) Fail(sel->raw, "only spindles 0 and 1 exist");
     }
     const MachineProfile& p = config_.machine;
     const bool c_on = Fanuc() && HasM(block, p.m_c_turning_on);
     const Word* s_word = Find(block, 'S');
     if (s_word && !c_on) builder_.SetSpindleSpeed(spindle, s_word->value);
-    if (const Word* t = Find(block, 'T'))
+    if (const Word* t = Find(block, 'T')) {
+      // Checked before the conversion: a double out of int's range
+      // converts to nothing defined.
+      if (!(t->value >= 0 && t->value <= 99999))
+        Fail(t->raw, "tool number must be 0..99999");
       selected_tool_ = static_cast<int>(t->value);
+    }
     if (HasM(block, 6)) {
       if (selected_tool_ < 0) Fail("M6", "tool change without T");
       builder_.StopSpindle(0);
@@ -513,6 +520,8 @@ class Interpreter {
     }
     if (HasG(block, 430)) {
       const Word* h = Find(block, 'H');
+      if (h && !(h->value >= 0 && h->value <= 99999))
+        Fail(h->raw, "H must be 0..99999");
       const int tool = h ? static_cast<int>(h->value) : selected_tool_;
       const ToolSpec* spec = config_.process.ToolByNumber(tool);
       if (!spec)

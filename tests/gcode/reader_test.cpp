@@ -181,6 +181,11 @@ TEST(ReaderTest, BadProgramsNameLineAndWord) {
       {Dialect::kLinuxCnc, "G0 X1\n/G0 X2\n", 2, "/"},
       {Dialect::kLinuxCnc, "M3 $2 S100\n", 1, "$2"},
       {Dialect::kFanuc, "G04 X1. Y2.\n", 1, "Y2."},
+      // Numbers beyond int's range (found by the fuzzer: converting them
+      // was undefined behaviour).
+      {Dialect::kFanuc, "T222222222228.\n", 1, "T222222222228."},
+      {Dialect::kLinuxCnc, "M3 $99999999999 S100\n", 1, "$99999999999"},
+      {Dialect::kFanuc, "M30000000000\n", 1, "M30000000000"},
   };
   for (const BadProgram& c : cases) {
     SCOPED_TRACE(c.text);
