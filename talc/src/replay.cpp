@@ -83,6 +83,27 @@ Eigen::MatrixXd FitStatic(const models::TimeSeries& s,
   return a.householderQr().solve(b);
 }
 
+// One TALC measurement: the recursive fit forgets by the time since the
+// last update (forgetting_per_h per hour) and takes the new row; after the
+// calibration the estimate is refreshed and, when anchored, offset so that
+// the prediction passes through the measurement.
+void MeasurementUpdate(const Strategy& st, double t,
+                       const Eigen::Ref<const Eigen::RowVectorXd>& phi,
+                       const Eigen::VectorXd& y, bool started,
+                       RecursiveLeastSquares* rls, double* last_update_t,
+                       Eigen::MatrixXd* theta, Eigen::VectorXd* base) {
+  const double lambda =
+      st.forgetting_per_h == 1.0
+          ? 1.0
+          : std::pow(st.forgetting_per_h, (t - *last_update_t) / 3600.0);
+  rls->Update(phi.transpose(), y, 1.0, lambda);
+  *last_update_t = t;
+  if (!started) return;
+  *theta = rls->Solve();
+  *base = st.anchored ? Eigen::VectorXd(y - (phi * *theta).transpose())
+                      : Eigen::VectorXd::Zero(y.size());
+}
+
 // The static baseline updated like TALC (OutputReplay::static_model): the
 // main loop's semantics with temperature regressors only and the
 // measurement rows TALC chose.
@@ -124,19 +145,9 @@ std::vector<std::vector<double>> StaticUpdatedResiduals(
     ++next;
     for (int o = 0; o < m; ++o)
       y(o) = s.outputs_um(Eigen::Index(i), outs[size_t(o)]);
-    const double lambda =
-        st.forgetting_per_h == 1.0
-            ? 1.0
-            : std::pow(st.forgetting_per_h, (t - last_update_t) / 3600.0);
-    rls.Update(phi.transpose(), y, 1.0, lambda);
-    last_update_t = t;
-    if (started) {
-      theta = rls.Solve();
-      base = st.anchored ? Eigen::VectorXd(y - (phi * theta).transpose())
-                         : Eigen::VectorXd::Zero(m);
-    } else {
-      last_cal = i;
-    }
+    MeasurementUpdate(st, t, phi, y, started, &rls, &last_update_t, &theta,
+                      &base);
+    if (!started) last_cal = i;
     last_y = y;
     any = true;
   }
@@ -285,17 +296,8 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
       cal_rows.push_back(i);
       ++res.calibration_measurements;
     }
-    const double lambda =
-        st.forgetting_per_h == 1.0
-            ? 1.0
-            : std::pow(st.forgetting_per_h, (t - last_update_t) / 3600.0);
-    rls.Update(phi.transpose(), y, 1.0, lambda);
-    last_update_t = t;
-    if (started) {
-      theta = rls.Solve();
-      base = st.anchored ? Eigen::VectorXd(y - (phi * theta).transpose())
-                         : Eigen::VectorXd::Zero(m);
-    }
+    MeasurementUpdate(st, t, phi, y, started, &rls, &last_update_t, &theta,
+                      &base);
     last_y = y;
     last_t = t;
     any_measurement = true;
