@@ -1329,6 +1329,16 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   DiagnosisReport report =
       Diagnose(run.observations, run.context, part, options);
   report.estimator = run.simulation.estimator_description;
+  // A refusal that keeps the evidence it was decided on.
+  const auto refuse_keeping_evidence = [&report](const std::string& reason) {
+    DiagnosisReport refused = Refused(reason);
+    refused.candidates = report.candidates;
+    refused.observations = report.observations;
+    refused.estimator = report.estimator;
+    refused.machine_z = report.machine_z;
+    refused.structure_z = report.structure_z;
+    return refused;
+  };
   // The log of another run: the measured piece's E_X and E_Y (which no
   // known cause changes much) do not follow the simulated ones.
   if (report.status == DiagnosisStatus::kUnexplained &&
@@ -1337,18 +1347,13 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
     // log's R-tests measure and which no catalogue cause changes much
     // (after the best model): far beyond the error budget there, the log
     // does not describe the run that cut the piece.
-    DiagnosisReport refused = Refused(fmt::format(
+    DiagnosisReport refused = refuse_keeping_evidence(fmt::format(
         "{} does not follow the machine errors of {}: {} (E_X, E_Y and E_Z "
         "follow the machine's location errors the R-tests measure; limit {:g} "
         "standard deviations): the measurement and the log do not belong "
         "together",
         measured.source.empty() ? "the piece" : measured.source, log.source,
         report.reason, options.refuse_z));
-    refused.candidates = report.candidates;
-    refused.observations = report.observations;
-    refused.estimator = report.estimator;
-    refused.machine_z = report.machine_z;
-    refused.structure_z = report.structure_z;
     return refused;
   }
   // A cause named while E_X, E_Y and E_Z (which no catalogue cause changes
@@ -1357,19 +1362,14 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   // instrument's few touches hide the mismatch in each kind alone).
   if (report.status == DiagnosisStatus::kNamed &&
       report.machine_pooled_z > options.named_machine_z) {
-    DiagnosisReport refused = Refused(fmt::format(
+    DiagnosisReport refused = refuse_keeping_evidence(fmt::format(
         "{} does not follow the machine errors of {}: {} fits, but E_X, E_Y "
         "and E_Z, which no catalogue cause changes much, keep a chi2 "
         "deviate of {:.1f} after it (limit {:g}): the measurement and the "
         "log do not belong together",
         measured.source.empty() ? "the piece" : measured.source, log.source,
         report.cause, report.machine_pooled_z, options.named_machine_z));
-    refused.candidates = report.candidates;
-    refused.observations = report.observations;
-    refused.estimator = report.estimator;
-    refused.machine_z = report.machine_z;
     refused.machine_pooled_z = report.machine_pooled_z;
-    refused.structure_z = report.structure_z;
     return refused;
   }
   if (report.status == DiagnosisStatus::kUnexplained) {
