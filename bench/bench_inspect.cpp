@@ -27,7 +27,7 @@
 #include "ttp/geometry/file_io.h"
 #include "ttp/inspect/inspect.h"
 #include "ttp/inspect/plane_result.h"
-#include "ttp/inspect/synth.h"
+#include "ttp/sim/synth.h"
 
 #ifdef TTP_HAVE_PCL
 #include <pcl/ModelCoefficients.h>
@@ -40,6 +40,7 @@
 
 using namespace ttp;
 using namespace ttp::inspect;
+using namespace ttp::sim;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 

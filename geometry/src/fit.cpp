@@ -237,6 +237,17 @@ void FillCovariance(FitSummary* s, Eigen::MatrixXd covariance,
 
 bool Robust(const FitOptions& o) { return o.loss != FitOptions::Loss::kNone; }
 
+// The summary of a closed-form (unweighted least-squares) fit from its
+// orthogonal residuals.
+void SetClosedFormSummary(const Eigen::VectorXd& residuals_mm,
+                          FitSummary* s) {
+  const long n = residuals_mm.size();
+  s->points = static_cast<int>(n);
+  s->rms_mm = std::sqrt(residuals_mm.squaredNorm() / n);
+  s->max_abs_mm = residuals_mm.cwiseAbs().maxCoeff();
+  s->message = "closed form";
+}
+
 // Circle through centred 2D points (shared by FitCircle2D and FitCircle3D).
 CircleFit2D FitCentredCircle(const Eigen::Matrix2Xd& centred,
                              const FitOptions& options) {
@@ -290,10 +301,7 @@ LineFit2D FitLine2D(const Eigen::Matrix2Xd& points, const FitOptions& options) {
   const Eigen::Vector2d normal = s.eigenvectors.col(0);
   const Eigen::VectorXd r = normal.transpose() * centred;
   FitSummary& sum = fit.summary;
-  sum.points = static_cast<int>(n);
-  sum.rms_mm = std::sqrt(r.squaredNorm() / n);
-  sum.max_abs_mm = r.cwiseAbs().maxCoeff();
-  sum.message = "closed form";
+  SetClosedFormSummary(r, &sum);
   if (options.compute_covariance) {
     // Exact Hessian of the orthogonal problem: N for the offset and
     // (lambda_max - lambda_min) for the angle.
@@ -342,10 +350,7 @@ LineFit3D FitLine3D(const Eigen::Matrix3Xd& points, const FitOptions& options) {
       centred - fit.direction * (fit.direction.transpose() * centred);
   const Eigen::VectorXd dist = perpendicular.colwise().norm();
   FitSummary& sum = fit.summary;
-  sum.points = static_cast<int>(n);
-  sum.rms_mm = std::sqrt(dist.squaredNorm() / n);
-  sum.max_abs_mm = dist.maxCoeff();
-  sum.message = "closed form";
+  SetClosedFormSummary(dist, &sum);
   if (options.compute_covariance) {
     // Two residual components per point, four parameters.
     const double dof = 2.0 * n - 4;
@@ -394,10 +399,7 @@ PlaneFit FitPlane(const Eigen::Matrix3Xd& points, const FitOptions& options) {
   }
   const Eigen::VectorXd r = fit.normal.transpose() * centred;
   FitSummary& sum = fit.summary;
-  sum.points = static_cast<int>(n);
-  sum.rms_mm = std::sqrt(r.squaredNorm() / n);
-  sum.max_abs_mm = r.cwiseAbs().maxCoeff();
-  sum.message = "closed form";
+  SetClosedFormSummary(r, &sum);
   if (options.compute_covariance) {
     // Exact Hessian of sum (n.x - d)^2 at the optimum: N for the offset,
     // lambda_axis - lambda_min for a rotation of the normal towards an axis.

@@ -16,7 +16,7 @@
 #include "ttp/geometry/part_mesh.h"
 #include "ttp/geometry/rigid_table.h"
 #include "ttp/inspect/inspect.h"
-#include "ttp/inspect/synth.h"
+#include "ttp/sim/synth.h"
 #include "ttp/thermal/simulate.h"
 
 namespace ttp::sim {
@@ -67,7 +67,7 @@ std::string Num(double v) { return fmt::format("{:.4f}", v); }
 
 FitNoise CloudFitNoise(const PartSpec& part, double point_noise_um,
                        int cloud_points) {
-  // The synthetic CMM (inspect/synth.h) puts 45 % of the points on the 36
+  // The synthetic CMM (sim/synth.h) puts 45 % of the points on the 36
   // facets and 25 % on the 9 strips; the inspection keeps those inside the
   // edge margins: about 1/100 of the cloud per facet, 1/40 per strip. A
   // plane through N points spread uniformly over a width w: distance
@@ -595,15 +595,15 @@ const PartMesh& FinishedMesh(const Config& config) {
 
 inspect::PointCloud TwinCloud(const Config& config, const TwinRun& run,
                               const TwinOptions& options) {
-  inspect::SynthOptions o;
+  SynthOptions o;
   o.points = options.cloud_points;
   o.noise_um = options.point_noise_um;
   o.stray_fraction = options.stray_fraction;
   o.random_pose = true;
-  o.sampling = inspect::SynthSampling::kCmm;
+  o.sampling = SynthSampling::kCmm;
   o.seed =
       static_cast<uint32_t>(options.seed ^ (options.seed >> 32)) ^ 0x9e3779b9u;
-  inspect::SynthPiece piece = inspect::SynthesizePiece(
+  SynthPiece piece = SynthesizePiece(
       config.part, FinishedMesh(config), run.true_results, o);
   piece.cloud.source = fmt::format("ttp twin, seed {}", options.seed);
   return std::move(piece.cloud);

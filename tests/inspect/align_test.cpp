@@ -8,10 +8,15 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/inspect/cloud_stages.h"
-#include "ttp/inspect/synth.h"
+#include "ttp/sim/synth.h"
 
 namespace ttp::inspect {
 namespace {
+
+using sim::SynthOptions;
+using sim::SynthPiece;
+using sim::SynthesizePiece;
+using sim::RandomDeviations;
 
 const PartMesh& Finished() {
   static const PartMesh mesh = BuildPartMesh(PartSpec{}, Stage::kFinished);

@@ -8,11 +8,16 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
-#include "ttp/inspect/synth.h"
+#include "ttp/sim/synth.h"
 #include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {
+
+using sim::SynthOptions;
+using sim::SynthPiece;
+using sim::SynthesizePiece;
+using sim::RandomDeviations;
 
 const PartMesh& Finished() {
   static const PartMesh mesh = BuildPartMesh(PartSpec{}, Stage::kFinished);

@@ -15,10 +15,15 @@
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/limits.h"
 #include "ttp/inspect/measurement.h"
-#include "ttp/inspect/synth.h"
+#include "ttp/sim/synth.h"
 
 namespace ttp::inspect {
 namespace {
+
+using sim::SynthOptions;
+using sim::SynthPiece;
+using sim::SynthesizePiece;
+using sim::RandomDeviations;
 
 namespace fs = std::filesystem;
 

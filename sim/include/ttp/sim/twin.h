@@ -76,8 +76,8 @@ struct TwinRun {
 TwinRun RunTwin(const Config& config, const TwinOptions& options);
 
 // The measured piece as a CMM would export it: the true cut geometry of
-// the run (true_results) sampled by the inspect module's synthetic CMM
-// (inspect/synth.h: facets, strips and datums), with the run's point noise
+// the run (true_results) sampled by the synthetic CMM
+// (sim/synth.h: facets, strips and datums), with the run's point noise
 // and count, stray points and a random pose drawn from the seed.
 inspect::PointCloud TwinCloud(const Config& config, const TwinRun& run,
                               const TwinOptions& options);

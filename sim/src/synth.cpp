@@ -1,4 +1,4 @@
-#include "ttp/inspect/synth.h"
+#include "ttp/sim/synth.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -10,7 +10,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 
-namespace ttp::inspect {
+namespace ttp::sim {
 namespace {
 
 // Deterministic across standard libraries: mt19937 with hand-made
@@ -268,7 +268,7 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
   out.cloud.xyz_mm = (out.rotation * w).colwise() + out.translation;
   out.cloud.source = "synthetic piece, seed " + std::to_string(o.seed);
 
-  InspectionResult& truth = out.truth;
+  inspect::InspectionResult& truth = out.truth;
   truth.source = out.cloud.source;
   for (const NominalFeature& f : TestFeatures(part)) {
     FeatureResult r;
@@ -286,8 +286,8 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
       r.present = false;
     truth.features[f.Key()] = r;
   }
-  ComputeResultFigures(part, &truth);
+  inspect::ComputeResultFigures(part, &truth);
   return out;
 }
 
-}  // namespace ttp::inspect
+}  // namespace ttp::sim

@@ -1,4 +1,4 @@
-#include "ttp/inspect/synth.h"
+#include "ttp/sim/synth.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include "ttp/geometry/features.h"
 #include "feature_ids.h"
 
-namespace ttp::inspect {
+namespace ttp::sim {
 namespace {
 
 const PartMesh& Finished() {
@@ -103,4 +103,4 @@ TEST(SynthTest, OptionsNameTheInvalidField) {
 }
 
 }  // namespace
-}  // namespace ttp::inspect
+}  // namespace ttp::sim

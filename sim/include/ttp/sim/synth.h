@@ -20,7 +20,7 @@
 #include "ttp/inspect/inspect.h"
 #include "ttp/inspect/point_io.h"
 
-namespace ttp::inspect {
+namespace ttp::sim {
 
 enum class SynthSampling { kScanner, kCmm };
 
@@ -41,12 +41,12 @@ struct SynthOptions {
 };
 
 struct SynthPiece {
-  PointCloud cloud;  // in the measuring frame: cloud = rotation * W + t
+  inspect::PointCloud cloud;  // in the measuring frame: cloud = rotation * W + t
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   // The true per-feature results (what a perfect inspection returns) and
   // the figures and extras computed from them (missing features absent).
-  InspectionResult truth;
+  inspect::InspectionResult truth;
 };
 
 // Random per-feature deviations of the finished piece (all 45 features).
@@ -60,4 +60,4 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& finished,
                            const FeatureResults& deviations,
                            const SynthOptions& options);
 
-}  // namespace ttp::inspect
+}  // namespace ttp::sim
