@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
 #include <cmath>
 #include <type_traits>
 
@@ -40,27 +41,28 @@ class Writer {
     // LinuxCNC path blending within a tolerance.
     if (fanuc)
       Line("G17 G21 G40 G49 G69 G80 G90 G94");
+    else if (program_.exact_stop)
+      Line("G17 G21 G40 G49 G80 G90 G94 G61");
     else
       Line(fmt::format("G17 G21 G40 G49 G80 G90 G94 G64 P{:.3f}",
                        kLinuxCncBlendToleranceMm));
     Line("G54");
-    bool report_open = false;
     for (size_t i = 0; i < program_.statements.size(); ++i) {
       index_ = i;
       const Statement& s = program_.statements[i];
-      if (fanuc && !report_open &&
+      if (fanuc && !report_open_ &&
           (std::holds_alternative<Report>(s) ||
            std::holds_alternative<Probe>(s))) {
         Line("POPEN");
-        report_open = true;
+        report_open_ = true;
       }
-      if (fanuc && report_open && std::holds_alternative<ProgramEnd>(s)) {
+      if (fanuc && report_open_ && std::holds_alternative<ProgramEnd>(s)) {
         Line("PCLOS");
-        report_open = false;
+        report_open_ = false;
       }
       std::visit([this](const auto& st) { Emit(st); }, s);
     }
-    if (report_open) Line("PCLOS");
+    if (report_open_) Line("PCLOS");
     Line("%");
     return out_;
   }
@@ -89,6 +91,18 @@ class Writer {
     if (a.b_deg) s += " B" + Deg(*a.b_deg);
     if (a.c_deg) s += " C" + Deg(*a.c_deg);
     if (s.empty()) Fail("move without any axis");
+    return s;
+  }
+
+  // A word of a report or log row: no separator of either dialect.
+  void CheckReportWord(const std::string& word) const {
+    for (char ch : word)
+      if (ch == '*' || ch == ',' || ch == '[' || ch == ']' || ch == '(' ||
+          ch == ')' || ch == ' ')
+        Fail("report word must not contain separators: " + word);
+  }
+  static std::string Upper(std::string s) {
+    for (char& ch : s) ch = static_cast<char>(std::toupper(ch));
     return s;
   }
 
@@ -169,14 +183,10 @@ class Writer {
                        config_.machine.linuxcnc_c_clamp_output));
   }
   void Emit(const Report& r) {
-    for (char ch : r.event + r.feature)
-      if (ch == '*' || ch == ',' || ch == '[' || ch == ']' || ch == '(' ||
-          ch == ')' || ch == ' ')
-        Fail("report event/feature must not contain separators: " + r.event +
-             " " + r.feature);
+    CheckReportWord(r.event);
+    CheckReportWord(r.feature);
     if (dialect_ == Dialect::kFanuc) {
-      std::string event = r.event;
-      for (char& ch : event) ch = static_cast<char>(std::toupper(ch));
+      const std::string event = Upper(r.event);
       // DPRNT is a macro statement: without a non-buffered block before it
       // the control runs it while the previous move is still going.
       Line(config_.machine.fanuc_sync_block);
@@ -192,22 +202,69 @@ class Writer {
     if (!std::isfinite(p.feed_per_min) || p.feed_per_min <= 0)
       Fail("probe feed must be > 0");
     if (p.point_id < 0) Fail("probe point id must be >= 0");
+    CheckReportWord(p.feature);
+    CheckReportWord(p.pass);
+    const int axes = (p.to.x_mm ? 1 : 0) + (p.to.y_mm ? 1 : 0) +
+                     (p.to.z_mm ? 1 : 0);
+    if (axes != 1 || p.to.b_deg || p.to.c_deg)
+      Fail("a probe move runs along one linear axis");
+    const int axis = p.to.x_mm ? 0 : p.to.y_mm ? 1 : 2;
     const std::string feed = fmt::format("{:.1f}", p.feed_per_min);
     if (dialect_ == Dialect::kFanuc) {
       Line("G31" + AxisWords(p.to) + " F" + feed);
       // Skip positions of X, Y, Z and C in the control's axis order (C is
       // #5065 on an XYZBC machine).
       const auto& v = config_.machine.fanuc_skip_variables;
-      Line(fmt::format("DPRNT[PROBE*{}*X#{}[44]*Y#{}[44]*Z#{}[44]*C#{}[33]]",
-                       p.point_id, v[0], v[1], v[2], v[3]));
+      const std::string pass = Upper(p.pass);
+      // #var - nominal with the sign folded into the operator (no "--").
+      const double nominal = Finite(p.nominal_mm, "nominal") + 0.0;
+      Line(fmt::format("IF [ABS[#{}{}{}] GT {:.4f}] THEN #3000={} (NO TOUCH "
+                       "{} {})",
+                       v[axis], nominal < 0 ? "+" : "-", Mm(std::abs(nominal)),
+                       p.touch_window_mm, p.alarm, pass, p.point_id));
+      Line(fmt::format("DPRNT[{}*{}*{}*X#{}[44]*Y#{}[44]*Z#{}[44]*C#{}[33]*"
+                       "T#3012[60]]",
+                       pass, p.point_id, p.feature, v[0], v[1], v[2], v[3]));
     } else {
       Line("G38.2" + AxisWords(p.to) + " F" + feed);
       // LinuxCNC probe results by letter: #5061 X .. #5066 C.
       const auto& v = config_.machine.linuxcnc_probe_variables;
-      Line(fmt::format("(print,probe,{},#{},#{},#{},#{})", p.point_id, v[0],
-                       v[1], v[2], v[3]));
+      Line(fmt::format("(LOG,{},#{},#{},#{},#{},{},{})", p.point_id, v[0],
+                       v[1], v[2], v[3], p.feature, p.pass));
     }
     last_feed_ = feed;
+  }
+  void Emit(const SpindleOrient&) {
+    Line(dialect_ == Dialect::kFanuc ? "M19" : "M19 R0");
+  }
+  void Emit(const ProbeSignal& p) {
+    const MachineProfile& m = config_.machine;
+    if (dialect_ == Dialect::kFanuc)
+      Line(fmt::format("M{}", p.on ? m.m_probe_on : m.m_probe_off));
+    else
+      Line(fmt::format("{} P{}", p.on ? "M64" : "M65",
+                       m.linuxcnc_probe_output));
+  }
+  void Emit(const ProbeLog& l) {
+    const bool fanuc = dialect_ == Dialect::kFanuc;
+    if (l.open) {
+      if (fanuc) {
+        if (!report_open_) Line("POPEN");
+        Line(fmt::format("DPRNT[TTP*PROBE*LOG*O{}*D#3011[80]*T#3012[60]]",
+                         program_.number));
+      } else {
+        if (l.file.empty() ||
+            l.file.find_first_of(" \t,()\n\r") != std::string::npos)
+          Fail("the probing log file needs a name without spaces, commas "
+               "or parentheses");
+        Line(fmt::format("(LOGOPEN,{})", l.file));
+        Line("(LOG,point_id,x,y,z,c_deg,feature,pass)");
+      }
+      report_open_ = fanuc;
+    } else {
+      Line(fanuc ? "PCLOS" : "(LOGCLOSE)");
+      report_open_ = false;
+    }
   }
   void Emit(const ProgramEnd&) { Line("M30"); }
 
@@ -215,6 +272,7 @@ class Writer {
   Dialect dialect_;
   const Config& config_;
   size_t index_ = 0;
+  bool report_open_ = false;  // FANUC: POPEN given, PCLOS not yet
   std::string last_feed_;
   std::string out_;
 };

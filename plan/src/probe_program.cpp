@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ttp/gcode/writer.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
@@ -280,175 +281,126 @@ std::vector<Touch> PieceTouches(const Config& config,
   return out;
 }
 
-class ProgramText {
+// The probing program as program IR statements, written by the gcode
+// writer like the cycle programs.
+class ProgramBuilder {
  public:
-  ProgramText(const Config& config, gcode::Dialect dialect,
-              const ProbeOptions& options)
+  ProgramBuilder(const Config& config, gcode::Dialect dialect,
+                 const ProbeOptions& options, double travel_z_mm)
       : config_(config),
-        fanuc_(dialect == gcode::Dialect::kFanuc),
-        options_(options) {}
+        dialect_(dialect),
+        options_(options),
+        travel_z_(travel_z_mm) {}
 
-  std::string Build(const std::vector<Touch>& touches, size_t n_points) {
+  gcode::Program Build(const std::vector<Touch>& touches, size_t n_points) {
     const MachineProfile& m = config_.machine;
     const ToolSpec& probe = config_.process.probe;
-    const int number = m.program_number + 2;
-    const std::string title = "TTP ON-MACHINE PROBING OF THE FINISHED PIECE";
-    Line("%");
-    if (fanuc_) {
-      Line(fmt::format("O{} ({})", number, title));
-      Line("G17 G21 G40 G49 G69 G80 G90 G94");
-    } else {
-      Line(fmt::format("({})", title));
-      // Exact stop: every move ends where it is programmed.
-      Line("G17 G21 G40 G49 G80 G90 G94 G61");
-    }
-    Line("G54");
-    Line(fmt::format("(touch probe T{}, ball {:.3f} mm; {} points; log: {})",
-                     probe.number, probe.diameter_mm, n_points,
-                     fanuc_ ? "DPRNT port" : options_.log_file));
-    // B at 0 and clamped.
-    if (fanuc_) {
-      Line(fmt::format("M{}", m.m_b_unclamp));
-      Line("G0 B0.000");
-      Line(fmt::format("M{}", m.m_b_clamp));
-    } else {
-      Line(fmt::format("M65 P{}", m.linuxcnc_b_clamp_output));
-      Line("G0 B0.000");
-      Line(fmt::format("M64 P{}", m.linuxcnc_b_clamp_output));
-    }
+    program_.name = "probe";
+    program_.number = m.program_number + 2;
+    program_.title = "TTP ON-MACHINE PROBING OF THE FINISHED PIECE";
+    program_.exact_stop = true;
+    Comment(fmt::format(
+        "touch probe T{}, ball {:.3f} mm; {} points; log: {}", probe.number,
+        probe.diameter_mm, n_points,
+        dialect_ == gcode::Dialect::kFanuc ? "DPRNT port" : options_.log_file));
+    Add(gcode::BZeroClamp{});
     // Tool change at the tool-change position, away from piece and sphere.
     const auto& tc = m.tool_change_position_m_mm;
-    Line("M5");
-    Line(fmt::format("G49 G53 G0 Z{}", Mm(tc[2])));
-    Line(fmt::format("G53 G0 X{} Y{}", Mm(tc[0]), Mm(tc[1])));
-    Line(fmt::format("(T{} {})", probe.number, Safe(probe.name)));
-    Line(fmt::format("T{} M6", probe.number));
+    Add(gcode::SpindleOff{});
+    Add(gcode::MachineRapid{Z(tc[2])});
+    Add(gcode::MachineRapid{XY(tc[0], tc[1])});
+    Add(gcode::ToolChange{probe.number, probe.name});
     // The probe must not turn: spindle stopped and oriented.
-    Line("M5");
-    Line(fmt::format("M19{}", fanuc_ ? "" : " R0"));
-    Line(fmt::format("G0 G43 H{} Z{}", probe.number, Mm(travel_z_)));
-    Line(fanuc_ ? fmt::format("M{}", m.m_probe_on)
-                : fmt::format("M64 P{}", m.linuxcnc_probe_output));
-    if (fanuc_) {
-      Line("POPEN");
-      Line(fmt::format("DPRNT[TTP*PROBE*LOG*O{}*D#3011[80]*T#3012[60]]",
-                       number));
-    } else {
-      Line(fmt::format("(LOGOPEN,{})", options_.log_file));
-      Line("(LOG,point_id,x,y,z,c_deg,feature,pass)");
-    }
+    Add(gcode::SpindleOff{});
+    Add(gcode::SpindleOrient{});
+    Add(gcode::LengthOffset{probe.number, travel_z_});
+    Add(gcode::ProbeSignal{true});
+    Add(gcode::ProbeLog{true, options_.log_file});
     ProbePass pass = ProbePass::kMeasure;
     bool first = true;
     for (const Touch& t : touches) {
       if (first || t.pass != pass) {
         pass = t.pass;
-        Line(fmt::format("({})", pass == ProbePass::kQualify
-                                     ? "stylus qualification on the R-test "
-                                       "sphere"
-                                 : pass == ProbePass::kMeasure
-                                     ? "measurement"
-                                     : "drift: reference facets again"));
+        Comment(pass == ProbePass::kQualify
+                    ? "stylus qualification on the R-test sphere"
+                : pass == ProbePass::kMeasure ? "measurement"
+                                              : "drift: reference facets again");
       }
       first = false;
-      Emit(t);
+      AddTouch(t);
     }
-    Line(fmt::format("G0 Z{}", Mm(travel_z_)));
+    Add(gcode::Rapid{Z(travel_z_)});
     Index(0.0);
-    Line(fanuc_ ? fmt::format("M{}", m.m_probe_off)
-                : fmt::format("M65 P{}", m.linuxcnc_probe_output));
-    Line(fanuc_ ? "PCLOS" : "(LOGCLOSE)");
-    Line(fmt::format("G49 G53 G0 Z{}", Mm(tc[2])));
-    Line("M30");
-    Line("%");
-    return out_;
+    Add(gcode::ProbeSignal{false});
+    Add(gcode::ProbeLog{false, options_.log_file});
+    Add(gcode::MachineRapid{Z(tc[2])});
+    Add(gcode::ProgramEnd{});
+    return std::move(program_);
   }
-
-  void SetTravelZ(double z) { travel_z_ = z; }
 
  private:
-  static std::string Mm(double v) {
-    if (!std::isfinite(v))
-      throw InputError("probe program", 0, "coordinate", "not finite");
-    return fmt::format("{:.4f}", v + 0.0);
+  static gcode::Axes Z(double z) {
+    gcode::Axes a;
+    a.z_mm = z;
+    return a;
   }
-  static std::string Safe(std::string text) {
-    for (char& ch : text)
-      if (ch == '(' || ch == ')' || ch == '\n' || ch == '\r') ch = ' ';
-    return text;
+  static gcode::Axes XY(double x, double y) {
+    gcode::Axes a;
+    a.x_mm = x;
+    a.y_mm = y;
+    return a;
   }
-  void Line(const std::string& text) { out_ += text + "\n"; }
+  static gcode::Axes Along(int axis, double v) {
+    gcode::Axes a;
+    (axis == 0 ? a.x_mm : axis == 1 ? a.y_mm : a.z_mm) = v;
+    return a;
+  }
+  void Add(gcode::Statement s) { program_.statements.push_back(std::move(s)); }
+  void Comment(std::string text) { Add(gcode::Comment{std::move(text)}); }
 
   void Index(double c_deg) {
     if (c_ && std::abs(*c_ - c_deg) < 1e-9) return;
-    const MachineProfile& m = config_.machine;
     // Absolute C: with roll-over the control takes the short way to the
     // angle; the reported C may then be the angle modulo 360.
-    if (fanuc_) {
-      Line(fmt::format("M{}", m.m_table_unclamp));
-      Line(fmt::format("G0 C{:.3f}", c_deg));
-      Line(fmt::format("M{}", m.m_table_clamp));
-    } else {
-      Line(fmt::format("M65 P{}", m.linuxcnc_c_clamp_output));
-      Line(fmt::format("G0 C{:.3f}", c_deg));
-      Line(fmt::format("M64 P{}", m.linuxcnc_c_clamp_output));
-    }
+    gcode::Axes c;
+    c.c_deg = c_deg;
+    Add(gcode::TableClamp{false});
+    Add(gcode::Rapid{c});
+    Add(gcode::TableClamp{true});
     c_ = c_deg;
   }
 
-  void Emit(const Touch& t) {
-    const MachineProfile& m = config_.machine;
+  void AddTouch(const Touch& t) {
     const Eigen::Vector3d start = t.contact + t.standoff_mm * t.normal;
     const Eigen::Vector3d end = t.contact - options_.overtravel_mm * t.normal;
     int axis = 0;
     for (int a = 1; a < 3; ++a)
       if (std::abs(t.normal[a]) > std::abs(t.normal[axis])) axis = a;
-    const char letters[3] = {'X', 'Y', 'Z'};
-    Line(fmt::format("({} {} on {})", ProbePassName(t.pass), t.id, t.feature));
-    Line(fmt::format("G0 Z{}", Mm(travel_z_)));
+    Comment(fmt::format("{} {} on {}", ProbePassName(t.pass), t.id, t.feature));
+    Add(gcode::Rapid{Z(travel_z_)});
     Index(t.c_deg);
-    Line(fmt::format("G0 X{} Y{}", Mm(start.x()), Mm(start.y())));
-    Line(fmt::format("G0 Z{}", Mm(start.z())));
-    const std::string feed =
-        fmt::format("{:.1f}", config_.process.probe.feed_mm_min);
-    Line(fmt::format("{} {}{} F{}", fanuc_ ? "G31" : "G38.2", letters[axis],
-                     Mm(end[axis]), feed));
-    const char* pass = ProbePassName(t.pass);
-    if (fanuc_) {
-      const auto& v = m.fanuc_skip_variables;
-      const int alarm = t.pass == ProbePass::kQualify ? 2
-                        : t.pass == ProbePass::kDrift ? 3
-                                                      : 1;
-      // #var - nominal with the sign folded into the operator (no "--").
-      const double nominal = t.contact[axis] + 0.0;
-      Line(
-          fmt::format("IF [ABS[#{}{}{}] GT {:.4f}] THEN #3000={} (NO TOUCH "
-                      "{} {})",
-                      v[axis], nominal < 0 ? "+" : "-", Mm(std::abs(nominal)),
-                      options_.touch_window_mm, alarm, Upper(pass), t.id));
-      Line(
-          fmt::format("DPRNT[{}*{}*{}*X#{}[44]*Y#{}[44]*Z#{}[44]*C#{}[33]*"
-                      "T#3012[60]]",
-                      Upper(pass), t.id, t.feature, v[0], v[1], v[2], v[3]));
-    } else {
-      const auto& v = m.linuxcnc_probe_variables;
-      Line(fmt::format("(LOG,{},#{},#{},#{},#{},{},{})", t.id, v[0], v[1], v[2],
-                       v[3], t.feature, pass));
-    }
+    Add(gcode::Rapid{XY(start.x(), start.y())});
+    Add(gcode::Rapid{Z(start.z())});
+    gcode::Probe probe{Along(axis, end[axis]),
+                       config_.process.probe.feed_mm_min, t.id};
+    probe.feature = t.feature;
+    probe.pass = ProbePassName(t.pass);
+    probe.nominal_mm = t.contact[axis];
+    probe.touch_window_mm = options_.touch_window_mm;
+    probe.alarm = t.pass == ProbePass::kQualify ? 2
+                  : t.pass == ProbePass::kDrift ? 3
+                                                : 1;
+    Add(probe);
     // Back off along the approach before lifting: never drag the stylus.
-    Line(fmt::format("G0 {}{}", letters[axis], Mm(start[axis])));
-  }
-
-  static std::string Upper(std::string s) {
-    for (char& ch : s) ch = static_cast<char>(std::toupper(ch));
-    return s;
+    Add(gcode::Rapid{Along(axis, start[axis])});
   }
 
   const Config& config_;
-  bool fanuc_;
+  gcode::Dialect dialect_;
   const ProbeOptions& options_;
-  double travel_z_ = 0;
+  double travel_z_;
   std::optional<double> c_;
-  std::string out_;
+  gcode::Program program_;
 };
 
 }  // namespace
@@ -495,9 +447,10 @@ std::string WriteProbeProgram(const Config& config,
          PieceTouches(config, reference, options, ProbePass::kDrift))
       touches.push_back(t);
   }
-  ProgramText text(config, dialect, options);
-  text.SetTravelZ(travel_z);
-  return text.Build(touches, points.size());
+  return gcode::WriteProgram(
+      ProgramBuilder(config, dialect, options, travel_z)
+          .Build(touches, points.size()),
+      dialect, config);
 }
 
 }  // namespace ttp::plan

@@ -90,28 +90,56 @@ struct Report {
   std::string feature;
   double c_deg;
 };
-// Probing move (FANUC G31 skip, LinuxCNC G38.2) towards `to`, stopping at
-// the touch; then the skip position is reported for planned point
-// `point_id`: FANUC `DPRNT[PROBE*<id>*X#5061[44]*Y#5062[44]*Z#5063[44]*
-// C#5065[33]]`, LinuxCNC `(print,probe,<id>,#5061,#5062,#5063,#5066)` (the
-// variables of the machine profile: fanuc_skip_variables,
+// Probing move (FANUC G31 skip, LinuxCNC G38.2) along one linear axis
+// towards `to`, stopping at the touch; then one row of the probing log
+// (ProbeLog) for planned point `point_id`. FANUC: the check of the skip
+// position against nominal_mm, `IF [ABS[#<var>-<nominal>] GT <window>]
+// THEN #3000=<alarm> (NO TOUCH <PASS> <id>)`, and
+// `DPRNT[<PASS>*<id>*<feature>*X#5061[44]*Y#5062[44]*Z#5063[44]*C#5065[33]*
+// T#3012[60]]`; LinuxCNC `(LOG,<id>,#5061,#5062,#5063,#5066,<feature>,
+// <pass>)` (G38.2 itself stops the program without a touch). The
+// variables are the machine profile's (fanuc_skip_variables,
 // linuxcnc_probe_variables).
 struct Probe {
   Axes to;
   double feed_per_min;
   int point_id;
+  std::string feature;            // "X1-5", "SPHERE"
+  std::string pass = "measure";   // qualify | measure | drift
+  double nominal_mm = 0;          // the nominal contact on the moving axis
+  double touch_window_mm = 1.0;   // FANUC: farther from nominal_mm is an alarm
+  int alarm = 1;                  // FANUC: #3000 = alarm
+};
+// Spindle oriented (M19; LinuxCNC M19 R0): a touch probe must not turn.
+struct SpindleOrient {};
+// The touch probe's signal on or off: FANUC machine.m_probe_on /
+// m_probe_off, LinuxCNC M64 / M65 P machine.linuxcnc_probe_output.
+struct ProbeSignal {
+  bool on;
+};
+// The probing log: FANUC POPEN and the header
+// DPRNT[TTP*PROBE*LOG*O<number>*D#3011[80]*T#3012[60]] / PCLOS; LinuxCNC
+// (LOGOPEN,<file>) and the CSV header row
+// (LOG,point_id,x,y,z,c_deg,feature,pass) / (LOGCLOSE).
+struct ProbeLog {
+  bool open;
+  std::string file;  // LinuxCNC: the log file
 };
 struct ProgramEnd {};  // M30
 
 using Statement =
     std::variant<Comment, Rapid, Feed, Dwell, SpindleOn, SpindleOff, Coolant,
                  ToolChange, CSpin, TableClamp, Report, Probe, ProgramEnd,
-                 MachineRapid, LengthOffset, BZeroClamp>;
+                 MachineRapid, LengthOffset, BZeroClamp, SpindleOrient,
+                 ProbeSignal, ProbeLog>;
 
 struct Program {
   std::string name;   // "pre" or "cycle"
   int number = 1000;  // FANUC O-number
   std::string title;  // first comment
+  // LinuxCNC: exact stop (G61: every move ends where it is programmed, as
+  // probing needs) instead of path blending within a tolerance.
+  bool exact_stop = false;
   std::vector<Statement> statements;
 };
 

@@ -36,6 +36,9 @@
 //   DPRNT[<PASS>*<id>*<feature>*X#5061[44]*Y#5062[44]*Z#5063[44]*C#5065[33]*T#3012[60]]
 //   per touch, PCLOS: the port output (lines `TTP PROBE LOG ...`,
 //   `MEASURE 12 X1-5 X ... Y ... Z ... C ... T ...`).
+// The program is program IR (gcode/program.h: Probe, ProbeLog,
+// ProbeSignal, SpindleOrient beside the cycle programs' statements),
+// written by gcode::WriteProgram like every other program.
 // The skip variables are the profile's (machine.fanuc_skip_variables,
 // machine.linuxcnc_probe_variables: C is #5065 on a FANUC XYZBC machine,
 // #5066 on LinuxCNC).
