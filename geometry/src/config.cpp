@@ -18,6 +18,22 @@ using nlohmann::json;
 
 // One list of fields per struct serves reading and writing.
 template <class V>
+void VisitRefCylinder(V& v, RefCylinder& c) {
+  v("diameter_mm", c.diameter_mm);
+  v("z_bottom_mm", c.z_bottom_mm);
+  v("z_top_mm", c.z_top_mm);
+}
+
+template <class V>
+void VisitClamp(V& v, ClampSpec& c) {
+  v("phi_deg", c.phi_deg);
+  v("r_inner_mm", c.r_inner_mm);
+  v("r_outer_mm", c.r_outer_mm);
+  v("width_mm", c.width_mm);
+  v("height_mm", c.height_mm);
+}
+
+template <class V>
 void VisitTool(V& v, ToolSpec& t) {
   v("name", t.name);
   v("number", t.number);
@@ -143,18 +159,8 @@ json ToJsonValue(const std::string& s) { return s; }
 json ToJsonValue(double d) { return d; }
 json ToJsonValue(int i) { return i; }
 json ToJsonValue(bool b) { return b; }
-json ToJsonValue(const RefCylinder& c) {
-  return json{{"diameter_mm", c.diameter_mm},
-              {"z_bottom_mm", c.z_bottom_mm},
-              {"z_top_mm", c.z_top_mm}};
-}
-json ToJsonValue(const ClampSpec& c) {
-  return json{{"phi_deg", c.phi_deg},
-              {"r_inner_mm", c.r_inner_mm},
-              {"r_outer_mm", c.r_outer_mm},
-              {"width_mm", c.width_mm},
-              {"height_mm", c.height_mm}};
-}
+json ToJsonValue(const RefCylinder& c);
+json ToJsonValue(const ClampSpec& c);
 json ToJsonValue(const ToolSpec& t);
 template <class T>
 json ToJsonValue(const std::vector<T>& v) {
@@ -177,11 +183,30 @@ struct Writer {
   }
 };
 
+json ToJsonValue(const RefCylinder& c) {
+  Writer w;
+  VisitRefCylinder(w, const_cast<RefCylinder&>(c));
+  return w.out;
+}
+json ToJsonValue(const ClampSpec& c) {
+  Writer w;
+  VisitClamp(w, const_cast<ClampSpec&>(c));
+  return w.out;
+}
 json ToJsonValue(const ToolSpec& t) {
   Writer w;
   VisitTool(w, const_cast<ToolSpec&>(t));
   return w.out;
 }
+
+// The keys a visitor names, in order.
+struct KeyList {
+  std::vector<std::string> keys;
+  template <class T>
+  void operator()(const char* key, T&) {
+    keys.emplace_back(key);
+  }
+};
 
 // ---- reading --------------------------------------------------------------
 
@@ -265,32 +290,28 @@ void ReadObject(const json& j, T& out, const Reader& parent,
   CheckKnownKeys(j, seen, r, path + ".");
 }
 
+// A list entry (a cylinder, a clamp) has no default of its own: every
+// field must be given.
+template <class T, class Visit>
+void ReadListEntry(const json& j, T& out, const Reader& r,
+                   const std::string& path, Visit visit) {
+  if (j.is_object()) {
+    KeyList fields;
+    visit(fields, out);
+    for (const std::string& key : fields.keys)
+      if (!j.contains(key)) r.Fail(path + "." + key, "missing");
+  }
+  ReadObject(j, out, r, path, [&](Reader& rr, T& o) { visit(rr, o); });
+}
 void ReadValue(const json& j, RefCylinder& out, const Reader& r,
                const std::string& path) {
-  // A cylinder of the user's list has no default of its own: every
-  // dimension must be given.
-  if (j.is_object())
-    for (const char* key : {"diameter_mm", "z_bottom_mm", "z_top_mm"})
-      if (!j.contains(key)) r.Fail(path + "." + key, "missing");
-  ReadObject(j, out, r, path, [](Reader& rr, RefCylinder& c) {
-    rr("diameter_mm", c.diameter_mm);
-    rr("z_bottom_mm", c.z_bottom_mm);
-    rr("z_top_mm", c.z_top_mm);
-  });
+  ReadListEntry(j, out, r, path,
+                [](auto& v, RefCylinder& c) { VisitRefCylinder(v, c); });
 }
 void ReadValue(const json& j, ClampSpec& out, const Reader& r,
                const std::string& path) {
-  if (j.is_object())
-    for (const char* key :
-         {"phi_deg", "r_inner_mm", "r_outer_mm", "width_mm", "height_mm"})
-      if (!j.contains(key)) r.Fail(path + "." + key, "missing");
-  ReadObject(j, out, r, path, [](Reader& rr, ClampSpec& c) {
-    rr("phi_deg", c.phi_deg);
-    rr("r_inner_mm", c.r_inner_mm);
-    rr("r_outer_mm", c.r_outer_mm);
-    rr("width_mm", c.width_mm);
-    rr("height_mm", c.height_mm);
-  });
+  ReadListEntry(j, out, r, path,
+                [](auto& v, ClampSpec& c) { VisitClamp(v, c); });
 }
 void ReadValue(const json& j, ToolSpec& out, const Reader& r,
                const std::string& path) {

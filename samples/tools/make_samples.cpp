@@ -31,35 +31,26 @@
 #include "ttp/inspect/measurement.h"
 #include "ttp/plan/plan.h"
 #include "ttp/thermal/talc_log.h"
+#include "probe_touch.h"
 
 namespace {
 
 using namespace ttp;
 constexpr double kDeg = M_PI / 180.0;
 
-struct Plane {
-  Eigen::Vector3d n;  // unit, outward
-  double d;           // n . x = d
-};
+using test::TruePlane;
 
 // The piece's planes in W from per-feature results (facets: distance and
 // normal angle error; strips: depth and slope).
-std::map<std::string, Plane> Planes(const PartSpec& part,
-                                    const FeatureResults& features) {
-  std::map<std::string, Plane> planes;
+std::map<std::string, TruePlane> Planes(const PartSpec& part,
+                                        const FeatureResults& features) {
+  std::map<std::string, TruePlane> planes;
   for (const NominalFeature& f : TestFeatures(part)) {
     const auto it = features.find(f.Key());
     if (it == features.end() || !it->second.present) continue;
     const FeatureResult& r = it->second;
     const double angle = std::isfinite(r.angle_rad) ? r.angle_rad : 0.0;
-    if (f.kind == FeatureKind::kStrip) {
-      // z = -d + tan(beta) x  <=>  (-tan b, 0, 1) . x = -d
-      const Eigen::Vector3d n(-std::tan(angle), 0, 1);
-      planes[f.id] = {n.normalized(), -r.d_mm / n.norm()};
-    } else {
-      const double phi = std::atan2(f.normal.y(), f.normal.x()) + angle;
-      planes[f.id] = {Eigen::Vector3d(std::cos(phi), std::sin(phi), 0), r.d_mm};
-    }
+    planes[f.id] = test::TrueFeaturePlane(f, r.d_mm, angle);
   }
   return planes;
 }
@@ -101,7 +92,7 @@ std::string DialCsv(const PartSpec& part, const FeatureResults& features,
 }
 
 std::string ProbeCsv(const Config& config,
-                     const std::map<std::string, Plane>& planes,
+                     const std::map<std::string, TruePlane>& planes,
                      std::mt19937& rng) {
   const PartSpec& part = config.part;
   std::normal_distribution<double> noise(0.0, 0.3e-3);
@@ -109,32 +100,10 @@ std::string ProbeCsv(const Config& config,
   std::string csv = "point_id,x,y,z,c_deg\n";
   for (const plan::PlannedPoint& p : plan::PlanPoints(part)) {
     const Eigen::Vector3d n = p.normal_w;
-    const bool vertical = std::abs(n.z()) > 0.999;
-    double c_rad = 0;
-    if (!vertical)
-      c_rad =
-          TableAngleFor(std::atan2(n.y(), n.x()), 0.0, config.machine.c_sense);
-    c_rad = std::remainder(c_rad, 2 * M_PI);
+    const double c_rad = test::ProbeTableAngleRad(config, p);
     // The ball centre moves along -n through the planned point + r n.
-    const Eigen::Vector3d start = p.point_w_mm + r * n;
-    const Eigen::Vector3d dir = n;
-    Eigen::Vector3d centre;
-    const auto it = planes.find(p.feature);
-    if (it != planes.end()) {
-      const Plane& tp = it->second;
-      const double t = (r + tp.d - tp.n.dot(start)) / tp.n.dot(dir);
-      centre = start + t * dir;
-    } else if (p.feature == "CYL199") {
-      const double big = part.ref_cylinders.front().diameter_mm / 2 + r;
-      const Eigen::Vector2d s2 = start.head<2>(), d2 = dir.head<2>();
-      const double a = d2.squaredNorm(), b = 2 * s2.dot(d2),
-                   c = s2.squaredNorm() - big * big;
-      centre = start + (-b + std::sqrt(b * b - 4 * a * c)) / (2 * a) * dir;
-    } else {
-      // The datums (TOP, flanks) at nominal.
-      const double t = (r + n.dot(p.point_w_mm) - n.dot(start)) / n.dot(dir);
-      centre = start + t * dir;
-    }
+    Eigen::Vector3d centre =
+        test::BallCentreAtTouch(part, planes, p, p.point_w_mm + r * n, n, r);
     centre += noise(rng) * n;
     const Eigen::Vector3d m = WorkpieceToMachine(config, centre, c_rad);
     csv += fmt::format("{},{:.4f},{:.4f},{:.4f},{:.4f}\n", p.id, m.x(), m.y(),
@@ -154,7 +123,7 @@ std::string Label(const std::string& id) {
 }
 
 std::string DmisOutput(const PartSpec& part,
-                       const std::map<std::string, Plane>& planes) {
+                       const std::map<std::string, TruePlane>& planes) {
   std::string out =
       "$$ DMIS output of the thermal test piece (samples/README.md)\n"
       "DMISMN/'ttp sample run-c',05.2\nUNITS/MM,ANGDEC\n";

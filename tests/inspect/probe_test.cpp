@@ -22,6 +22,7 @@
 #include "ttp/plan/plan.h"
 #include "ttp/plan/probe_program.h"
 #include "feature_ids.h"
+#include "probe_touch.h"
 
 namespace ttp::inspect {
 namespace {
@@ -47,11 +48,7 @@ ProbingRun SimulateProbing(const Config& config, uint32_t seed, double noise_um,
       noise(0.0, noise_um * 1e-3);
   // True planes in W: facets n . x = d (n rotated by angle about Z), strips
   // z = -d + tan(beta) x; datums nominal.
-  struct TruePlane {
-    Eigen::Vector3d n;
-    double d;
-  };
-  std::map<std::string, TruePlane> planes;
+  std::map<std::string, test::TruePlane> planes;
   ProbingRun run;
   for (const NominalFeature& f : TestFeatures(part)) {
     FeatureResult r;
@@ -60,14 +57,7 @@ ProbingRun SimulateProbing(const Config& config, uint32_t seed, double noise_um,
                                            : f.size_mm + dev_d(rng);
     r.angle_rad = dev_a(rng);
     run.truth.features[f.Key()] = r;
-    if (f.kind == FeatureKind::kStrip) {
-      // z = -d + s x  <=>  (-s, 0, 1) . x = -d, normalised.
-      const Eigen::Vector3d n(-std::tan(r.angle_rad), 0, 1);
-      planes[f.id] = {n.normalized(), -r.d_mm / n.norm()};
-    } else {
-      const double phi = std::atan2(f.normal.y(), f.normal.x()) + r.angle_rad;
-      planes[f.id] = {Eigen::Vector3d(std::cos(phi), std::sin(phi), 0), r.d_mm};
-    }
+    planes[f.id] = test::TrueFeaturePlane(f, r.d_mm, r.angle_rad);
   }
   ComputeResultFigures(part, &run.truth);
   // The piece on the table: W_true -> W_nominal.
@@ -80,39 +70,13 @@ ProbingRun SimulateProbing(const Config& config, uint32_t seed, double noise_um,
   std::string csv = "point_id,x,y,z,c_deg\n";
   for (const plan::PlannedPoint& p : plan::PlanPoints(part)) {
     const Eigen::Vector3d n = p.normal_w;
-    const bool vertical = std::abs(n.z()) > 0.999;
-    double c_rad = 0;
-    if (!vertical)
-      c_rad =
-          TableAngleFor(std::atan2(n.y(), n.x()), 0.0, config.machine.c_sense);
-    c_rad = std::remainder(c_rad, 2 * M_PI);
+    const double c_rad = test::ProbeTableAngleRad(config, p);
     // The probing line in W_nominal: the ball centre moves along -n
     // through planned point + r n. In the piece's own frame:
     const Eigen::Isometry3d to_piece = placement.inverse();
-    const Eigen::Vector3d start = to_piece * (p.point_w_mm + r * n);
-    const Eigen::Vector3d dir = to_piece.linear() * n;
-    Eigen::Vector3d centre;
-    auto it = planes.find(p.feature);
-    if (it != planes.end()) {
-      const TruePlane& tp = it->second;
-      // tp.n . (start + t dir) - tp.d = r
-      const double t = (r + tp.d - tp.n.dot(start)) / tp.n.dot(dir);
-      centre = start + t * dir;
-    } else if (p.feature == "CYL199") {
-      // |xy(start + t dir)| = R + r
-      const double big = part.ref_cylinders.front().diameter_mm / 2 + r;
-      const Eigen::Vector2d s2 = start.head<2>(), d2 = dir.head<2>();
-      const double a = d2.squaredNorm(), b = 2 * s2.dot(d2),
-                   c = s2.squaredNorm() - big * big;
-      const double t = (-b + std::sqrt(b * b - 4 * a * c)) / (2 * a);
-      centre = start + t * dir;
-    } else {
-      // TOP and the flanks: the nominal planes through the planned points.
-      const Eigen::Vector3d nn = p.normal_w;
-      const double d = nn.dot(p.point_w_mm);
-      const double t = (r + d - nn.dot(start)) / nn.dot(dir);
-      centre = start + t * dir;
-    }
+    Eigen::Vector3d centre = test::BallCentreAtTouch(
+        part, planes, p, to_piece * (p.point_w_mm + r * n),
+        to_piece.linear() * n, r);
     centre = placement * centre + noise(rng) * n;
     const Eigen::Vector3d m = WorkpieceToMachine(config, centre, c_rad);
     csv +=
