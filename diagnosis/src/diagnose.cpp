@@ -1037,7 +1037,7 @@ MeasuredPiece MeasuredPieceFromFeatures(const PartSpec& part,
     const FeatureKind kind = id.kind;
     SetFeatureVariance(part, kind, form_fraction, &f);
     if (kind == FeatureKind::kFacet && std::isfinite(r.angle_rad))
-      m.facet_angle_rad[id.ToString()] = r.angle_rad;
+      m.facet_angle_rad[id] = r.angle_rad;
   }
   m.figures = ComputeFigures(part, m.features);
   return m;
@@ -1118,12 +1118,7 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   };
   for (const auto& [id, r] : measured.features)
     if (r.present) check_cut(id);
-  for (const auto& [id, a] : measured.facet_angle_rad)
-    if (const std::optional<FeatureId> fid = FeatureId::Parse(id)) {
-      check_cut(*fid);
-    } else if (std::find(uncut.begin(), uncut.end(), id) == uncut.end()) {
-      uncut.push_back(id);
-    }
+  for (const auto& [id, a] : measured.facet_angle_rad) check_cut(id);
   for (const CycleFigures& m : measured.figures) {
     if (m.cycle < 1 ||
         m.cycle > static_cast<int>(run.simulation.figures.size()))
@@ -1211,8 +1206,7 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                                                      : 0.0));
   }
   for (const auto& [id, angle] : measured.facet_angle_rad) {
-    const std::optional<FeatureId> facet = FeatureId::Parse(id);
-    if (!facet) continue;
+    const FeatureId* const facet = &id;
     auto it = run.simulation.results.find(*facet);
     if (it == run.simulation.results.end() || !it->second.present) continue;
     if (!facet->IsTestFeature()) continue;

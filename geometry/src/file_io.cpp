@@ -94,20 +94,30 @@ Target ResolveTarget(const fs::path& path) {
   return t;
 }
 
-void WriteDirect(const Target& t, const std::string& content) {
-  const int fd = ::open(t.path.c_str(), O_WRONLY | O_CLOEXEC);
-  if (fd < 0)
-    throw OutputError("cannot open " + t.path.string() + ": " + ErrnoText());
+// Writes all of `content` to fd, again after a signal; false with the
+// reason when a write fails.
+bool WriteAll(int fd, const std::string& content, std::string* why) {
   size_t done = 0;
   while (done < content.size()) {
     const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
     if (w < 0) {
       if (errno == EINTR) continue;
-      const std::string why = ErrnoText();
-      ::close(fd);
-      throw OutputError("write failed: " + t.path.string() + ": " + why);
+      *why = ErrnoText();
+      return false;
     }
     done += static_cast<size_t>(w);
+  }
+  return true;
+}
+
+void WriteDirect(const Target& t, const std::string& content) {
+  const int fd = ::open(t.path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0)
+    throw OutputError("cannot open " + t.path.string() + ": " + ErrnoText());
+  std::string why;
+  if (!WriteAll(fd, content, &why)) {
+    ::close(fd);
+    throw OutputError("write failed: " + t.path.string() + ": " + why);
   }
   if (::close(fd) != 0)
     throw OutputError("write failed: " + t.path.string() + ": " + ErrnoText());
@@ -135,17 +145,11 @@ fs::path WriteTemporary(const fs::path& target, const std::string& content) {
     ::umask(mask);
     ::fchmod(fd, 0666 & ~mask);
   }
-  size_t done = 0;
-  while (done < content.size()) {
-    const ssize_t w = ::write(fd, content.data() + done, content.size() - done);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      const std::string why = ErrnoText();
-      ::close(fd);
-      fs::remove(tmp, ec);
-      throw OutputError("write failed: " + target.string() + ": " + why);
-    }
-    done += static_cast<size_t>(w);
+  std::string why;
+  if (!WriteAll(fd, content, &why)) {
+    ::close(fd);
+    fs::remove(tmp, ec);
+    throw OutputError("write failed: " + target.string() + ": " + why);
   }
   if (::close(fd) != 0) {
     const std::string why = ErrnoText();

@@ -31,15 +31,25 @@ void AxisFromParams(const AxisFrame& f, const T* p, Eigen::Matrix<T, 3, 1>* q,
   *q = f.q0.cast<T>() + p[0] * f.u.cast<T>() + p[1] * f.v.cast<T>();
 }
 
+// The offset of x from the axis point for parameters p, and the axis
+// direction.
+template <class T>
+Eigen::Matrix<T, 3, 1> OffsetFromAxis(const AxisFrame& f, const T* p,
+                                      const Eigen::Vector3d& x,
+                                      Eigen::Matrix<T, 3, 1>* d) {
+  Eigen::Matrix<T, 3, 1> q;
+  AxisFromParams(f, p, &q, d);
+  return x.cast<T>() - q;
+}
+
 struct CylinderResidual {
   static constexpr int kResiduals = 1;
   Eigen::Vector3d x;
   const AxisFrame* frame;
   template <class T>
   bool operator()(const T* p, T* r) const {
-    Eigen::Matrix<T, 3, 1> q, d;
-    AxisFromParams(*frame, p, &q, &d);
-    const Eigen::Matrix<T, 3, 1> off = x.cast<T>() - q;
+    Eigen::Matrix<T, 3, 1> d;
+    const Eigen::Matrix<T, 3, 1> off = OffsetFromAxis(*frame, p, x, &d);
     const Eigen::Matrix<T, 3, 1> perp = off - off.dot(d) * d;
     r[0] = sqrt(perp.squaredNorm()) - p[4];
     return true;
@@ -55,9 +65,8 @@ struct ConeResidual {
   const AxisFrame* frame;
   template <class T>
   bool operator()(const T* p, T* r) const {
-    Eigen::Matrix<T, 3, 1> q, d;
-    AxisFromParams(*frame, p, &q, &d);
-    const Eigen::Matrix<T, 3, 1> off = x.cast<T>() - q;
+    Eigen::Matrix<T, 3, 1> d;
+    const Eigen::Matrix<T, 3, 1> off = OffsetFromAxis(*frame, p, x, &d);
     const T h = off.dot(d);
     const T rho = sqrt((off - h * d).squaredNorm());
     r[0] = (rho - p[4] - h * tan(p[5])) * cos(p[5]);

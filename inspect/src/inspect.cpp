@@ -175,7 +175,8 @@ nlohmann::json InspectionToJson(const InspectionResult& r) {
   }
   if (!r.facet_angle_rad.empty()) {
     nlohmann::json angles = nlohmann::json::object();
-    for (const auto& [id, a] : r.facet_angle_rad) angles[id] = a * 1e6;
+    for (const auto& [id, a] : r.facet_angle_rad)
+      angles[id.ToString()] = a * 1e6;
     doc["facet_angle_err_urad"] = angles;
   }
   const Alignment& a = r.alignment;

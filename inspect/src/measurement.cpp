@@ -258,27 +258,29 @@ std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
 }
 
 // "facet_angle_err_urad": {facet id: urad} beside the figures (truth.json).
-std::map<std::string, double> FacetAnglesFromJson(const nlohmann::json& doc,
-                                                  const std::string& source,
-                                                  const PartSpec& part) {
-  std::map<std::string, double> out;
+std::map<FeatureId, double> FacetAnglesFromJson(const nlohmann::json& doc,
+                                                const std::string& source,
+                                                const PartSpec& part) {
+  std::map<FeatureId, double> out;
   if (!doc.contains("facet_angle_err_urad")) return out;
   const nlohmann::json& obj = doc.at("facet_angle_err_urad");
   if (!obj.is_object())
     throw InputError(source, 0, "facet_angle_err_urad",
                      "must be an object keyed by facet id");
-  std::map<std::string, bool> facet;
+  std::map<std::string, FeatureId> facets;  // by name, as in the file
   for (const NominalFeature& f : TestFeatures(part))
-    facet[f.id] = f.kind == FeatureKind::kFacet;
+    if (f.kind == FeatureKind::kFacet) facets.emplace(f.id, f.Key());
   for (const auto& [id, v] : obj.items()) {
     const std::string where = "facet_angle_err_urad." + id;
-    if (!facet.count(id) || !facet[id])
+    const auto facet = facets.find(id);
+    if (facet == facets.end())
       throw InputError(source, 0, where, "is not a facet of the piece");
     if (!v.is_number() || !std::isfinite(v.get<double>()))
       throw InputError(source, 0, where, "is not a finite number");
-    out[id] = Within(v.get<double>(), limits::kMaxFeatureAngleRad * 1e6, source,
-                     where, "urad") *
-              1e-6;
+    out[facet->second] = Within(v.get<double>(),
+                                limits::kMaxFeatureAngleRad * 1e6, source,
+                                where, "urad") *
+                         1e-6;
   }
   return out;
 }

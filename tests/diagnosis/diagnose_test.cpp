@@ -111,7 +111,7 @@ TEST(Diagnose, UnmeasuredAnglesAndMissingFeaturesAreLeftOut) {
   features.at(test::Fid("X1-3")).present = false;
   const MeasuredPiece m = MeasuredPieceFromFeatures(config.part, features);
   EXPECT_EQ(m.features.count(test::Fid("X1-3")), 0u);
-  EXPECT_EQ(m.facet_angle_rad.count("X1-2"), 0u);
+  EXPECT_EQ(m.facet_angle_rad.count(test::Fid("X1-2")), 0u);
   EXPECT_EQ(m.facet_angle_rad.size(), 34u);
   const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin");
   const PreparedRun run = PrepareRun(log, config, m, DiagnosisOptions{});
@@ -149,7 +149,8 @@ TEST(Diagnose, FiguresAndFacetAnglesAreReadAsGiven) {
   EXPECT_EQ(m.figures.size(), truth["figures"].size());
   ASSERT_EQ(m.facet_angle_rad.size(), truth["facet_angle_err_urad"].size());
   for (const auto& [id, urad] : truth["facet_angle_err_urad"].items())
-    EXPECT_NEAR(m.facet_angle_rad.at(id), urad.get<double>() * 1e-6, 1e-15);
+    EXPECT_NEAR(m.facet_angle_rad.at(test::Fid(id)), urad.get<double>() * 1e-6,
+                1e-15);
 }
 
 // A piece measured after another run's log: no cause named.

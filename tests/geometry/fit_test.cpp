@@ -11,17 +11,7 @@
 namespace ttp::fit {
 namespace {
 
-using testing::AxisAngle;
-using testing::DistanceToLine;
-using testing::NistCases;
-using testing::NistDir;
-using testing::RandomUnit;
-using testing::ReadNistFit;
-using testing::ReadNistPoints;
-using testing::Vec3;
-
-constexpr double kNistMm = 1e-6;
-constexpr double kNistRad = 1e-8;
+using namespace testing;  // ttp::fit::testing: NIST cases, tolerances
 
 // --- NIST reference pairs ---------------------------------------------------
 

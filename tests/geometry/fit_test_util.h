@@ -15,6 +15,11 @@
 
 namespace ttp::fit::testing {
 
+// NIST's certified results hold to these (their files carry about ten
+// digits).
+constexpr double kNistMm = 1e-6;
+constexpr double kNistRad = 1e-8;
+
 inline std::string NistDir() {
   return std::string(TTP_DATA_DIR) + "/reference/nist-fits/";
 }

@@ -8,28 +8,15 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/inspect/cloud_stages.h"
-#include "ttp/sim/synth.h"
+#include "synth_piece.h"
 
 namespace ttp::inspect {
 namespace {
 
-using sim::SynthOptions;
 using sim::SynthPiece;
-using sim::SynthesizePiece;
-using sim::RandomDeviations;
-
-const PartMesh& Finished() {
-  static const PartMesh mesh = BuildPartMesh(PartSpec{}, Stage::kFinished);
-  return mesh;
-}
 
 SynthPiece Piece(uint32_t seed, std::vector<std::string> missing = {}) {
-  const PartSpec part;
-  SynthOptions o;
-  o.points = 20000;
-  o.seed = seed;
-  o.missing = std::move(missing);
-  return SynthesizePiece(part, Finished(), RandomDeviations(part, o), o);
+  return test::RandomSynthPiece(seed, 20000, std::move(missing));
 }
 
 std::string RefusalOf(const PointCloud& cloud) {

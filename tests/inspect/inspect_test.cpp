@@ -8,33 +8,14 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
-#include "ttp/sim/synth.h"
+#include "synth_piece.h"
 #include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {
 
-using sim::SynthOptions;
 using sim::SynthPiece;
-using sim::SynthesizePiece;
-using sim::RandomDeviations;
-
-const PartMesh& Finished() {
-  static const PartMesh mesh = BuildPartMesh(PartSpec{}, Stage::kFinished);
-  return mesh;
-}
-
-SynthPiece Piece(uint32_t seed, int points = 20000,
-                 std::vector<std::string> missing = {}) {
-  const PartSpec part;
-  SynthOptions o;
-  o.points = points;
-  o.noise_um = 0.5;
-  o.stray_fraction = 0.002;
-  o.seed = seed;
-  o.missing = std::move(missing);
-  return SynthesizePiece(part, Finished(), RandomDeviations(part, o), o);
-}
+using test::RandomSynthPiece;
 
 struct Figure {
   const char* name;
@@ -64,7 +45,7 @@ std::string ErrorOf(const PointCloud& cloud) {
 TEST(InspectCloudTest, FiguresFromASyntheticCloudInAnyPose) {
   const PartSpec part;
   for (uint32_t seed : {1u, 2u, 3u}) {
-    const SynthPiece s = Piece(seed);
+    const SynthPiece s = RandomSynthPiece(seed);
     const InspectionResult r = InspectCloud(part, s.cloud);
     EXPECT_TRUE(r.alignment.mark_found) << seed;
     // The alignment undoes the pose.
@@ -101,7 +82,7 @@ TEST(InspectCloudTest, UncertaintyCoversTheTruth) {
   int inside = 0, total = 0;
   std::map<std::string, int> misses;
   for (uint32_t seed = 100; seed < 180; ++seed) {
-    const SynthPiece s = Piece(seed, 20000);
+    const SynthPiece s = RandomSynthPiece(seed, 20000);
     const InspectionResult r = InspectCloud(part, s.cloud, io);
     for (size_t c = 0; c < r.figures.size(); ++c) {
       for (const Figure& f : kFigures) {
@@ -131,7 +112,7 @@ TEST(InspectCloudTest, MissingFeaturesLeaveTheRestComputed) {
   const PartSpec part;
   const int j = IndexForCycle(part, 3);
   const std::string facet = FacetId(Segment::kY1, j), strip = StripId(j);
-  const SynthPiece s = Piece(21, 20000, {facet, strip});
+  const SynthPiece s = RandomSynthPiece(21, 20000, {facet, strip});
   const InspectionResult r = InspectCloud(part, s.cloud);
   int missing = 0;
   for (const auto& d : r.diagnostics) {
@@ -160,7 +141,7 @@ TEST(InspectCloudTest, MissingFeaturesLeaveTheRestComputed) {
 
 // Clouds that are not a test piece in millimetres.
 TEST(InspectCloudTest, BadCloudsNameTheProblem) {
-  const SynthPiece s = Piece(5, 5000);
+  const SynthPiece s = RandomSynthPiece(5, 5000);
   PointCloud metres = s.cloud;
   metres.xyz_mm *= 1e-3;
   EXPECT_NE(ErrorOf(metres).find("looks like metres"), std::string::npos);

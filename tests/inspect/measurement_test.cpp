@@ -12,6 +12,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {
@@ -137,8 +138,8 @@ TEST_F(MeasurementTest, FiguresWithFacetAnglesKeepTheAngles) {
            "facet_angle_err_urad": {"X1-1": 12.5, "Y2-3": -4}})");
   const Measurement m = LoadMeasurement(config_, p);
   ASSERT_EQ(m.result.facet_angle_rad.size(), 2u);
-  EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at("X1-1"), 12.5e-6);
-  EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at("Y2-3"), -4e-6);
+  EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at(test::Fid("X1-1")), 12.5e-6);
+  EXPECT_DOUBLE_EQ(m.result.facet_angle_rad.at(test::Fid("Y2-3")), -4e-6);
   const nlohmann::json back = MeasurementToJson(m);
   EXPECT_FALSE(back.contains("facets"));
   const Measurement again =

@@ -15,15 +15,12 @@
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/limits.h"
 #include "ttp/inspect/measurement.h"
-#include "ttp/sim/synth.h"
+#include "synth_piece.h"
 
 namespace ttp::inspect {
 namespace {
 
-using sim::SynthOptions;
 using sim::SynthPiece;
-using sim::SynthesizePiece;
-using sim::RandomDeviations;
 
 namespace fs = std::filesystem;
 
@@ -47,13 +44,7 @@ class PointIoTest : public ::testing::Test {
   fs::path dir_;
 };
 
-SynthPiece SmallPiece() {
-  static const PartMesh mesh = BuildPartMesh(PartSpec{}, Stage::kFinished);
-  SynthOptions o;
-  o.points = 20000;
-  o.seed = 77;
-  return SynthesizePiece(PartSpec{}, mesh, RandomDeviations(PartSpec{}, o), o);
-}
+SynthPiece SmallPiece() { return test::RandomSynthPiece(77); }
 
 // A synthetic measured piece written in every format and read back through
 // LoadMeasurement gives the same points and the same figures.

@@ -8,14 +8,12 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "feature_ids.h"
+#include "synth_piece.h"
 
 namespace ttp::sim {
 namespace {
 
-const PartMesh& Finished() {
-  static const PartMesh mesh = BuildPartMesh(PartSpec{}, Stage::kFinished);
-  return mesh;
-}
+using test::FinishedMesh;
 
 // Without noise, strays or pose, the points tagged near a facet lie on its
 // deviated plane and those on a strip on its sloped floor.
@@ -30,7 +28,7 @@ TEST(SynthTest, PointsLieOnTheDeviatedPlanes) {
   o.deviation_d_um = 20;
   o.deviation_angle_urad = 200;
   const FeatureResults dev = RandomDeviations(part, o);
-  const SynthPiece s = SynthesizePiece(part, Finished(), dev, o);
+  const SynthPiece s = SynthesizePiece(part, FinishedMesh(), dev, o);
   ASSERT_EQ(s.cloud.size(), o.points);
   EXPECT_TRUE(s.rotation.isIdentity());
   int on_facet = 0, on_strip = 0;
@@ -72,7 +70,7 @@ TEST(SynthTest, PoseStraysAndMissingFeatures) {
   o.seed = 9;
   o.missing = {"Y1-4", "Z2"};
   const SynthPiece s =
-      SynthesizePiece(part, Finished(), RandomDeviations(part, o), o);
+      SynthesizePiece(part, FinishedMesh(), RandomDeviations(part, o), o);
   EXPECT_EQ(s.cloud.size(), 10100);
   EXPECT_NEAR(
       (s.rotation * s.rotation.transpose() - Eigen::Matrix3d::Identity())
@@ -84,7 +82,7 @@ TEST(SynthTest, PoseStraysAndMissingFeatures) {
   EXPECT_TRUE(s.truth.features.at(test::Fid("Y1-5")).present);
   // Same seed, same cloud.
   const SynthPiece t =
-      SynthesizePiece(part, Finished(), RandomDeviations(part, o), o);
+      SynthesizePiece(part, FinishedMesh(), RandomDeviations(part, o), o);
   EXPECT_EQ((s.cloud.xyz_mm - t.cloud.xyz_mm).norm(), 0.0);
 }
 

@@ -32,7 +32,7 @@ struct MeasuredPiece {
   FeatureResults features;            // the measured ones; empty if only
                                       // figures are given
   std::vector<CycleFigures> figures;  // measured figures per cycle
-  std::map<std::string, double> facet_angle_rad;  // absolute angle errors
+  std::map<FeatureId, double> facet_angle_rad;  // absolute angle errors
 };
 // Per-feature results (from any measurement). Where a feature carries its
 // fit's scatter (rms_mm, points >= 3), that scatter, not the instrument's

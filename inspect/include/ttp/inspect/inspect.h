@@ -79,7 +79,7 @@ struct InspectionResult {
   // Facet angle errors (rad) given without per-feature results: a JSON of
   // figures with "facet_angle_err_urad", as the samples' truth.json. Where
   // features are known, their angles are in `features`.
-  std::map<std::string, double> facet_angle_rad;
+  std::map<FeatureId, double> facet_angle_rad;
   int points_total = 0, points_assigned = 0, points_rejected = 0;
   std::vector<std::string> warnings;
 };
