@@ -19,11 +19,13 @@ std::string ToolName(const Config& c, int number) {
   return t ? t->name : "";
 }
 
-// "cut,<feature>,<deg>" -> feature and angle.
-bool SplitReport(const std::string& text, std::string* feature, double* c_deg) {
+// "cut,<feature>,<deg>" -> the test feature and the angle.
+bool SplitReport(const std::string& text, FeatureId* feature, double* c_deg) {
   gcode::ReportText r;
   if (!gcode::ParseReportText(text, &r) || r.event != "cut") return false;
-  *feature = r.feature;
+  const std::optional<FeatureId> f = FeatureId::Parse(r.feature);
+  if (!f || !f->IsTestFeature()) return false;
+  *feature = *f;
   *c_deg = r.c_deg;
   return true;
 }
@@ -100,15 +102,13 @@ Schedule ScheduleFromCanon(const std::vector<gcode::CanonStatement>& canon,
           break;
         }
         ScheduledCut cut;
-        FeatureKind kind;
-        Segment segment;
-        if (!SplitReport(s.text, &cut.feature, &cut.c_deg) ||
-            !ParseFeatureId(cut.feature, &kind, &segment, &cut.index))
+        if (!SplitReport(s.text, &cut.feature, &cut.c_deg))
           throw InputError(source, s.source_line, "report",
                            "not a cut of a test feature: " + s.text);
         if (!last_feed)
           throw InputError(source, s.source_line, "report",
                            "report of a cut without a feed move before it");
+        cut.index = cut.feature.index;
         cut.cycle = CycleForIndex(config.part, cut.index);
         cut.start_s = last_feed->start_s;
         cut.end_s = last_feed->start_s + last_feed->duration_s;
@@ -147,8 +147,8 @@ std::string ScheduleToCsv(const Schedule& schedule) {
       "feature,cycle,index,start_s,end_s,c_deg,tool,tool_name,line\n";
   for (const ScheduledCut& c : schedule.cuts) {
     out += fmt::format("{},{},{},{:.3f},{:.3f},{:.3f},{},\"{}\",{}\n",
-                       c.feature, c.cycle, c.index, c.start_s, c.end_s, c.c_deg,
-                       c.tool, c.tool_name, c.source_line);
+                       c.feature.ToString(), c.cycle, c.index, c.start_s,
+                       c.end_s, c.c_deg, c.tool, c.tool_name, c.source_line);
   }
   return out;
 }
@@ -174,7 +174,7 @@ nlohmann::json ScheduleToJson(const Schedule& schedule) {
   nlohmann::json cuts = nlohmann::json::array();
   for (const ScheduledCut& c : schedule.cuts) {
     nlohmann::json j;
-    j["feature"] = c.feature;
+    j["feature"] = c.feature.ToString();
     j["cycle"] = c.cycle;
     j["index"] = c.index;
     j["start_s"] = c.start_s;
@@ -215,8 +215,8 @@ std::string FormatScheduleTable(const Schedule& schedule) {
                   "cycle", "start_s", "end_s", "c_deg", "tool", "tool name");
   for (const ScheduledCut& c : schedule.cuts) {
     out += fmt::format("{:<8} {:>5} {:>12.3f} {:>12.3f} {:>9.3f} {:>4}  {}\n",
-                       c.feature, c.cycle, c.start_s, c.end_s, c.c_deg, c.tool,
-                       c.tool_name);
+                       c.feature.ToString(), c.cycle, c.start_s, c.end_s,
+                       c.c_deg, c.tool, c.tool_name);
   }
   if (!schedule.rtests.empty()) {
     out +=

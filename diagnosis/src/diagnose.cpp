@@ -1145,11 +1145,7 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   // Cut time of each cycle (its features are cut within a minute).
   std::map<int, std::pair<double, int>> cycle_time;
   for (const auto& cut : run.simulation.cuts) {
-    FeatureKind kind;
-    Segment seg;
-    int j;
-    if (!ParseFeatureId(cut.feature, &kind, &seg, &j)) continue;
-    auto& [sum, count] = cycle_time[CycleForIndex(part, j)];
+    auto& [sum, count] = cycle_time[CycleForIndex(part, cut.feature.index)];
     sum += cut.t_s;
     ++count;
   }

@@ -59,20 +59,18 @@ std::vector<std::string> CAxisParameterNames(int harmonics) {
   return out;
 }
 
-CutState MakeCutState(const Config& config, const std::string& feature,
+CutState MakeCutState(const Config& config, const FeatureId& feature,
                       double t_s, double c_rad) {
   const PartSpec& part = config.part;
   CutState s;
-  s.feature = feature;
   s.t_s = t_s;
   s.c_rad = c_rad;
-  FeatureKind kind;
-  Segment segment;
-  int index = 0;
-  if (!ParseFeatureId(feature, &kind, &segment, &index))
-    throw std::invalid_argument("not a test feature: " + feature);
-  s.is_facet = kind == FeatureKind::kFacet;
-  s.id = s.is_facet ? FeatureId::Facet(segment, index) : FeatureId::Strip(index);
+  if (!feature.IsTestFeature())
+    throw std::invalid_argument("not a test feature: " + feature.ToString());
+  const Segment segment = feature.segment;
+  const int index = feature.index;
+  s.is_facet = feature.kind == FeatureKind::kFacet;
+  s.id = feature;
   if (s.is_facet) {
     s.phi_w_rad = FacetPhiDeg(part, segment, index) * M_PI / 180.0;
     s.radius_mm = part.facet_final_distance_mm;

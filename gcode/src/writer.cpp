@@ -204,8 +204,8 @@ class Writer {
     if (p.point_id < 0) Fail("probe point id must be >= 0");
     CheckReportWord(p.feature);
     CheckReportWord(p.pass);
-    const int axes = (p.to.x_mm ? 1 : 0) + (p.to.y_mm ? 1 : 0) +
-                     (p.to.z_mm ? 1 : 0);
+    const int axes =
+        (p.to.x_mm ? 1 : 0) + (p.to.y_mm ? 1 : 0) + (p.to.z_mm ? 1 : 0);
     if (axes != 1 || p.to.b_deg || p.to.c_deg)
       Fail("a probe move runs along one linear axis");
     const int axis = p.to.x_mm ? 0 : p.to.y_mm ? 1 : 2;
@@ -218,19 +218,21 @@ class Writer {
       const std::string pass = Upper(p.pass);
       // #var - nominal with the sign folded into the operator (no "--").
       const double nominal = Finite(p.nominal_mm, "nominal") + 0.0;
-      Line(fmt::format("IF [ABS[#{}{}{}] GT {:.4f}] THEN #3000={} (NO TOUCH "
-                       "{} {})",
-                       v[axis], nominal < 0 ? "+" : "-", Mm(std::abs(nominal)),
-                       p.touch_window_mm, p.alarm, pass, p.point_id));
-      Line(fmt::format("DPRNT[{}*{}*{}*X#{}[44]*Y#{}[44]*Z#{}[44]*C#{}[33]*"
-                       "T#3012[60]]",
-                       pass, p.point_id, p.feature, v[0], v[1], v[2], v[3]));
+      Line(
+          fmt::format("IF [ABS[#{}{}{}] GT {:.4f}] THEN #3000={} (NO TOUCH "
+                      "{} {})",
+                      v[axis], nominal < 0 ? "+" : "-", Mm(std::abs(nominal)),
+                      p.touch_window_mm, p.alarm, pass, p.point_id));
+      Line(
+          fmt::format("DPRNT[{}*{}*{}*X#{}[44]*Y#{}[44]*Z#{}[44]*C#{}[33]*"
+                      "T#3012[60]]",
+                      pass, p.point_id, p.feature, v[0], v[1], v[2], v[3]));
     } else {
       Line("G38.2" + AxisWords(p.to) + " F" + feed);
       // LinuxCNC probe results by letter: #5061 X .. #5066 C.
       const auto& v = config_.machine.linuxcnc_probe_variables;
-      Line(fmt::format("(LOG,{},#{},#{},#{},#{},{},{})", p.point_id, v[0],
-                       v[1], v[2], v[3], p.feature, p.pass));
+      Line(fmt::format("(LOG,{},#{},#{},#{},#{},{},{})", p.point_id, v[0], v[1],
+                       v[2], v[3], p.feature, p.pass));
     }
     last_feed_ = feed;
   }
@@ -242,8 +244,8 @@ class Writer {
     if (dialect_ == Dialect::kFanuc)
       Line(fmt::format("M{}", p.on ? m.m_probe_on : m.m_probe_off));
     else
-      Line(fmt::format("{} P{}", p.on ? "M64" : "M65",
-                       m.linuxcnc_probe_output));
+      Line(
+          fmt::format("{} P{}", p.on ? "M64" : "M65", m.linuxcnc_probe_output));
   }
   void Emit(const ProbeLog& l) {
     const bool fanuc = dialect_ == Dialect::kFanuc;
@@ -255,8 +257,9 @@ class Writer {
       } else {
         if (l.file.empty() ||
             l.file.find_first_of(" \t,()\n\r") != std::string::npos)
-          Fail("the probing log file needs a name without spaces, commas "
-               "or parentheses");
+          Fail(
+              "the probing log file needs a name without spaces, commas "
+              "or parentheses");
         Line(fmt::format("(LOGOPEN,{})", l.file));
         Line("(LOG,point_id,x,y,z,c_deg,feature,pass)");
       }

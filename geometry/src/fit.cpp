@@ -239,8 +239,7 @@ bool Robust(const FitOptions& o) { return o.loss != FitOptions::Loss::kNone; }
 
 // The summary of a closed-form (unweighted least-squares) fit from its
 // orthogonal residuals.
-void SetClosedFormSummary(const Eigen::VectorXd& residuals_mm,
-                          FitSummary* s) {
+void SetClosedFormSummary(const Eigen::VectorXd& residuals_mm, FitSummary* s) {
   const long n = residuals_mm.size();
   s->points = static_cast<int>(n);
   s->rms_mm = std::sqrt(residuals_mm.squaredNorm() / n);

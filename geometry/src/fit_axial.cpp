@@ -42,10 +42,14 @@ Eigen::Matrix<T, 3, 1> OffsetFromAxis(const AxisFrame& f, const T* p,
   return x.cast<T>() - q;
 }
 
-struct CylinderResidual {
+// One centred point against the axis of the frame's parameters.
+struct AxisPointResidual {
   static constexpr int kResiduals = 1;
   Eigen::Vector3d x;
   const AxisFrame* frame;
+};
+
+struct CylinderResidual : AxisPointResidual {
   template <class T>
   bool operator()(const T* p, T* r) const {
     Eigen::Matrix<T, 3, 1> d;
@@ -59,10 +63,7 @@ struct CylinderResidual {
 // Orthogonal distance to the cone whose radius is p[4] at the axis point q
 // and grows by tan(p[5]) per mm along d: in the (h, rho) half plane the
 // generator is the line rho = r0 + h tan(theta).
-struct ConeResidual {
-  static constexpr int kResiduals = 1;
-  Eigen::Vector3d x;
-  const AxisFrame* frame;
+struct ConeResidual : AxisPointResidual {
   template <class T>
   bool operator()(const T* p, T* r) const {
     Eigen::Matrix<T, 3, 1> d;

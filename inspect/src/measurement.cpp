@@ -277,10 +277,10 @@ std::map<FeatureId, double> FacetAnglesFromJson(const nlohmann::json& doc,
       throw InputError(source, 0, where, "is not a facet of the piece");
     if (!v.is_number() || !std::isfinite(v.get<double>()))
       throw InputError(source, 0, where, "is not a finite number");
-    out[facet->second] = Within(v.get<double>(),
-                                limits::kMaxFeatureAngleRad * 1e6, source,
-                                where, "urad") *
-                         1e-6;
+    out[facet->second] =
+        Within(v.get<double>(), limits::kMaxFeatureAngleRad * 1e6, source,
+               where, "urad") *
+        1e-6;
   }
   return out;
 }

@@ -323,8 +323,9 @@ class ProgramBuilder {
         pass = t.pass;
         Comment(pass == ProbePass::kQualify
                     ? "stylus qualification on the R-test sphere"
-                : pass == ProbePass::kMeasure ? "measurement"
-                                              : "drift: reference facets again");
+                : pass == ProbePass::kMeasure
+                    ? "measurement"
+                    : "drift: reference facets again");
       }
       first = false;
       AddTouch(t);
@@ -447,10 +448,9 @@ std::string WriteProbeProgram(const Config& config,
          PieceTouches(config, reference, options, ProbePass::kDrift))
       touches.push_back(t);
   }
-  return gcode::WriteProgram(
-      ProgramBuilder(config, dialect, options, travel_z)
-          .Build(touches, points.size()),
-      dialect, config);
+  return gcode::WriteProgram(ProgramBuilder(config, dialect, options, travel_z)
+                                 .Build(touches, points.size()),
+                             dialect, config);
 }
 
 }  // namespace ttp::plan

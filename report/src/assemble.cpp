@@ -63,7 +63,7 @@ json LogData(const thermal::TalcLog& log) {
   json cuts = json::array();
   for (const thermal::CutRecord& c : log.cuts) {
     cuts.push_back({{"t_s", c.t_s},
-                    {"feature", c.feature},
+                    {"feature", c.feature.ToString()},
                     {"c_deg", c.c_rad * 180 / M_PI}});
   }
   json out = {{"samples", samples}, {"rtests", rtests}, {"cuts", cuts}};

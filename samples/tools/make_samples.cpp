@@ -22,6 +22,7 @@
 #include <iostream>
 #include <random>
 
+#include "probe_touch.h"
 #include "ttp/geometry/config.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
@@ -31,7 +32,6 @@
 #include "ttp/inspect/measurement.h"
 #include "ttp/plan/plan.h"
 #include "ttp/thermal/talc_log.h"
-#include "probe_touch.h"
 
 namespace {
 

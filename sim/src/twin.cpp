@@ -160,7 +160,7 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
   const int cycles = part.cycles();
   const double first_cut_s = 320, cycle_s = 3600;
   struct PlannedCut {
-    std::string feature;
+    FeatureId feature;
     double t_s, c_rad;
   };
   std::vector<PlannedCut> cuts;
@@ -170,11 +170,11 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     const double t0 = first_cut_s + cycle * cycle_s;
     const double c_x = FacetPhiDeg(part, Segment::kX1, j) * M_PI / 180;
     const double c_y = c_x - 30 * M_PI / 180;
-    cuts.push_back({StripId(j), t0, 0.0});
-    cuts.push_back({FacetId(Segment::kX1, j), t0 + 10, c_x});
-    cuts.push_back({FacetId(Segment::kX2, j), t0 + 17, c_x});
-    cuts.push_back({FacetId(Segment::kY1, j), t0 + 27, c_y});
-    cuts.push_back({FacetId(Segment::kY2, j), t0 + 34, c_y});
+    cuts.push_back({FeatureId::Strip(j), t0, 0.0});
+    cuts.push_back({FeatureId::Facet(Segment::kX1, j), t0 + 10, c_x});
+    cuts.push_back({FeatureId::Facet(Segment::kX2, j), t0 + 17, c_x});
+    cuts.push_back({FeatureId::Facet(Segment::kY1, j), t0 + 27, c_y});
+    cuts.push_back({FeatureId::Facet(Segment::kY2, j), t0 + 34, c_y});
     cut_windows.push_back({t0 - 30, t0 + 45});
   }
   const double warmup_from_s = cut_windows[0].second;
@@ -375,11 +375,7 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     const thermal::CutGeometry g =
         thermal::ComputeCutGeometry(config, c.feature, c.c_rad);
     const bool facet = g.feature.kind == FeatureKind::kFacet;
-    FeatureKind parsed_kind;
-    Segment parsed_segment;
-    int parsed_index = 0;
-    ParseFeatureId(c.feature, &parsed_kind, &parsed_segment, &parsed_index);
-    const int cycle = CycleForIndex(part, parsed_index);
+    const int cycle = CycleForIndex(part, c.feature.index);
     const double dT_piece = at_scalar(piece_dT, c.t_s);
     const double dT_table = at_scalar(table_dT, c.t_s);
     double u_min = std::numeric_limits<double>::infinity(), u_max = -u_min;
@@ -507,7 +503,7 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     cells[0] = Num(c.t_s);
     cells[1] = "cut";
     cells[6] = fmt::format("{:.0f}", config.process.finishing.spindle_rpm);
-    cells[ncols - 3] = c.feature;
+    cells[ncols - 3] = c.feature.ToString();
     cells[ncols - 2] = Num(c.c_rad * 180 / M_PI);
     rows.push_back({c.t_s, 2, cells});
   }
@@ -603,8 +599,8 @@ inspect::PointCloud TwinCloud(const Config& config, const TwinRun& run,
   o.sampling = SynthSampling::kCmm;
   o.seed =
       static_cast<uint32_t>(options.seed ^ (options.seed >> 32)) ^ 0x9e3779b9u;
-  SynthPiece piece = SynthesizePiece(
-      config.part, FinishedMesh(config), run.true_results, o);
+  SynthPiece piece =
+      SynthesizePiece(config.part, FinishedMesh(config), run.true_results, o);
   piece.cloud.source = fmt::format("ttp twin, seed {}", options.seed);
   return std::move(piece.cloud);
 }

@@ -27,7 +27,7 @@ TEST_F(ScheduleTest, HasEveryTestFeatureOnceWithItsCycle) {
   const Config config;
   const auto features = TestFeatures(config.part);
   ASSERT_EQ(schedule_->cuts.size(), features.size());
-  std::set<std::string> seen;
+  std::set<FeatureId> seen;
   for (const ScheduledCut& cut : schedule_->cuts) {
     EXPECT_TRUE(seen.insert(cut.feature).second) << cut.feature;
     EXPECT_EQ(cut.cycle, CycleForIndex(config.part, cut.index));
@@ -36,7 +36,7 @@ TEST_F(ScheduleTest, HasEveryTestFeatureOnceWithItsCycle) {
     EXPECT_GT(cut.end_s, cut.start_s);
   }
   for (const NominalFeature& f : features)
-    EXPECT_TRUE(seen.count(f.id)) << f.id;
+    EXPECT_TRUE(seen.count(f.Key())) << f.id;
 }
 
 // Cycles start on the hour; every cut of cycle k lies in its hour, a few
@@ -88,13 +88,14 @@ TEST_F(ScheduleTest, CsvAndJsonHoldEveryCut) {
   EXPECT_EQ(line.rfind("feature,cycle,index,start_s,end_s,c_deg,tool", 0), 0u);
   size_t rows = 0;
   while (std::getline(csv, line)) {
-    EXPECT_EQ(line.substr(0, line.find(',')), schedule_->cuts[rows].feature);
+    EXPECT_EQ(line.substr(0, line.find(',')),
+              schedule_->cuts[rows].feature.ToString());
     ++rows;
   }
   EXPECT_EQ(rows, schedule_->cuts.size());
   const auto doc = nlohmann::json::parse(ReadTextFile(dir / "s.json"));
   ASSERT_EQ(doc["cuts"].size(), schedule_->cuts.size());
-  EXPECT_EQ(doc["cuts"][7]["feature"], schedule_->cuts[7].feature);
+  EXPECT_EQ(doc["cuts"][7]["feature"], schedule_->cuts[7].feature.ToString());
   EXPECT_DOUBLE_EQ(doc["cuts"][7]["end_s"].get<double>(),
                    schedule_->cuts[7].end_s);
   EXPECT_EQ(doc["cycle_start_s"].size(), 9u);
@@ -122,8 +123,10 @@ TEST(ScheduleFromCanonTest, RejectsAReportOfAnUnknownFeature) {
 TEST(ScheduleTableTest, PrintsOneRowPerCut) {
   Schedule s;
   s.cycle_period_s = 3600;
-  s.cuts.push_back({"Z5", 0, 5, 1.5, 45.5, 0.0, 4, "finisher", 20});
-  s.cuts.push_back({"X1-5", 0, 5, 46, 60, 60.0, 4, "finisher", 25});
+  s.cuts.push_back(
+      {FeatureId::Strip(5), 0, 5, 1.5, 45.5, 0.0, 4, "finisher", 20});
+  s.cuts.push_back({FeatureId::Facet(Segment::kX1, 5), 0, 5, 46, 60, 60.0, 4,
+                    "finisher", 25});
   const std::string table = FormatScheduleTable(s);
   EXPECT_NE(table.find("X1-5"), std::string::npos);
   EXPECT_NE(table.find("60.000"), std::string::npos);

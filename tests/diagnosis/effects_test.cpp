@@ -18,9 +18,11 @@ EffectContext Context(const Config& config) {
     const int j = IndexForCycle(part, cycle);
     const double t = 320 + 3600 * cycle;
     const double c = FacetPhiDeg(part, Segment::kX1, j) * M_PI / 180;
-    cuts.push_back(MakeCutState(config, StripId(j), t, 0));
-    cuts.push_back(MakeCutState(config, FacetId(Segment::kX1, j), t + 10, c));
-    cuts.push_back(MakeCutState(config, FacetId(Segment::kY1, j), t + 20, c));
+    cuts.push_back(MakeCutState(config, FeatureId::Strip(j), t, 0));
+    cuts.push_back(
+        MakeCutState(config, FeatureId::Facet(Segment::kX1, j), t + 10, c));
+    cuts.push_back(
+        MakeCutState(config, FeatureId::Facet(Segment::kY1, j), t + 20, c));
   }
   EffectContext ctx = MakeEffectContext(config, cuts);
   ctx.grid_step_s = 10;
@@ -47,7 +49,7 @@ TEST(Effects, EachCauseShowsWhereTheSpecSays) {
   double last_wear = -1;
   for (const CutState& s : ctx.cuts) {
     if (!s.is_facet) {
-      EXPECT_EQ(wear.at(s.id).d_mm, 0) << s.feature;  // radial only
+      EXPECT_EQ(wear.at(s.id).d_mm, 0) << s.id;  // radial only
       EXPECT_EQ(index.at(s.id).angle_rad, 0);
       EXPECT_GT(wp.at(s.id).d_mm, 0);  // hot adapter: strip deeper
       continue;

@@ -5,10 +5,10 @@
 
 #include <cmath>
 
+#include "synth_piece.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/inspect/cloud_stages.h"
-#include "synth_piece.h"
 
 namespace ttp::inspect {
 namespace {

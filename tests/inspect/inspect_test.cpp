@@ -6,10 +6,10 @@
 #include <cmath>
 #include <random>
 
+#include "feature_ids.h"
+#include "synth_piece.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
-#include "synth_piece.h"
-#include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {

@@ -8,11 +8,11 @@
 #include <fstream>
 #include <random>
 
+#include "feature_ids.h"
 #include "test_dir.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
-#include "feature_ids.h"
 
 namespace ttp::inspect {
 namespace {

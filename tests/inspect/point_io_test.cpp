@@ -10,12 +10,12 @@
 #include <fstream>
 #include <limits>
 
+#include "synth_piece.h"
 #include "test_dir.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/limits.h"
 #include "ttp/inspect/measurement.h"
-#include "synth_piece.h"
 
 namespace ttp::inspect {
 namespace {

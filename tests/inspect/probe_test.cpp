@@ -10,6 +10,8 @@
 #include <regex>
 #include <sstream>
 
+#include "feature_ids.h"
+#include "probe_touch.h"
 #include "test_dir.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/gcode/rs274.h"
@@ -21,8 +23,6 @@
 #include "ttp/inspect/measurement.h"
 #include "ttp/plan/plan.h"
 #include "ttp/plan/probe_program.h"
-#include "feature_ids.h"
-#include "probe_touch.h"
 
 namespace ttp::inspect {
 namespace {

@@ -5,10 +5,10 @@
 #include <Eigen/LU>
 #include <cmath>
 
-#include "ttp/geometry/error.h"
-#include "ttp/geometry/features.h"
 #include "feature_ids.h"
 #include "synth_piece.h"
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/features.h"
 
 namespace ttp::sim {
 namespace {

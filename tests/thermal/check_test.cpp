@@ -178,7 +178,7 @@ TEST(CheckSchedule, NamesEachMismatch) {
   // The log ends before the program's last cut.
   auto longer = plan;
   longer.push_back(plan.back());
-  longer.back().feature = "Z99";
+  longer.back().feature = FeatureId::Strip(99);
   longer.back().end_s += 3600;
   longer.back().start_s += 3600;
   ExpectScheduleError(fx.log, longer, "t_s", "ends at");

@@ -65,8 +65,10 @@ TEST(Simulate, RadialTableGrowthShowsAsETtp) {
   const auto& c4 = sim.cuts;
   double er_ref = 0, er_4 = 0;
   for (const auto& c : c4) {
-    if (c.feature == "X1-5") er_ref = c.machine.er0t_mm;
-    if (c.feature == "X1-4") er_4 = c.machine.er0t_mm;
+    if (c.feature == FeatureId::Facet(Segment::kX1, 5))
+      er_ref = c.machine.er0t_mm;
+    if (c.feature == FeatureId::Facet(Segment::kX1, 4))
+      er_4 = c.machine.er0t_mm;
   }
   const double expected = (er_4 - er_ref) * 97.3 / 160.0;
   EXPECT_NEAR(std::abs(sim.figures[3].e_ttp_mm), std::abs(expected),
@@ -115,8 +117,14 @@ TEST(Simulate, ExtrapolatesPastTheLastRTest) {
 }
 
 TEST(Simulate, CutGeometryRefusesUnknownFeatures) {
-  EXPECT_THROW(ComputeCutGeometry(Config{}, "X9-9", 0), std::invalid_argument);
-  const CutGeometry g = ComputeCutGeometry(Config{}, "X1-5", M_PI / 3);
+  EXPECT_THROW(
+      ComputeCutGeometry(Config{}, FeatureId::Facet(Segment::kX1, 10), 0),
+      std::invalid_argument);
+  EXPECT_THROW(
+      ComputeCutGeometry(Config{}, FeatureId::Datum(FeatureKind::kTopFace), 0),
+      std::invalid_argument);
+  const CutGeometry g =
+      ComputeCutGeometry(Config{}, FeatureId::Facet(Segment::kX1, 5), M_PI / 3);
   EXPECT_EQ(g.p_m_mm.size(), 28u);
   EXPECT_NEAR(g.n_w.norm(), 1, 1e-12);
 }

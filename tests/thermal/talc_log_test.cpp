@@ -51,7 +51,7 @@ TEST(TalcLog, ReadsAGoodLog) {
   EXPECT_NEAR(log.rtests[1].measured.ex0c_mm, 1e-3, 1e-15);
   EXPECT_NEAR(log.rtests[1].measured.ec0c_rad, 7e-6, 1e-15);
   ASSERT_EQ(log.cuts.size(), 1u);
-  EXPECT_EQ(log.cuts[0].feature, "X1-5");
+  EXPECT_EQ(log.cuts[0].feature, FeatureId::Facet(Segment::kX1, 5));
   EXPECT_NEAR(log.cuts[0].c_rad, M_PI / 3, 1e-12);
   EXPECT_FALSE(log.compensation);
   EXPECT_TRUE(log.warnings.empty());

@@ -33,13 +33,6 @@ std::array<double, kFigureCount> Sigmas(const CycleFigures& f) {
           f.u_ttp_mm * 1e3};
 }
 
-int FeatureIndex(const std::string& id) {
-  FeatureKind kind;
-  Segment segment;
-  int index = 0;
-  return ParseFeatureId(id, &kind, &segment, &index) ? index : -1;
-}
-
 nlohmann::json NumberOrNull(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
 }
@@ -63,7 +56,7 @@ std::vector<CycleFigures> SimulatedFigureUncertainty(
     const MachineErrorEstimator& estimator, const SimulationOptions& options) {
   const Simulation base = SimulatePiece(log, config, estimator, options);
   std::set<int> groups;
-  for (const CutRecord& c : log.cuts) groups.insert(FeatureIndex(c.feature));
+  for (const CutRecord& c : log.cuts) groups.insert(c.feature.index);
   const int cycles = static_cast<int>(base.figures.size());
   std::vector<std::array<double, kFigureCount>> var(cycles);
   for (auto& v : var) v.fill(0.0);
@@ -80,7 +73,7 @@ std::vector<CycleFigures> SimulatedFigureUncertainty(
                                      const CutGeometry& g, int i) {
         double extra =
             options.extra_shift_mm ? options.extra_shift_mm(cut, g, i) : 0.0;
-        if (FeatureIndex(cut.feature) == group) {
+        if (cut.feature.index == group) {
           // Machine error + delta: the shift changes by -n . dP_delta(p).
           extra += SurfaceShiftMm(delta, CAxisErrors{}, g.p_m_mm[i],
                                   g.q_m_mm[i], g.n_m, d_half);
@@ -139,7 +132,7 @@ CheckResult CheckPiece(const TalcLog& log, const Config& config,
   // Cut times per feature index (a cycle's features share it).
   std::map<int, std::vector<double>> cut_times;
   for (const CutRecord& c : log.cuts) {
-    cut_times[FeatureIndex(c.feature)].push_back(c.t_s);
+    cut_times[c.feature.index].push_back(c.t_s);
   }
   auto span = [&](int index, double* t0, double* t1, double* mean) {
     auto it = cut_times.find(index);
@@ -323,7 +316,7 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
   if (log.cuts.empty()) {
     throw InputError(log.source, 0, "cut", "the log has no cut rows");
   }
-  std::map<std::string, int> order;
+  std::map<FeatureId, int> order;
   for (int i = 0; i < static_cast<int>(planned.size()); ++i) {
     order[planned[i].feature] = i;
   }
@@ -336,7 +329,7 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
       throw InputError(log.source, c.line, "feature",
                        fmt::format("cut '{}' is not a feature of the program's "
                                    "test cycle",
-                                   c.feature));
+                                   c.feature.ToString()));
     }
     offsets.push_back(c.t_s - planned[it->second].end_s);
   }
@@ -355,7 +348,8 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
           log.source, c.line, "feature",
           fmt::format("cut {} out of the program's order: the program cuts "
                       "it before {} (line {})",
-                      c.feature, previous_cut->feature, previous_cut->line));
+                      c.feature.ToString(), previous_cut->feature.ToString(),
+                      previous_cut->line));
     }
     previous = i;
     previous_cut = &c;
@@ -366,8 +360,8 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
           fmt::format("cut {} ends at t_s {:.0f}, the schedule puts it at "
                       "{:.0f} (program {:.0f} s + offset {:.0f} s): {:+.0f} s, "
                       "more than the tolerance of {:.0f} s",
-                      c.feature, c.t_s, p.end_s + out.offset_s, p.end_s,
-                      out.offset_s, deviation, options.tolerance_s));
+                      c.feature.ToString(), c.t_s, p.end_s + out.offset_s,
+                      p.end_s, out.offset_s, deviation, options.tolerance_s));
     }
     out.max_deviation_s = std::max(out.max_deviation_s, std::abs(deviation));
     const double c_deg = c.c_rad * 180.0 / 3.14159265358979323846;
@@ -375,7 +369,7 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
       throw InputError(log.source, c.line, "c_deg",
                        fmt::format("cut {} at table angle {:.3f} deg, the "
                                    "program cuts it at {:.3f} deg",
-                                   c.feature, c_deg, p.c_deg));
+                                   c.feature.ToString(), c_deg, p.c_deg));
     }
     ++out.matched;
   }
@@ -388,16 +382,18 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
         log.source, log.rows.empty() ? 0 : log.rows.front().line, "t_s",
         fmt::format("the log starts at t_s {:.0f}, after the program's first "
                     "cut ({} starts at {:.0f})",
-                    log.FirstTimeS(), planned.front().feature, first_planned));
+                    log.FirstTimeS(), planned.front().feature.ToString(),
+                    first_planned));
   }
   if (log.LastTimeS() < last_planned) {
     throw InputError(
         log.source, log.rows.empty() ? 0 : log.rows.back().line, "t_s",
         fmt::format("the log ends at t_s {:.0f}, before the program's last "
                     "cut ({} ends at {:.0f})",
-                    log.LastTimeS(), planned.back().feature, last_planned));
+                    log.LastTimeS(), planned.back().feature.ToString(),
+                    last_planned));
   }
-  std::set<std::string> logged;
+  std::set<FeatureId> logged;
   for (const CutRecord& c : log.cuts) logged.insert(c.feature);
   for (const PlannedCut& p : planned) {
     if (!logged.count(p.feature)) {
@@ -413,7 +409,7 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
           log.source, line, "feature",
           fmt::format("the program cuts {} at t_s {:.0f} but the log, which "
                       "covers that time, has no cut row for it",
-                      p.feature, p.end_s + out.offset_s));
+                      p.feature.ToString(), p.end_s + out.offset_s));
     }
   }
   // Every cut needs an R-test before and after it.
@@ -428,7 +424,8 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
           log.source, c.line, "rtest",
           fmt::format("cut {} at t_s {:.0f} has no R-test {} it: the machine "
                       "error at the cut cannot be interpolated",
-                      c.feature, c.t_s, before ? "after" : "before"));
+                      c.feature.ToString(), c.t_s,
+                      before ? "after" : "before"));
     }
   }
   return out;

@@ -23,19 +23,19 @@ std::vector<double> Linspace(double a, double b, int n) {
 
 }  // namespace
 
-CutGeometry ComputeCutGeometry(const Config& config,
-                               const std::string& feature_id, double c_rad,
-                               int samples_u, int samples_v) {
+CutGeometry ComputeCutGeometry(const Config& config, const FeatureId& feature,
+                               double c_rad, int samples_u, int samples_v) {
   const PartSpec& part = config.part;
   CutGeometry g;
   bool found = false;
   for (const NominalFeature& f : TestFeatures(part)) {
-    if (f.id == feature_id) {
+    if (f.Key() == feature) {
       g.feature = f;
       found = true;
     }
   }
-  if (!found) throw std::invalid_argument("not a test feature: " + feature_id);
+  if (!found)
+    throw std::invalid_argument("not a test feature: " + feature.ToString());
   g.c_rad = c_rad;
   const Eigen::Matrix3d rot =
       WorkpieceToMachineRotation(c_rad, config.machine.c_sense);
@@ -152,7 +152,7 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
           log.source, cut.line, "t_s",
           fmt::format("cut of {} at t_s {} lies before the first R-test "
                       "({:.1f} s): the log does not cover the cut times",
-                      cut.feature, cut.t_s, est.FirstRTestS()));
+                      cut.feature.ToString(), cut.t_s, est.FirstRTestS()));
     }
     CutGeometry g;
     try {
@@ -204,7 +204,7 @@ nlohmann::json SimulationToJson(const Simulation& sim) {
       linear[kErrorNames[e]] = l[e];
       pred[kErrorNames[e]] = p[e];
     }
-    cuts.push_back({{"feature", c.feature},
+    cuts.push_back({{"feature", c.feature.ToString()},
                     {"t_s", c.t_s},
                     {"c_deg", c.c_rad * 180 / kPi},
                     {"machine_errors", machine},
@@ -245,7 +245,7 @@ std::string SimulationText(const Simulation& sim) {
   for (const SimulatedCut& c : sim.cuts) {
     const auto m = c.machine.ToMicro();
     const auto l = c.machine_linear.ToMicro();
-    s += fmt::format("{:>6} {:7.0f}", c.feature, c.t_s);
+    s += fmt::format("{:>6} {:7.0f}", c.feature.ToString(), c.t_s);
     for (int e = 0; e < 7; ++e)
       s += fmt::format(" {:7.2f}/{:<7.2f}", m[e], l[e]);
     s += "\n";

@@ -358,14 +358,12 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
         break;
       }
       case LogEvent::kCut: {
-        FeatureKind kind;
-        Segment segment;
-        int index = 0;
         if (row.feature.empty()) {
           throw InputError(source, line_no, "feature",
                            "cut row without a feature name");
         }
-        if (!ParseFeatureId(row.feature, &kind, &segment, &index)) {
+        const std::optional<FeatureId> feature = FeatureId::Parse(row.feature);
+        if (!feature || !feature->IsTestFeature()) {
           throw InputError(
               source, line_no, "feature",
               fmt::format("'{}' is not a feature name (Z1..Z9, X1-1..Y2-9)",
@@ -376,7 +374,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
                            "cut row without its table angle c_deg");
         }
         for (const auto& c : log.cuts) {
-          if (c.feature == row.feature) {
+          if (c.feature == *feature) {
             throw InputError(source, line_no, "feature",
                              fmt::format("feature {} cut twice (first on "
                                          "line {})",
@@ -384,7 +382,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
           }
         }
         log.cuts.push_back(
-            {line_no, row.t_s, row.feature, row.values[kCDeg] * kDegToRad});
+            {line_no, row.t_s, *feature, row.values[kCDeg] * kDegToRad});
         break;
       }
       case LogEvent::kPhase: {
@@ -490,7 +488,7 @@ nlohmann::json LogSummaryJson(const TalcLog& log) {
   j["cuts"] = log.cuts.size();
   nlohmann::json cuts = nlohmann::json::array();
   for (const auto& c : log.cuts) {
-    cuts.push_back({{"feature", c.feature},
+    cuts.push_back({{"feature", c.feature.ToString()},
                     {"t_s", c.t_s},
                     {"c_deg", c.c_rad / kDegToRad}});
   }
@@ -536,8 +534,8 @@ std::string LogSummaryText(const TalcLog& log) {
   s += "\n";
   s += fmt::format("cuts          {}\n", log.cuts.size());
   for (const auto& c : log.cuts) {
-    s += fmt::format("  {:>6}  t = {:7.0f} s  C = {:7.2f} deg\n", c.feature,
-                     c.t_s, c.c_rad / kDegToRad);
+    s += fmt::format("  {:>6}  t = {:7.0f} s  C = {:7.2f} deg\n",
+                     c.feature.ToString(), c.t_s, c.c_rad / kDegToRad);
   }
   s += fmt::format("phases        {}\n", log.phases.size());
   s += fmt::format("gaps > {:.0f} s  {}\n", kMaxGapS, log.gaps.size());

@@ -198,7 +198,7 @@ TEST(LinuxCncController, TestCycleRunsWithReportsAtTheEndOfEachCut) {
     const std::string text_i = messages[i].at("text");
     gcode::ReportText r;
     ASSERT_TRUE(gcode::ParseReportText(text_i, &r)) << text_i;
-    EXPECT_EQ(r.feature, cut.feature) << i;
+    EXPECT_EQ(r.feature, cut.feature.ToString()) << i;
     EXPECT_NEAR(r.c_deg, cut.c_deg, 1e-3) << cut.feature;
     // The controller's table angle at the last poll before the report
     // arrived (during the cut or just after it; the next index may already

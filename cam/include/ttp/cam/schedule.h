@@ -11,11 +11,12 @@
 
 #include "ttp/gcode/canon.h"
 #include "ttp/geometry/config.h"
+#include "ttp/geometry/features.h"
 
 namespace ttp::cam {
 
 struct ScheduledCut {
-  std::string feature;  // talc-log.md section 5: "Z5", "X1-5"
+  FeatureId feature;    // named as in talc-log.md section 5: "Z5", "X1-5"
   int cycle = 0;        // 0 = reference
   int index = 0;        // facet j or strip k
   double start_s = 0;   // program time the cutting pass starts

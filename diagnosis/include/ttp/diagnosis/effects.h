@@ -34,8 +34,7 @@ using thermal::kTableAlphaPerK;
 
 // One test feature as cut.
 struct CutState {
-  std::string feature;  // "X1-3", "Z3"
-  FeatureId id;         // the same, typed
+  FeatureId id;  // the test feature (X1-3, Z3)
   bool is_facet = false;
   double t_s = 0;                    // end of the cut
   double c_rad = 0;                  // commanded table angle
@@ -61,7 +60,7 @@ struct EffectContext {
 EffectContext MakeEffectContext(const Config& config,
                                 const std::vector<CutState>& cuts_in_order);
 // Fills cut geometry fields of a cut state (facet angle, radius, height).
-CutState MakeCutState(const Config& config, const std::string& feature,
+CutState MakeCutState(const Config& config, const FeatureId& feature,
                       double t_s, double c_rad);
 
 struct FeatureDelta {

@@ -104,11 +104,11 @@ struct Probe {
   Axes to;
   double feed_per_min;
   int point_id;
-  std::string feature;            // "X1-5", "SPHERE"
-  std::string pass = "measure";   // qualify | measure | drift
-  double nominal_mm = 0;          // the nominal contact on the moving axis
-  double touch_window_mm = 1.0;   // FANUC: farther from nominal_mm is an alarm
-  int alarm = 1;                  // FANUC: #3000 = alarm
+  std::string feature;           // "X1-5", "SPHERE"
+  std::string pass = "measure";  // qualify | measure | drift
+  double nominal_mm = 0;         // the nominal contact on the moving axis
+  double touch_window_mm = 1.0;  // FANUC: farther from nominal_mm is an alarm
+  int alarm = 1;                 // FANUC: #3000 = alarm
 };
 // Spindle oriented (M19; LinuxCNC M19 R0): a touch probe must not turn.
 struct SpindleOrient {};

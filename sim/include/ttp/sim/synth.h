@@ -41,7 +41,8 @@ struct SynthOptions {
 };
 
 struct SynthPiece {
-  inspect::PointCloud cloud;  // in the measuring frame: cloud = rotation * W + t
+  // In the measuring frame: cloud = rotation * W + t.
+  inspect::PointCloud cloud;
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   // The true per-feature results (what a perfect inspection returns) and

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "ttp/geometry/config.h"
+#include "ttp/geometry/features.h"
 #include "ttp/geometry/figures.h"
 #include "ttp/thermal/estimator.h"
 #include "ttp/thermal/simulate.h"
@@ -101,7 +102,7 @@ std::string CheckTable(const CheckResult& result);
 // One cut of the program's schedule (cam::Schedule as plain data): program
 // time of the end of the cut (the report that makes the log's cut row).
 struct PlannedCut {
-  std::string feature;
+  FeatureId feature;
   int cycle = 0;
   double start_s = 0, end_s = 0;  // program time
   double c_deg = 0;

@@ -39,10 +39,11 @@ struct CutGeometry {
   Eigen::Vector3d n_m = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d tangent_w = Eigen::Vector3d::UnitX();  // u direction
 };
-// Throws std::invalid_argument for a name that is not a test feature.
-CutGeometry ComputeCutGeometry(const Config& config,
-                               const std::string& feature_id, double c_rad,
-                               int samples_u = 7, int samples_v = 4);
+// Throws std::invalid_argument for a feature that is not a test feature of
+// the piece.
+CutGeometry ComputeCutGeometry(const Config& config, const FeatureId& feature,
+                               double c_rad, int samples_u = 7,
+                               int samples_v = 4);
 
 // Plane refit of normal shifts s (mm, along the outward normal) at the
 // geometry's points -> FeatureResult (d, strip beta / facet angle, tilt).
@@ -62,7 +63,7 @@ FeatureResult CutFeatureResult(const PartSpec& part,
                                const std::vector<double>& extra_mm = {});
 
 struct SimulatedCut {
-  std::string feature;
+  FeatureId feature;
   int line = 0;
   double t_s = 0;
   double c_rad = 0;

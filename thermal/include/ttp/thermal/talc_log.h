@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "ttp/geometry/features.h"
 #include "ttp/geometry/rigid_table.h"
 
 namespace ttp::thermal {
@@ -57,7 +58,7 @@ struct RTestRecord {
 struct CutRecord {
   int line = 0;
   double t_s = 0;  // end of the cut
-  std::string feature;
+  FeatureId feature;  // a test feature (facet or strip); named in the log
   double c_rad = 0;  // commanded table angle during the cut
 };
 
