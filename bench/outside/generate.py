@@ -4,7 +4,7 @@ customer's specs alone (../shared/spec/test-piece.md, talc-log.md,
 measurements.md, diagnosis.md rev. 2) and the thesis (R-test noise of table
 5.4). It shares no code and no parameterisation with the project's sim/.
 
-Usage: generate.py --effect NAME [--size S] --seed N [--spacing-s 300]
+Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300]
                    [--compensation off|on] [--measurement json|dial] -o DIR
 Writes DIR/talc.csv, DIR/piece.json or DIR/dial.csv, DIR/truth.json.
 Python 3 standard library only.
@@ -177,11 +177,30 @@ class Effect:
         return None
 
 
+class Effects:
+    """Several effects acting at once (each adds to the piece)."""
+
+    def __init__(self, effs):
+        self.effs = effs
+        self.params = {n: e.params for n, e in effs.items()} if len(effs) > 1 else \
+            next(iter(effs.values())).params
+
+    def c_error_urad(self, c_deg):
+        return sum(e.c_error_urad(c_deg) for e in self.effs.values())
+
+    def lobes(self):
+        return [e.lobes() for e in self.effs.values() if e.lobes()]
+
+
 # --------------------------------------------------------------- one run
 def simulate(seed, effect, size, spacing_s, comp_on):
     rng = random.Random(seed)
     m = Machine(rng)
-    eff = Effect(effect, size, rng)
+    # "a+b": two effects at once, each of the given size (sizes "s1+s2")
+    names = effect.split("+")
+    sizes = [float(x) for x in str(size).split("+")] if isinstance(size, str) else [size] * len(names)
+    effs = {n: Effect(n, s, rng) for n, s in zip(names, sizes)}
+    eff = Effects(effs)
     cuts = cut_schedule()
     last_cut = cuts[-1][0]
     # R-test times (row time = end of the cycle)
@@ -277,8 +296,8 @@ def simulate(seed, effect, size, spacing_s, comp_on):
 
     # lumped aluminium mass (piece + adapter) lagging the table temperature
     piece_T = {}
-    if effect == "workpiece_expansion":
-        g, tau = eff.params["gain"], eff.params["tau_wp_s"]
+    if "workpiece_expansion" in effs:
+        g, tau = effs["workpiece_expansion"].params["gain"], effs["workpiece_expansion"].params["tau_wp_s"]
         Tp = 0.0
         tt = t0
         for i in range(n - 1):
@@ -306,10 +325,10 @@ def simulate(seed, effect, size, spacing_s, comp_on):
             u1 = normal_shift(E, P, n3, (1.0, y, zc), (1.0, y, zc))
             depth_um = -u0
             beta_urad = (u1 - u0) * 1000.0
-            if effect == "workpiece_expansion":
+            if "workpiece_expansion" in effs:
                 depth_um += ALPHA_PIECE * piece_dT(t_cut) * zc * 1e-3
-            if effect == "strip_drift":
-                depth_um += eff.params["total_um"] * k / 8.0
+            if "strip_drift" in effs:
+                depth_um += effs["strip_drift"].params["total_um"] * k / 8.0
             half = math.sqrt(101.5 ** 2 - y * y)
             path_mm += 2 * (half - 5.0)
             features[name] = {"depth_um": depth_um, "beta_urad": beta_urad, "t": t_cut, "cycle": k}
@@ -328,18 +347,17 @@ def simulate(seed, effect, size, spacing_s, comp_on):
         ang_urad = -(u1 - u0) * 1000.0     # normal turned by -du/ds
         phi = CENTRES_DEG[s] + (j - 5) * 6.0
         ang_urad += eff.c_error_urad(c_cmd) - datum_urad
-        if effect == "workpiece_expansion":
+        if "workpiece_expansion" in effs:
             dist_um -= (ALPHA_PIECE * piece_dT(t_cut) - E["ER0T"] / (SPHERE_MM * 1e-3)) * R_FACET_MM * 1e-3
-        if effect == "tool_wear":
-            dist_um += eff.params["wear_um_per_m"] * (path_mm + 6.1) * 1e-3
-        lob = eff.lobes()
-        if lob:
+        if "tool_wear" in effs:
+            dist_um += effs["tool_wear"].params["wear_um_per_m"] * (path_mm + 6.1) * 1e-3
+        for lob in eff.lobes():
             nl, amp, ph = lob
             a = math.radians(nl * (phi - ph))
             dist_um -= amp * math.cos(a)                       # spring-back
             ang_urad += -nl * amp * math.sin(a) / R_FACET_MM * 1000.0
-        if effect == "step" and k >= eff.params["from_cycle"]:
-            dist_um += eff.params["step_um"]
+        if "step" in effs and k >= effs["step"].params["from_cycle"]:
+            dist_um += effs["step"].params["step_um"]
         path_mm += 12.2
         features[name] = {"dist_um": dist_um, "angle_urad": ang_urad, "t": t_cut, "cycle": k}
 
@@ -475,15 +493,20 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    known = ["none"] + CATALOGUE + OUTSIDE + MISMATCH
     ap.add_argument("--effect", default="none",
-                    choices=["none"] + CATALOGUE + OUTSIDE + MISMATCH)
-    ap.add_argument("--size", type=float, default=0.0)
+                    help="one of %s, or two joined by + (e.g. tool_wear+clamping_distortion)" % ", ".join(known))
+    ap.add_argument("--size", default="0", help="effect size; for two effects S1+S2")
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--spacing-s", type=float, default=300.0)
     ap.add_argument("--compensation", choices=["on", "off"], default="off")
     ap.add_argument("--measurement", choices=["json", "dial"], default="json")
     ap.add_argument("-o", required=True)
     a = ap.parse_args()
+    if any(n not in known for n in a.effect.split("+")):
+        ap.error("unknown effect %s" % a.effect)
+    if "+" not in a.size:
+        a.size = float(a.size)
     m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement)
     print(m, l)
 
