@@ -10,6 +10,7 @@ Writes DIR/talc.csv, DIR/piece.json or DIR/dial.csv, DIR/truth.json.
 Python 3 standard library only.
 """
 import argparse
+import bisect
 import json
 import math
 import os
@@ -114,9 +115,13 @@ class Machine:
                 u = st[i]
 
     def errors(self):
+        last = [st[-1] for st in self.state]
         out = {}
         for e in ERRS:
-            out[e] = sum(g * self.state[p][-1] for p, g in enumerate(self.gain[e]))
+            acc = 0
+            for g, x in zip(self.gain[e], last):
+                acc += g * x
+            out[e] = acc
         return out
 
 
@@ -279,11 +284,8 @@ def simulate(seed, effect, size, spacing_s, comp_on):
     def pred(t):
         if not comp_on:
             return None
-        last = None
-        for i, r in enumerate(rt):
-            if r <= t:
-                last = i
-        if last is None:
+        last = bisect.bisect_right(rt, t) - 1   # rt is increasing
+        if last < 0:
             return {e: 0.0 for e in ERRS}
         base = rel(rt[last] - RTEST_DUR_S / 2)
         now = rel(t)
