@@ -364,5 +364,29 @@ TEST(Diagnose, ToolWearIsNeverNegative) {
     }
 }
 
+// A dial gauge measures no facet angles, where alone a C stop error shows:
+// c_axis_indexing is no result then (its candidates carry a note), and the
+// piece comes out `none`.
+TEST(Diagnose, CAxisIndexingIsNoResultWithoutFacetAngles) {
+  const Config config;
+  TwinOptions o;
+  o.seed = 23;
+  o.c_indexing_amplitude_urad = 300;
+  const TwinRun run = RunTwin(config, o);
+  const DiagnosisReport r = DiagnoseRun(
+      thermal::ParseTalcLog(run.log_text, "twin"), config,
+      MeasuredPieceFromFeatures(
+          config.part, sim::MeasureWith(config.part, run.true_results,
+                                        sim::Instrument::kDial, 0.4, 23)));
+  EXPECT_EQ(r.status, DiagnosisStatus::kNone) << r.reason;
+  int noted = 0;
+  for (const CandidateResult& c : r.candidates)
+    if (c.name.find("c_axis_indexing") != std::string::npos) {
+      EXPECT_FALSE(c.note.empty()) << c.name;
+      ++noted;
+    }
+  EXPECT_EQ(noted, 4);  // alone and in three pairs
+}
+
 }  // namespace
 }  // namespace ttp::diagnosis
