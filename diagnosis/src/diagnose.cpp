@@ -957,6 +957,32 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     c.delta_bic = c.bic - none_bic;
     c.note = f.note;
     if (f.ok) c.report_params = ReportParams(f);
+    // What the piece shows of a fitted C stop error: its variation over the
+    // facets' cut angles (the constant part is the piece's yaw). Over the
+    // 78 degrees cut, the harmonics' amplitudes are an extrapolation to the
+    // whole turn; this is the measured quantity.
+    for (size_t k = 0; f.ok && k < f.spec.causes.size(); ++k) {
+      if (f.spec.causes[k] != Cause::kCAxisIndexing || obs.angles() < 2)
+        continue;
+      const auto cols = cache.CAxis(f.spec.c_harmonics);
+      const int m = n - nf, p = static_cast<int>(cols.size());
+      Eigen::MatrixXd a(m, p);  // the harmonics at the angles, centred
+      for (int h = 0; h < p; ++h) {
+        a.col(h) = cols[h].tail(m);
+        a.col(h).array() -= a.col(h).mean();
+      }
+      const Eigen::VectorXd b =
+          Eigen::Map<const Eigen::VectorXd>(f.params[k].data(), p);
+      const Eigen::VectorXd v = a * b;
+      const double rms = std::sqrt(v.squaredNorm() / m);
+      // Its standard uncertainty from the coefficients' (delta method).
+      double sd = 0;
+      if (rms > 0 && f.covariance[k].rows() == p) {
+        const Eigen::VectorXd g = a.transpose() * v / (m * rms);
+        sd = std::sqrt(std::max(0.0, g.dot(f.covariance[k] * g)));
+      }
+      c.report_params.push_back({"shown_rms_urad", rms, sd});
+    }
     split_rms(y - Prediction(f, cache, obs), &c.rms_um, &c.rms_urad);
     report.candidates.push_back(c);
   }
