@@ -1237,26 +1237,25 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   };
   const size_t nf = obs.figures(), na = obs.angles();
   obs.figure_covariance_um2 = Eigen::MatrixXd::Zero(nf, nf);
+  std::vector<double> est_figure(nf), est_angle(na);
+  for (size_t i = 0; i < nf; ++i)
+    est_figure[i] = est_sigma_um(obs.figure_kind[i], obs.figure_t_s[i]);
+  for (size_t i = 0; i < na; ++i)
+    est_angle[i] = estimator.ErrorSigmaAt(6, obs.angle_t_s[i]) *
+                   options.estimator_sigma_scale;
   for (size_t i = 0; i < nf; ++i) {
-    const double si = est_sigma_um(obs.figure_kind[i], obs.figure_t_s[i]);
     for (size_t j = 0; j < nf; ++j) {
       if (obs.figure_kind[i] != obs.figure_kind[j]) continue;
-      const double sj = est_sigma_um(obs.figure_kind[j], obs.figure_t_s[j]);
-      obs.figure_covariance_um2(i, j) =
-          si * sj * rho(obs.figure_t_s[i], obs.figure_t_s[j]);
+      obs.figure_covariance_um2(i, j) = est_figure[i] * est_figure[j] *
+                                        rho(obs.figure_t_s[i], obs.figure_t_s[j]);
     }
     obs.figure_covariance_um2(i, i) += std::pow(obs.figure_sigma_um[i], 2);
   }
   obs.angle_covariance_urad2 = Eigen::MatrixXd::Zero(na, na);
   for (size_t i = 0; i < na; ++i) {
-    const double si = estimator.ErrorSigmaAt(6, obs.angle_t_s[i]) *
-                      options.estimator_sigma_scale;
-    for (size_t j = 0; j < na; ++j) {
-      const double sj = estimator.ErrorSigmaAt(6, obs.angle_t_s[j]) *
-                        options.estimator_sigma_scale;
+    for (size_t j = 0; j < na; ++j)
       obs.angle_covariance_urad2(i, j) =
-          si * sj * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
-    }
+          est_angle[i] * est_angle[j] * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
     obs.angle_covariance_urad2(i, i) += std::pow(obs.angle_sigma_urad[i], 2);
   }
   // The total standard uncertainty of each observation (for displays).
