@@ -808,6 +808,8 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
   if (max_c_harmonics < 1 || max_c_harmonics > 12)
     return fail("max_c_harmonics: must be 1..12");
   if (!(named_machine_z > 0)) return fail("named_machine_z: must be > 0");
+  if (!(refuse_machine_pooled_z > 0))
+    return fail("refuse_machine_pooled_z: must be > 0");
   if (!(mismatch_slope_limit > 0))
     return fail("mismatch_slope_limit: must be > 0");
   if (tau_grid_s.empty()) return fail("tau_grid_s: empty");
@@ -1305,26 +1307,25 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   };
   const size_t nf = obs.figures(), na = obs.angles();
   obs.figure_covariance_um2 = Eigen::MatrixXd::Zero(nf, nf);
+  std::vector<double> est_figure(nf), est_angle(na);
+  for (size_t i = 0; i < nf; ++i)
+    est_figure[i] = est_sigma_um(obs.figure_kind[i], obs.figure_t_s[i]);
+  for (size_t i = 0; i < na; ++i)
+    est_angle[i] = estimator.ErrorSigmaAt(6, obs.angle_t_s[i]) *
+                   options.estimator_sigma_scale;
   for (size_t i = 0; i < nf; ++i) {
-    const double si = est_sigma_um(obs.figure_kind[i], obs.figure_t_s[i]);
     for (size_t j = 0; j < nf; ++j) {
       if (obs.figure_kind[i] != obs.figure_kind[j]) continue;
-      const double sj = est_sigma_um(obs.figure_kind[j], obs.figure_t_s[j]);
-      obs.figure_covariance_um2(i, j) =
-          si * sj * rho(obs.figure_t_s[i], obs.figure_t_s[j]);
+      obs.figure_covariance_um2(i, j) = est_figure[i] * est_figure[j] *
+                                        rho(obs.figure_t_s[i], obs.figure_t_s[j]);
     }
     obs.figure_covariance_um2(i, i) += std::pow(obs.figure_sigma_um[i], 2);
   }
   obs.angle_covariance_urad2 = Eigen::MatrixXd::Zero(na, na);
   for (size_t i = 0; i < na; ++i) {
-    const double si = estimator.ErrorSigmaAt(6, obs.angle_t_s[i]) *
-                      options.estimator_sigma_scale;
-    for (size_t j = 0; j < na; ++j) {
-      const double sj = estimator.ErrorSigmaAt(6, obs.angle_t_s[j]) *
-                        options.estimator_sigma_scale;
+    for (size_t j = 0; j < na; ++j)
       obs.angle_covariance_urad2(i, j) =
-          si * sj * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
-    }
+          est_angle[i] * est_angle[j] * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
     obs.angle_covariance_urad2(i, i) += std::pow(obs.angle_sigma_urad[i], 2);
   }
   // The total standard uncertainty of each observation (for displays).
@@ -1428,15 +1429,25 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   // much) stay off the simulated ones beyond the budget: the cause absorbs
   // what the log of another run leaves in the facet distances (an
   // instrument's few touches hide the mismatch in each kind alone).
-  if (report.status == DiagnosisStatus::kNamed &&
-      report.machine_pooled_z > options.named_machine_z) {
+  // Whatever the outcome, E_X, E_Y and E_Z pooled far beyond the budget
+  // after the best model: the R-tests of the log imply machine location
+  // errors the piece does not show (another run's log; a probe's or dial's
+  // few touches keep each kind alone within its budget).
+  if ((report.status == DiagnosisStatus::kNamed &&
+       report.machine_pooled_z > options.named_machine_z) ||
+      report.machine_pooled_z > options.refuse_machine_pooled_z) {
     DiagnosisReport refused = refuse_keeping_evidence(fmt::format(
         "{} does not follow the machine errors of {}: {} fits, but E_X, E_Y "
         "and E_Z, which no catalogue cause changes much, keep a chi2 "
         "deviate of {:.1f} after it (limit {:g}): the measurement and the "
         "log do not belong together",
         measured.source.empty() ? "the piece" : measured.source, log.source,
-        report.cause, report.machine_pooled_z, options.named_machine_z));
+        report.status == DiagnosisStatus::kNamed ? report.cause
+                                                 : "the best model",
+        report.machine_pooled_z,
+        report.status == DiagnosisStatus::kNamed
+            ? options.named_machine_z
+            : options.refuse_machine_pooled_z));
     refused.machine_pooled_z = report.machine_pooled_z;
     return refused;
   }

@@ -126,6 +126,10 @@ struct DiagnosisOptions {
   // deviate beyond this after the named cause (calibrated on runs without
   // a cause: docs/DIAGNOSIS.md).
   double named_machine_z = 2.5;
+  // `refused` whatever the outcome when E_X, E_Y and E_Z pooled keep a
+  // chi2 deviate beyond this after the best model: above every run with
+  // its own log in the calibration and the batteries (docs/DIAGNOSIS.md).
+  double refuse_machine_pooled_z = 3.5;
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
 
