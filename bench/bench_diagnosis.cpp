@@ -10,15 +10,20 @@
 //    (chi2 per degree of freedom), as quantiles;
 //  - the detection limit per cause: the share of runs named right against
 //    the effect size, and the size named in 90 % of runs.
-// Arguments: [runs per battery (100)] [runs per detection point (20)].
+// Arguments: [runs per battery (100)] [runs per detection point (20)];
+// `list SPACING [RUNS] [SEED]`, `calibrate RUNS [SCALE]` and `coverage
+// SPACING [RUNS]` (the estimator's budget against its actual errors at
+// the cut times) print one part each.
 // Never fails.
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <numeric>
 #include <string>
 #include <thread>
 
@@ -26,6 +31,9 @@
 #include "ttp/inspect/inspect.h"
 #include "ttp/inspect/point_io.h"
 #include "ttp/sim/battery.h"
+#include "ttp/sim/twin.h"
+#include "ttp/thermal/estimator.h"
+#include "ttp/thermal/simulate.h"
 #include "ttp/thermal/talc_log.h"
 
 #ifndef TTP_DATA_DIR
@@ -168,12 +176,100 @@ int List(const Config& config, double spacing, int runs, std::uint64_t seed) {
   return 0;
 }
 
+// `bench_diagnosis coverage SPACING RUNS`: the estimator part of the
+// error budget against the estimator's actual errors at the cut times. Per
+// run without an effect, the noise-free cut piece (the twin's true
+// geometry) minus the simulation from the log is the estimator's error in
+// the figures; per figure kind, after its offset, whitened by the budget:
+// chi2 per degree of freedom near 1 (and its tail as chi2's) when the
+// budget is right. Also each figure's own z (after the offset) by the
+// cut's place between its R-tests (fraction of the gap to the nearest).
+int Coverage(const Config& config, double spacing, int runs) {
+  const int threads =
+      std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  std::vector<std::vector<double>> chi2(runs), zin(runs), place(runs);
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int k = next++; k < runs; k = next++) {
+      TwinOptions t;
+      t.seed = 90001 + 7919ULL * k;
+      t.rtest_interval_s = spacing;
+      t.compensation = k % 2 == 1;
+      const TwinRun twin = RunTwin(config, t);
+      const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin");
+      const MeasuredPiece m =
+          MeasuredPieceFromFeatures(config.part, twin.true_results);
+      const auto est = thermal::MachineErrorEstimator::Fit(log);
+      const PreparedRun run = PrepareRun(
+          log, config, est, thermal::SimulatePiece(log, config, est, {}), m);
+      const Observations& o = run.observations;
+      const auto& rt = est.rtest_times_s();
+      for (int g = 0; g < 4; ++g) {
+        std::vector<size_t> idx;
+        for (size_t i = 0; i < o.figures(); ++i)
+          if (o.figure_kind[i] == g) idx.push_back(i);
+        const int n = static_cast<int>(idx.size());
+        if (n < 3) continue;
+        Eigen::MatrixXd c(n, n);
+        Eigen::VectorXd r(n), one = Eigen::VectorXd::Ones(n);
+        for (int a = 0; a < n; ++a) {
+          r[a] = o.figure_value_um[idx[a]];
+          for (int b = 0; b < n; ++b)
+            c(a, b) = o.figure_covariance_um2(idx[a], idx[b]);
+        }
+        const Eigen::LLT<Eigen::MatrixXd> llt(c);
+        const Eigen::VectorXd cr = llt.solve(r), c1 = llt.solve(one);
+        const double off = one.dot(cr) / one.dot(c1);
+        chi2[k].push_back((r.dot(cr) - off * one.dot(cr)) / (n - 1));
+        for (int a = 0; a < n; ++a) {
+          const double ti = o.figure_t_s[idx[a]];
+          const auto hi = std::upper_bound(rt.begin(), rt.end(), ti);
+          double frac = 1;
+          if (hi != rt.begin() && hi != rt.end())
+            frac = std::min(ti - *(hi - 1), *hi - ti) / (*hi - *(hi - 1));
+          zin[k].push_back((r[a] - off) / std::sqrt(c(a, a)));
+          place[k].push_back(frac);
+        }
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+  for (auto& t : pool) t.join();
+  std::vector<double> all, near_z, far_z;
+  for (int k = 0; k < runs; ++k) {
+    all.insert(all.end(), chi2[k].begin(), chi2[k].end());
+    for (size_t i = 0; i < zin[k].size(); ++i)
+      (place[k][i] < 0.15 ? near_z : far_z).push_back(std::abs(zin[k][i]));
+  }
+  auto rms = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x * x;
+    return v.empty() ? 0.0 : std::sqrt(s / v.size());
+  };
+  fmt::print(
+      "{:>5.0f} s: {} runs, per-kind chi2/dof of the estimator's error "
+      "against its budget: mean {:.2f} median {:.2f} 95 % {:.2f} 99 % "
+      "{:.2f} max {:.2f}\n  |z| of a figure: next to an R-test (< 0.15 gap) "
+      "rms {:.2f} 99 % {:.2f} (n {}), in the gap rms {:.2f} 99 % {:.2f} (n "
+      "{})\n",
+      spacing, runs,
+      std::accumulate(all.begin(), all.end(), 0.0) / std::max<size_t>(1, all.size()),
+      Quantile(all, 0.5), Quantile(all, 0.95), Quantile(all, 0.99),
+      Quantile(all, 1.0), rms(near_z), Quantile(near_z, 0.99), near_z.size(),
+      rms(far_z), Quantile(far_z, 0.99), far_z.size());
+  return 0;
+}
+
 int main(int argc, char** argv) {
   const Config config;
   if (argc > 2 && std::string(argv[1]) == "list")
     return List(config, std::atof(argv[2]),
                 argc > 3 ? std::atoi(argv[3]) : 100,
                 argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 20261122);
+  if (argc > 2 && std::string(argv[1]) == "coverage")
+    return Coverage(config, std::atof(argv[2]),
+                    argc > 3 ? std::atoi(argv[3]) : 100);
   if (argc > 1 && std::string(argv[1]) == "calibrate")
     return Calibrate(config, argc > 2 ? std::atoi(argv[2]) : 50,
                      argc > 3 ? std::atof(argv[3]) : 0.0);

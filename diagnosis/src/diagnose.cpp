@@ -492,6 +492,8 @@ struct Selection {
   int step_group = -1, step_from_cycle = 0;
   // BIC of the chosen cause minus the best step alternative's.
   double step_rival = -kInf;
+  // The evidence threshold the chosen model was held to (against none).
+  double threshold = 0;
 };
 
 // `tests`: false inside the held-out folds, where only the chosen model's
@@ -527,24 +529,60 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
       for (int b = a + 1; b < 4; ++b)
         sel.fits.push_back(fitter.Run(ModelSpec{{all[a], all[b]}, harmonics}));
   }
+  // C indexing turns the facets and changes no distance: without measured
+  // facet angles (a dial gauge) it cannot show, and its candidates are no
+  // result.
+  {
+    const std::vector<int> row_kinds = problem.RowKinds();
+    if (std::find(row_kinds.begin(), row_kinds.end(), kAngleGroup) ==
+        row_kinds.end())
+      for (Fit& f : sel.fits)
+        if (std::find(f.spec.causes.begin(), f.spec.causes.end(),
+                      Cause::kCAxisIndexing) != f.spec.causes.end())
+          f.note = "no facet angles measured: c_axis_indexing shows only there";
+  }
+  // The evidence a model needs over the one it extends: the threshold of
+  // the causes it adds (a cause seen only in the facet angles has its own,
+  // DiagnosisOptions::angle_evidence_threshold).
+  auto threshold_for = [&](const Fit& model, const Fit& reference) {
+    double t = 0;
+    for (Cause c : model.spec.causes)
+      if (std::find(reference.spec.causes.begin(), reference.spec.causes.end(),
+                    c) == reference.spec.causes.end())
+        t = std::max(t, c == Cause::kCAxisIndexing
+                            ? options.angle_evidence_threshold
+                            : options.evidence_threshold);
+    return t;
+  };
   const double none_bic = Bic(sel.fits[0], n);
-  int best_single = 0, best_pair = 0;
-  for (int k = 1; k < static_cast<int>(sel.fits.size()); ++k) {
+  // The single cause: the lowest BIC among those that beat the nominal
+  // model by their threshold (the angle and figure channels are nearly
+  // independent, so a cause seen in one stands on its own evidence).
+  int chosen = 0;
+  for (int k = 1; k < singles; ++k) {
     const Fit& f = sel.fits[k];
     if (!f.ok || !f.note.empty()) continue;
-    int& best = k < singles ? best_single : best_pair;
-    if (best == 0 || Bic(f, n) < Bic(sel.fits[best], n)) best = k;
+    if (Bic(f, n) >= none_bic - threshold_for(f, sel.fits[0])) continue;
+    if (chosen == 0 || Bic(f, n) < Bic(sel.fits[chosen], n)) chosen = k;
   }
-  int chosen = 0;
-  if (best_single > 0 && Bic(sel.fits[best_single], n) <
-                             none_bic - options.evidence_threshold)
-    chosen = best_single;
+  // A pair: the best one, when it beats the single cause (or the nominal
+  // model) by the threshold of what it adds.
+  int best_pair = 0;
+  for (int k = singles; k < static_cast<int>(sel.fits.size()); ++k) {
+    const Fit& f = sel.fits[k];
+    if (!f.ok || !f.note.empty()) continue;
+    if (best_pair == 0 || Bic(f, n) < Bic(sel.fits[best_pair], n))
+      best_pair = k;
+  }
   if (best_pair > 0) {
-    const double reference = chosen > 0 ? Bic(sel.fits[chosen], n) : none_bic;
-    if (Bic(sel.fits[best_pair], n) < reference - options.evidence_threshold)
+    const Fit& reference = sel.fits[chosen];
+    if (Bic(sel.fits[best_pair], n) <
+        Bic(reference, n) - threshold_for(sel.fits[best_pair], reference))
       chosen = best_pair;
   }
   sel.chosen = chosen;
+  sel.threshold = chosen > 0 ? threshold_for(sel.fits[chosen], sel.fits[0])
+                             : options.evidence_threshold;
   if (!tests) return sel;
   const Fit& f = sel.fits[chosen];
   for (int k = 1; k < static_cast<int>(sel.fits.size()); ++k)
@@ -691,16 +729,17 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     sel.status = DiagnosisStatus::kNone;
     sel.reason = fmt::format(
         "no cause beats the nominal model by the evidence threshold (delta "
-        "BIC < -{:g}) and the nominal model leaves what the error budget "
-        "predicts (chi2 per degree of freedom {:.2f})",
-        options.evidence_threshold, sel.chi2_per_dof);
+        "BIC < -{:g}, -{:g} for a cause seen only in the facet angles) and "
+        "the nominal model leaves what the error budget predicts (chi2 per "
+        "degree of freedom {:.2f})",
+        options.evidence_threshold, options.angle_evidence_threshold,
+        sel.chi2_per_dof);
   } else {
     sel.status = DiagnosisStatus::kNamed;
     sel.reason = fmt::format(
         "{} beats the nominal model by delta BIC {:.1f} (threshold {:g}) and "
         "leaves chi2 per degree of freedom {:.2f}",
-        f.spec.Name(), Bic(f, n) - none_bic, options.evidence_threshold,
-        sel.chi2_per_dof);
+        f.spec.Name(), Bic(f, n) - none_bic, sel.threshold, sel.chi2_per_dof);
   }
   return sel;
 }
@@ -755,6 +794,8 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
   };
   if (!(evidence_threshold >= 0))
     return fail("evidence_threshold: must be >= 0");
+  if (!(angle_evidence_threshold >= 0))
+    return fail("angle_evidence_threshold: must be >= 0");
   if (!(max_chi2_per_dof > 0)) return fail("max_chi2_per_dof: must be > 0");
   if (!(local_z > 0)) return fail("local_z: must be > 0");
   if (!(refuse_z > 0)) return fail("refuse_z: must be > 0");
@@ -767,6 +808,8 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
   if (max_c_harmonics < 1 || max_c_harmonics > 12)
     return fail("max_c_harmonics: must be 1..12");
   if (!(named_machine_z > 0)) return fail("named_machine_z: must be > 0");
+  if (!(refuse_machine_pooled_z > 0))
+    return fail("refuse_machine_pooled_z: must be > 0");
   if (!(mismatch_slope_limit > 0))
     return fail("mismatch_slope_limit: must be > 0");
   if (tau_grid_s.empty()) return fail("tau_grid_s: empty");
@@ -916,6 +959,32 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     c.delta_bic = c.bic - none_bic;
     c.note = f.note;
     if (f.ok) c.report_params = ReportParams(f);
+    // What the piece shows of a fitted C stop error: its variation over the
+    // facets' cut angles (the constant part is the piece's yaw). Over the
+    // 78 degrees cut, the harmonics' amplitudes are an extrapolation to the
+    // whole turn; this is the measured quantity.
+    for (size_t k = 0; f.ok && k < f.spec.causes.size(); ++k) {
+      if (f.spec.causes[k] != Cause::kCAxisIndexing || obs.angles() < 2)
+        continue;
+      const auto cols = cache.CAxis(f.spec.c_harmonics);
+      const int m = n - nf, p = static_cast<int>(cols.size());
+      Eigen::MatrixXd a(m, p);  // the harmonics at the angles, centred
+      for (int h = 0; h < p; ++h) {
+        a.col(h) = cols[h].tail(m);
+        a.col(h).array() -= a.col(h).mean();
+      }
+      const Eigen::VectorXd b =
+          Eigen::Map<const Eigen::VectorXd>(f.params[k].data(), p);
+      const Eigen::VectorXd v = a * b;
+      const double rms = std::sqrt(v.squaredNorm() / m);
+      // Its standard uncertainty from the coefficients' (delta method).
+      double sd = 0;
+      if (rms > 0 && f.covariance[k].rows() == p) {
+        const Eigen::VectorXd g = a.transpose() * v / (m * rms);
+        sd = std::sqrt(std::max(0.0, g.dot(f.covariance[k] * g)));
+      }
+      c.report_params.push_back({"shown_rms_urad", rms, sd});
+    }
     split_rms(y - Prediction(f, cache, obs), &c.rms_um, &c.rms_urad);
     report.candidates.push_back(c);
   }
@@ -928,6 +997,7 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.machine_z = sel.machine_z;
   report.machine_pooled_z = sel.machine_pooled_z;
   report.step_chi2 = sel.step_chi2;
+  report.evidence_threshold = sel.threshold;
   report.baseline_rms_um = report.candidates[0].rms_um;
   report.baseline_rms_urad = report.candidates[0].rms_urad;
   const Column after = y - Prediction(chosen, cache, obs);
@@ -1227,26 +1297,25 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   };
   const size_t nf = obs.figures(), na = obs.angles();
   obs.figure_covariance_um2 = Eigen::MatrixXd::Zero(nf, nf);
+  std::vector<double> est_figure(nf), est_angle(na);
+  for (size_t i = 0; i < nf; ++i)
+    est_figure[i] = est_sigma_um(obs.figure_kind[i], obs.figure_t_s[i]);
+  for (size_t i = 0; i < na; ++i)
+    est_angle[i] = estimator.ErrorSigmaAt(6, obs.angle_t_s[i]) *
+                   options.estimator_sigma_scale;
   for (size_t i = 0; i < nf; ++i) {
-    const double si = est_sigma_um(obs.figure_kind[i], obs.figure_t_s[i]);
     for (size_t j = 0; j < nf; ++j) {
       if (obs.figure_kind[i] != obs.figure_kind[j]) continue;
-      const double sj = est_sigma_um(obs.figure_kind[j], obs.figure_t_s[j]);
-      obs.figure_covariance_um2(i, j) =
-          si * sj * rho(obs.figure_t_s[i], obs.figure_t_s[j]);
+      obs.figure_covariance_um2(i, j) = est_figure[i] * est_figure[j] *
+                                        rho(obs.figure_t_s[i], obs.figure_t_s[j]);
     }
     obs.figure_covariance_um2(i, i) += std::pow(obs.figure_sigma_um[i], 2);
   }
   obs.angle_covariance_urad2 = Eigen::MatrixXd::Zero(na, na);
   for (size_t i = 0; i < na; ++i) {
-    const double si = estimator.ErrorSigmaAt(6, obs.angle_t_s[i]) *
-                      options.estimator_sigma_scale;
-    for (size_t j = 0; j < na; ++j) {
-      const double sj = estimator.ErrorSigmaAt(6, obs.angle_t_s[j]) *
-                        options.estimator_sigma_scale;
+    for (size_t j = 0; j < na; ++j)
       obs.angle_covariance_urad2(i, j) =
-          si * sj * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
-    }
+          est_angle[i] * est_angle[j] * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
     obs.angle_covariance_urad2(i, i) += std::pow(obs.angle_sigma_urad[i], 2);
   }
   // The total standard uncertainty of each observation (for displays).
@@ -1350,15 +1419,25 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   // much) stay off the simulated ones beyond the budget: the cause absorbs
   // what the log of another run leaves in the facet distances (an
   // instrument's few touches hide the mismatch in each kind alone).
-  if (report.status == DiagnosisStatus::kNamed &&
-      report.machine_pooled_z > options.named_machine_z) {
+  // Whatever the outcome, E_X, E_Y and E_Z pooled far beyond the budget
+  // after the best model: the R-tests of the log imply machine location
+  // errors the piece does not show (another run's log; a probe's or dial's
+  // few touches keep each kind alone within its budget).
+  if ((report.status == DiagnosisStatus::kNamed &&
+       report.machine_pooled_z > options.named_machine_z) ||
+      report.machine_pooled_z > options.refuse_machine_pooled_z) {
     DiagnosisReport refused = refuse_keeping_evidence(fmt::format(
         "{} does not follow the machine errors of {}: {} fits, but E_X, E_Y "
         "and E_Z, which no catalogue cause changes much, keep a chi2 "
         "deviate of {:.1f} after it (limit {:g}): the measurement and the "
         "log do not belong together",
         measured.source.empty() ? "the piece" : measured.source, log.source,
-        report.cause, report.machine_pooled_z, options.named_machine_z));
+        report.status == DiagnosisStatus::kNamed ? report.cause
+                                                 : "the best model",
+        report.machine_pooled_z,
+        report.status == DiagnosisStatus::kNamed
+            ? options.named_machine_z
+            : options.refuse_machine_pooled_z));
     refused.machine_pooled_z = report.machine_pooled_z;
     return refused;
   }

@@ -49,8 +49,9 @@ std::string Summary(const DiagnosisReport& d, double threshold) {
     if (c->name != d.cause) continue;
     s = fmt::format(
         "{}: its BIC is lower than the nominal model's by {:.1f} (delta "
-        "BIC {:+.1f}; a cause is named below -{:g})",
-        d.cause, -c->delta_bic, c->delta_bic, threshold);
+        "BIC {:+.1f}; this model is named below -{:g})",
+        d.cause, -c->delta_bic, c->delta_bic,
+        d.evidence_threshold > 0 ? d.evidence_threshold : threshold);
   }
   for (const auto* c : ranked) {
     if (c->name == d.cause) continue;

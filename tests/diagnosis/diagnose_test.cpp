@@ -365,5 +365,63 @@ TEST(Diagnose, ToolWearIsNeverNegative) {
     }
 }
 
+// A dial gauge measures no facet angles, where alone a C stop error shows:
+// c_axis_indexing is no result then (its candidates carry a note), and the
+// piece comes out `none`.
+TEST(Diagnose, CAxisIndexingIsNoResultWithoutFacetAngles) {
+  const Config config;
+  TwinOptions o;
+  o.seed = 23;
+  o.c_indexing_amplitude_urad = 300;
+  const TwinRun run = RunTwin(config, o);
+  const DiagnosisReport r = DiagnoseRun(
+      thermal::ParseTalcLog(run.log_text, "twin"), config,
+      MeasuredPieceFromFeatures(
+          config.part, sim::MeasureWith(config.part, run.true_results,
+                                        sim::Instrument::kDial, 0.4, 23)));
+  EXPECT_EQ(r.status, DiagnosisStatus::kNone) << r.reason;
+  int noted = 0;
+  for (const CandidateResult& c : r.candidates)
+    if (c.name.find("c_axis_indexing") != std::string::npos) {
+      EXPECT_FALSE(c.note.empty()) << c.name;
+      ++noted;
+    }
+  EXPECT_EQ(noted, 4);  // alone and in three pairs
+}
+
+// What a named C stop error reports as measured is its variation over the
+// facets' cut angles (`shown_rms_urad`), which the twin's true turns give
+// independently; the harmonics' amplitudes over the whole turn are an
+// extrapolation from 78 degrees.
+TEST(Diagnose, CAxisIndexingReportsWhatThePieceShows) {
+  const Config config;
+  TwinOptions o;
+  o.seed = 24;
+  const TwinRun plain = RunTwin(config, o);
+  o.c_indexing_amplitude_urad = 250;
+  const TwinRun run = RunTwin(config, o);
+  std::vector<double> turn;
+  for (const auto& [id, r] : run.true_results)
+    if (id.kind == FeatureKind::kFacet)
+      turn.push_back((r.angle_rad - plain.true_results.at(id).angle_rad) * 1e6);
+  double mean = 0, shown = 0;
+  for (double t : turn) mean += t / turn.size();
+  for (double t : turn) shown += (t - mean) * (t - mean) / turn.size();
+  shown = std::sqrt(shown);
+  const DiagnosisReport r =
+      DiagnoseRun(thermal::ParseTalcLog(run.log_text, "twin"), config,
+                  MeasuredPieceFromFeatures(config.part, run.measured));
+  ASSERT_EQ(r.status, DiagnosisStatus::kNamed) << r.reason;
+  ASSERT_EQ(r.cause, "c_axis_indexing");
+  bool found = false;
+  for (const ParamEstimate& p : r.params)
+    if (p.name == "shown_rms_urad") {
+      found = true;
+      EXPECT_GT(p.uncertainty, 0);
+      EXPECT_NEAR(p.value, shown, 3 * p.uncertainty + 2.0) << shown;
+    }
+  EXPECT_TRUE(found);
+}
+
 }  // namespace
 }  // namespace ttp::diagnosis

@@ -3,10 +3,13 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
+#include <map>
 
-#include "ttp/geometry/features.h"
 #include "feature_ids.h"
+#include "ttp/geometry/features.h"
+#include "ttp/sim/twin.h"
 
 namespace ttp::diagnosis {
 namespace {
@@ -101,6 +104,64 @@ TEST(Effects, CAxisIndexingIsASumOfHarmonics) {
   EXPECT_EQ(CAxisParameterNames(2),
             (std::vector<std::string>{"cos1_urad", "sin1_urad", "cos2_urad",
                                       "sin2_urad"}));
+}
+
+// Against the twin (the effects written from the spec's physics, the piece
+// cut by the geometric simulation): a C stop error turns the facets cut at
+// one table angle alike (X1-j, X2-j and Y1-(j+5), Y2-(j+5) share it), moves
+// no distance, and the model's harmonics of the table angle (K = 4, plus
+// the piece's unknown yaw) reproduce the turns to well below a facet's
+// measurement noise (about 12 urad).
+TEST(Effects, CAxisIndexingTurnsFacetsCutAtOneTableAngleAlike) {
+  const Config config;
+  const PartSpec& part = config.part;
+  sim::TwinOptions o;
+  o.seed = 21;
+  const sim::TwinRun plain = sim::RunTwin(config, o);
+  o.c_indexing_amplitude_urad = 200;
+  const sim::TwinRun indexed = sim::RunTwin(config, o);
+  std::map<FeatureId, double> turn_urad;
+  for (const auto& [id, r] : indexed.true_results) {
+    if (id.kind != FeatureKind::kFacet) continue;
+    // (a few nm from second-order terms; a cloud fit resolves ~30 nm)
+    EXPECT_NEAR(r.d_mm, plain.true_results.at(id).d_mm, 1e-5) << id.ToString();
+    turn_urad[id] = (r.angle_rad - plain.true_results.at(id).angle_rad) * 1e6;
+  }
+  for (int j = 1; j <= 4; ++j) {
+    const double x = turn_urad.at(FeatureId::Facet(Segment::kX1, j));
+    EXPECT_NEAR(turn_urad.at(FeatureId::Facet(Segment::kX2, j)), x, 0.05);
+    EXPECT_NEAR(turn_urad.at(FeatureId::Facet(Segment::kY1, j + 5)), x, 0.05);
+    EXPECT_NEAR(turn_urad.at(FeatureId::Facet(Segment::kY2, j + 5)), x, 0.05);
+  }
+  // Least squares of the model's columns (and a constant) on the turns.
+  const int harmonics = 4;
+  const int n = static_cast<int>(turn_urad.size());
+  Eigen::MatrixXd a(n, 2 * harmonics + 1);
+  Eigen::VectorXd y(n);
+  int row = 0;
+  double spread = 0, mean = 0;
+  for (const auto& [id, turn] : turn_urad) mean += turn / n;
+  for (const auto& [id, turn] : turn_urad) {
+    const double c_deg =
+        FacetPhiDeg(part, Segment::kX1, id.index) -
+        (id.segment == Segment::kY1 || id.segment == Segment::kY2 ? 30 : 0);
+    std::vector<CutState> cut = {
+        MakeCutState(config, id, 0, c_deg * M_PI / 180)};
+    const EffectContext ctx = MakeEffectContext(config, cut);
+    a(row, 0) = 1;
+    for (int k = 0; k < 2 * harmonics; ++k) {
+      std::vector<double> p(2 * harmonics, 0.0);
+      p[k] = 1;
+      a(row, k + 1) =
+          PredictEffect(Cause::kCAxisIndexing, p, ctx).at(id).angle_rad * 1e6;
+    }
+    y[row++] = turn;
+    spread += (turn - mean) * (turn - mean) / n;
+  }
+  const Eigen::VectorXd fit = a.colPivHouseholderQr().solve(y);
+  const double rms = std::sqrt((y - a * fit).squaredNorm() / n);
+  EXPECT_GT(std::sqrt(spread), 5.0);  // the turns vary over the cut angles
+  EXPECT_LT(rms, 1.0);
 }
 
 TEST(Effects, NamesRoundTripAndUnknownIsRejected) {

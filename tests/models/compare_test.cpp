@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/QR>
 #include <cmath>
 
 namespace ttp::models {
@@ -122,6 +123,47 @@ TEST(Compare, NamesTheErrorAndMeasuresTheExtension) {
       text.find(fmt::format("{:.2f} -> {:.2f}", e.rms_um, e.extended_rms_um)),
       std::string::npos)
       << text;
+}
+
+// The README's simple models are shown fitted its way: the static entry is
+// the ordinary least-squares fit on all temperatures (checked against an
+// independent QR solve), both are marked "readme" and never named best.
+TEST(Compare, ShowsTheReadmeModelsFittedByOrdinaryLeastSquares) {
+  const double from = 26 * 3600.0;
+  const TimeSeries ts = LaggingStructure(false);
+  const CompareResult r = CompareModels(ts, from, {});
+  const CompareEntry* ols = nullptr;
+  const CompareEntry* lag = nullptr;
+  for (const auto& e : r.entries) {
+    if (e.name == "static_T_ols") ols = &e;
+    if (e.name == "lag_speed_ols") lag = &e;
+  }
+  ASSERT_NE(ols, nullptr);
+  ASSERT_NE(lag, nullptr);
+  EXPECT_EQ(ols->kind, "readme");
+  EXPECT_EQ(lag->kind, "readme");
+  EXPECT_NE(r.best[0], "static_T_ols");
+  EXPECT_NE(r.best[0], "lag_speed_ols");
+  // Independent OLS: [1, T_s1, T_s2] on the rows before `from`.
+  int n_fit = 0;
+  while (ts.t_s[n_fit] < from) ++n_fit;
+  Eigen::MatrixXd x(n_fit, 3);
+  x.col(0).setOnes();
+  x.rightCols(2) = ts.inputs.block(0, 1, n_fit, 2);
+  const Eigen::VectorXd beta =
+      x.colPivHouseholderQr().solve(ts.outputs_um.col(0).head(n_fit));
+  double sse = 0;
+  int n = 0;
+  for (Eigen::Index i = n_fit; i < ts.inputs.rows(); ++i) {
+    const double p =
+        beta(0) + beta(1) * ts.inputs(i, 1) + beta(2) * ts.inputs(i, 2);
+    sse += std::pow(ts.outputs_um(i, 0) - p, 2), ++n;
+  }
+  // Tight: the ridge version (static_all_T) differs here by 0.25 %.
+  EXPECT_NEAR(ols->stats[0].rms_um, std::sqrt(sse / n),
+              1e-4 * std::sqrt(sse / n));
+  EXPECT_TRUE(std::isfinite(lag->stats[0].rms_um));
+  EXPECT_NE(CompareText(r).find("lag_speed_ols"), std::string::npos);
 }
 
 }  // namespace

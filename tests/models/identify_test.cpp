@@ -354,12 +354,21 @@ TEST(Identify, PredictsALogWithoutOutputColumns) {
 
 // Real data: the FL spindle test, fitted on the first part and predicted
 // from the inputs alone, against the simple models of the README on the
-// same split (static on all 16 temperatures; lags of n and n^2, time
-// constant by CV): `auto` (joint) and `select` (per output by CV, its fixed
-// candidates).
+// same split. Fitted the README's way (ordinary least squares): static on
+// all 16 temperatures; lags of n and n^2 at one time constant, chosen by
+// the CV inside the fitted span (`lag_ols_cv`) and, the strictest reading,
+// the one best on the holdout itself (`lag_ols_best`). Our ridge versions
+// (ridge by CV) of both: `static_all_t`, `lag_speed`. `auto` (joint) and
+// `select` (per output by CV, its fixed candidates).
 struct Rms {
   double none, static_all_t, lag_speed, mine, select;
+  double static_ols, lag_ols_cv, lag_ols_best;
   double simple() const { return std::min(static_all_t, lag_speed); }
+  // The best of the README's simple models, its time constant chosen on the
+  // holdout: the bar the customer sets, read as strictly as possible.
+  double readme_best() const { return std::min(static_ols, lag_ols_best); }
+  // The same with the time constant chosen inside the fitted span.
+  double readme_cv() const { return std::min(static_ols, lag_ols_cv); }
 };
 double RmsFrom(const TimeSeries& ts, int j, double from,
                const Eigen::VectorXd& pred) {
@@ -376,23 +385,33 @@ std::vector<Rms> RealSplit(const TimeSeries& ts, double holdout_from_s) {
   const TimeSeries fit = HeadOf(ts, holdout_from_s);
   FitOptions o;
   o.auto_selected = false;
+  FitOptions ols = o;
+  ols.ridge = {0};
   std::vector<Rms> out;
   for (int j = 0; j < static_cast<int>(ts.output_names.size()); ++j) {
     Rms r;
     r.none = RmsFrom(ts, j, holdout_from_s, Eigen::VectorXd::Zero(ts.rows()));
-    r.static_all_t =
-        RmsFrom(ts, j, holdout_from_s,
-                PredictOutput(FitFixed(fit, j, AllTemperatureRegressors(fit),
-                                       Structure::kStatic, o),
-                              ts));
-    OutputModel lag;
-    lag.cv_score = std::numeric_limits<double>::infinity();
+    const std::vector<Regressor> temps = AllTemperatureRegressors(fit);
+    r.static_all_t = RmsFrom(
+        ts, j, holdout_from_s,
+        PredictOutput(FitFixed(fit, j, temps, Structure::kStatic, o), ts));
+    r.static_ols = RmsFrom(
+        ts, j, holdout_from_s,
+        PredictOutput(FitFixed(fit, j, temps, Structure::kStatic, ols), ts));
+    OutputModel lag, lag_ols;
+    lag.cv_score = lag_ols.cv_score = std::numeric_limits<double>::infinity();
+    r.lag_ols_best = std::numeric_limits<double>::infinity();
     for (double tau : o.taus_s) {
-      OutputModel m =
-          FitFixed(fit, j, SpeedLagRegressors(fit, {tau}), Structure::kLag, o);
+      const std::vector<Regressor> regs = SpeedLagRegressors(fit, {tau});
+      OutputModel m = FitFixed(fit, j, regs, Structure::kLag, o);
       if (m.cv_score < lag.cv_score) lag = m;
+      m = FitFixed(fit, j, regs, Structure::kLag, ols);
+      if (m.cv_score < lag_ols.cv_score) lag_ols = m;
+      r.lag_ols_best = std::min(
+          r.lag_ols_best, RmsFrom(ts, j, holdout_from_s, PredictOutput(m, ts)));
     }
     r.lag_speed = RmsFrom(ts, j, holdout_from_s, PredictOutput(lag, ts));
+    r.lag_ols_cv = RmsFrom(ts, j, holdout_from_s, PredictOutput(lag_ols, ts));
     FitOptions ao = o;
     ao.model = "auto";
     r.mine = RmsFrom(
@@ -400,8 +419,8 @@ std::vector<Rms> RealSplit(const TimeSeries& ts, double holdout_from_s) {
         PredictOutput(
             FitThermalModel(fit, {fit.output_names[j]}, ao).outputs.front(),
             ts));
-    r.select = RmsFrom(ts, j, holdout_from_s,
-                       PredictOutput(FitAuto(fit, j, o), ts));
+    r.select =
+        RmsFrom(ts, j, holdout_from_s, PredictOutput(FitAuto(fit, j, o), ts));
     out.push_back(r);
   }
   return out;
@@ -409,14 +428,20 @@ std::vector<Rms> RealSplit(const TimeSeries& ts, double holdout_from_s) {
 
 // Fit on the first 15 h (1250 and 2500 1/min), predict the next 8 h (3750
 // 1/min, never seen in the fit). Measured (docs/THERMAL.md): auto 1.42 /
-// 1.74 / 2.91 / 3.07 / 5.30 um; the better simple model 5.78 / 7.08 / 2.01
-// / 2.80 / 12.25: auto far ahead on d_ch1, d_ch2, d_ch5, behind the static
-// model on d_ch3 (1.45 times) and d_ch4 (1.10 times).
+// 1.74 / 2.91 / 3.07 / 5.30 um; the README's simple models fitted its way,
+// the best of them per output 13.96 / 11.70 / 10.61 / 11.55 / 13.91 (2.6 to
+// 9.8 times auto). Our ridge versions are stronger: 8.96 / 10.06 / 2.01 /
+// 2.80 / 12.25 (the static model on all temperatures): auto far ahead on
+// d_ch1, d_ch2, d_ch5, behind it on d_ch3 (1.45 times) and d_ch4 (1.10).
 TEST(Identify, RealSpindleTestUnseenSpeed) {
   const TimeSeries ts = ReadThermalLog(std::string(TTP_DATA_DIR) +
                                        "/reference/fl-thermal/train.csv");
   const std::vector<Rms> r = RealSplit(ts, 54000);
   ASSERT_EQ(r.size(), 5u);
+  for (int k = 0; k < 5; ++k)
+    EXPECT_LT(r[k].mine, 0.45 * r[k].readme_best())
+        << "d_ch" << k + 1 << ": auto " << r[k].mine << " README's best "
+        << r[k].readme_best();
   for (int k : {0, 1, 4})
     EXPECT_LT(r[k].mine, 0.5 * r[k].simple())
         << "d_ch" << k + 1 << ": auto " << r[k].mine << " simple "
@@ -432,9 +457,11 @@ TEST(Identify, RealSpindleTestUnseenSpeed) {
 
 // Inside the first 15 h: fit on 10 h (1250 1/min, rest, 2 h of 2500),
 // predict 36000..54000 s. Measured: auto 1.54 / 2.31 / 4.04 / 4.13 / 1.16
-// um, better simple model 4.38 / 3.53 / 8.94 / 8.70 / 4.02, none 11.04 /
-// 12.11 / 8.21 / 9.00 / 29.09: auto ahead of every simple model and of no
-// compensation on every output.
+// um; the README's models fitted its way with the lag's time constant by CV
+// 4.07 / 3.26 / 7.81 / 7.64 / 1.47 (1.3 to 2.6 times auto); with the time
+// constant best on the holdout 1.73 / 2.10 / 5.95 / 6.00 / 1.47 (auto 1.12,
+// 0.91, 1.47, 1.45, 1.27 times ahead: behind on d_ch2); our ridge versions
+// 4.38 / 3.53 / 8.94 / 8.70 / 4.02; none 11.04 / 12.11 / 8.21 / 9.00 / 29.09.
 TEST(Identify, RealSpindleTestInsideTheFirstHalf) {
   const TimeSeries ts =
       HeadOf(ReadThermalLog(std::string(TTP_DATA_DIR) +
@@ -445,9 +472,19 @@ TEST(Identify, RealSpindleTestInsideTheFirstHalf) {
   for (int k = 0; k < 5; ++k) {
     EXPECT_LT(r[k].mine, 0.8 * r[k].simple())
         << "d_ch" << k + 1 << ": auto " << r[k].mine;
+    EXPECT_LT(r[k].mine, 0.85 * r[k].readme_cv())
+        << "d_ch" << k + 1 << ": auto " << r[k].mine << " README's (tau by CV) "
+        << r[k].readme_cv();
     EXPECT_LT(r[k].mine, 0.6 * r[k].none) << "d_ch" << k + 1;
     EXPECT_LT(r[k].mine, r[k].select) << "d_ch" << k + 1;
   }
+  for (int k : {0, 2, 3, 4})
+    EXPECT_LT(r[k].mine, 0.95 * r[k].readme_best())
+        << "d_ch" << k + 1 << ": auto " << r[k].mine << " README's best "
+        << r[k].readme_best();
+  // The one cell behind: speed lags at the time constant best on the
+  // holdout (3600 s) on d_ch2; auto stays within 1.2 times.
+  EXPECT_LT(r[1].mine, 1.2 * r[1].readme_best());
 }
 
 }  // namespace

@@ -59,6 +59,48 @@ double Smooth(const std::vector<double>& t, const std::vector<double>& r,
   return sw > 1e-300 ? swr / sw : 0.0;
 }
 
+// The smoother's weights on the R-tests' residuals at x (Smooth is their
+// dot product with the residuals).
+Eigen::VectorXd SmoothWeights(const std::vector<double>& t, double h,
+                              double x) {
+  const int n = static_cast<int>(t.size());
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(n);
+  if (n == 0) return w;
+  if (h == 0) {
+    if (x <= t.front()) {
+      w[0] = 1;
+    } else if (x >= t.back()) {
+      w[n - 1] = 1;
+    } else {
+      const int i =
+          static_cast<int>(std::upper_bound(t.begin(), t.end(), x) - t.begin());
+      const double f = (x - t[i - 1]) / (t[i] - t[i - 1]);
+      w[i - 1] = 1 - f;
+      w[i] = f;
+    }
+    return w;
+  }
+  for (int k = 0; k < n; ++k)
+    w[k] = std::isinf(h) ? 1.0 : std::exp(-0.5 * std::pow((t[k] - x) / h, 2));
+  const double sw = w.sum();
+  return sw > 1e-300 ? Eigen::VectorXd(w / sw) : Eigen::VectorXd::Zero(n);
+}
+
+// A standard deviation estimated from m squared errors, used for the
+// tails of a normal distribution: the 99.5 % quantile of Student's t with
+// m degrees of freedom over the normal one (Cornish-Fisher expansion; 1
+// for many evaluations, about 1.4 for six).
+double SmallSampleFactor(int m) {
+  if (m <= 0) return 1.0;
+  const double z = 2.5758, v = std::max(m, 3);
+  const double t =
+      z + (z * z * z + z) / (4 * v) +
+      (5 * std::pow(z, 5) + 16 * z * z * z + 3 * z) / (96 * v * v) +
+      (3 * std::pow(z, 7) + 19 * std::pow(z, 5) + 17 * z * z * z - 15 * z) /
+          (384 * v * v * v);
+  return t / z;
+}
+
 // Candidate input subsets of up to max_inputs of n inputs.
 void Subsets(int n, int max_size, int first, std::vector<int>& current,
              std::vector<std::vector<int>>& out) {
@@ -91,6 +133,10 @@ bool EstimatorOptions::IsValid(std::string* error) const {
   if (cv_block_rtests < 1) return fail("cv_block_rtests: must be >= 1");
   if (!(cut_time_error_fraction >= 0))
     return fail("cut_time_error_fraction: must be >= 0");
+  if (!(rtest_noise_floor_factor >= 0))
+    return fail("rtest_noise_floor_factor: must be >= 0");
+  if (!(model_shape_error_fraction >= 0))
+    return fail("model_shape_error_fraction: must be >= 0");
   for (double s : rtest_noise_um_or_urad)
     if (!(s >= 0)) return fail("rtest_noise_um_or_urad: every value >= 0");
   return true;
@@ -203,6 +249,20 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
       y[k] = (est.rtest_y_[k] - est.PredictedAt(est.rtest_t_[k])).ToMicro()[e];
     }
     est.SelectModel(e, y, all);
+    {
+      // The fit is linear in the R-test values: coefficients = map * y.
+      const Eigen::MatrixXd x = est.Design(est.choice_[e], all);
+      const Eigen::MatrixXd map =
+          x.colPivHouseholderQr()
+              .solve(Eigen::MatrixXd::Identity(x.rows(), x.rows()))
+              .leftCols(n);
+      if (est.coef_map_.size() < 7) {
+        est.coef_map_.resize(7);
+        est.hat_.resize(7);
+      }
+      est.coef_map_[e] = map;
+      est.hat_[e] = x.topRows(n) * map;
+    }
     for (int k = 0; k < n; ++k) {
       est.residual_[k][e] = y[k] - est.ModelAt(e, est.rtest_t_[k]);
     }
@@ -374,7 +434,7 @@ void MachineErrorEstimator::SelectModel(int e, const Eigen::VectorXd& y,
 // evaluated there, residual smoother included.
 void MachineErrorEstimator::CrossValidate() {
   const int n = static_cast<int>(rtest_t_.size());
-  const int block = std::max(1, options_.cv_block_rtests);
+  const int block = CvBlock();
   const bool reselect = n <= kReselectBelowRTests;
   for (int e = 0; e < 7; ++e) {
     std::vector<double> y(n);
@@ -405,14 +465,15 @@ void MachineErrorEstimator::CrossValidate() {
       }
       for (int k = b0; k < b1; ++k) {
         const double t = rtest_t_[k];
-        const double pred = Row(c, t).dot(c.beta) +
-                            Smooth(tk, rk, models_[e].bandwidth_s, t);
+        const double pred =
+            Row(c, t).dot(c.beta) + Smooth(tk, rk, models_[e].bandwidth_s, t);
         ss += (pred - y[k]) * (pred - y[k]);
         ++count;
       }
     }
     models_[e].cv_rms_um_or_urad =
         count > 0 ? std::sqrt(ss / count) : models_[e].loo_rms_um_or_urad;
+    models_[e].cv_evaluations = count;
   }
 }
 
@@ -425,14 +486,52 @@ double MachineErrorEstimator::CorrelationTimeS() const {
   return std::max(MeanRTestSpacingS(), options_.grid_step_s);
 }
 
+int MachineErrorEstimator::CvBlock() const {
+  const int n = static_cast<int>(rtest_t_.size());
+  int b = std::max(1, options_.cv_block_rtests);
+  while (b > 1 && n < 4 * b) --b;
+  return b;
+}
+
+double MachineErrorEstimator::NoiseSigmaAt(int e, double t_s) const {
+  if (e >= static_cast<int>(coef_map_.size())) return 0.0;
+  // estimate(t) = row(t) * map * y + s(t)' (I - hat) y
+  const Eigen::VectorXd s =
+      SmoothWeights(rtest_t_, models_[e].bandwidth_s, t_s);
+  const Eigen::VectorXd w = coef_map_[e].transpose() * Row(choice_[e], t_s) +
+                            s - hat_[e].transpose() * s;
+  return options_.rtest_noise_um_or_urad[e] * w.norm();
+}
+
+double MachineErrorEstimator::ShapeDeviationAt(int e, double t_s) const {
+  const auto hi = std::upper_bound(rtest_t_.begin(), rtest_t_.end(), t_s);
+  if (hi == rtest_t_.begin() || hi == rtest_t_.end()) return 0.0;
+  const double ta = *(hi - 1), tb = *hi;
+  if (!(tb > ta)) return 0.0;
+  const double f = (t_s - ta) / (tb - ta);
+  const double chord = (1 - f) * ModelAt(e, ta) + f * ModelAt(e, tb);
+  return std::abs(ModelAt(e, t_s) - chord);
+}
+
 double MachineErrorEstimator::ErrorSigmaAt(int e, double t_s) const {
+  return std::hypot(
+      CrossValidatedSigmaAt(e, t_s),
+      options_.model_shape_error_fraction * ShapeDeviationAt(e, t_s));
+}
+
+double MachineErrorEstimator::CrossValidatedSigmaAt(int e, double t_s) const {
   const double cv = models_[e].cv_rms_um_or_urad;
   const double noise = options_.rtest_noise_um_or_urad[e];
+  // cv rests on few held-out R-tests when they are sparse: its error
+  // scaled to the tails of Student's t with that many degrees of freedom.
+  const double tail = SmallSampleFactor(models_[e].cv_evaluations);
+  const double floor =
+      std::max(options_.cut_time_error_fraction * cv * tail,
+               options_.rtest_noise_floor_factor * NoiseSigmaAt(e, t_s));
   const double s =
-      std::max(std::sqrt(std::max(cv * cv - noise * noise, 0.0)),
-               options_.cut_time_error_fraction * cv);
-  const double outside = std::max(
-      {0.0, rtest_t_.front() - t_s, t_s - rtest_t_.back()});
+      std::max(tail * std::sqrt(std::max(cv * cv - noise * noise, 0.0)), floor);
+  const double outside =
+      std::max({0.0, rtest_t_.front() - t_s, t_s - rtest_t_.back()});
   const double spacing = std::max(MeanRTestSpacingS(), 1.0);
   // Between R-tests the estimator's error grows with the distance to them
   // like a Brownian bridge (variance x (gap - x) / gap at x into the gap):
@@ -441,7 +540,7 @@ double MachineErrorEstimator::ErrorSigmaAt(int e, double t_s) const {
   // less than a cut in the middle of its gap, never below the fraction the
   // R-tests cannot show. With fewer than four blocks the cross-validation
   // error rests on too few gaps to be scaled: one number per run.
-  const int b = std::max(1, options_.cv_block_rtests);
+  const int b = CvBlock();
   if (outside > 0 || static_cast<int>(rtest_t_.size()) < 4 * b)
     return s * std::sqrt(1.0 + std::pow(outside / spacing, 2));
   const auto hi = std::upper_bound(rtest_t_.begin(), rtest_t_.end(), t_s);
@@ -452,9 +551,9 @@ double MachineErrorEstimator::ErrorSigmaAt(int e, double t_s) const {
   for (int j = 1; j <= b; ++j) ref += j * (b + 1.0 - j) / (b + 1.0);
   ref *= spacing / b;
   const double bridge = (t_s - ta) * (tb - t_s) / gap;
-  const double excess = std::sqrt(std::max(cv * cv - noise * noise, 0.0));
-  return std::max(excess * std::sqrt(bridge / ref),
-                  options_.cut_time_error_fraction * cv);
+  const double excess =
+      tail * std::sqrt(std::max(cv * cv - noise * noise, 0.0));
+  return std::max(excess * std::sqrt(bridge / ref), floor);
 }
 
 double MachineErrorEstimator::InputAt(int input, int tau, double t_s) const {
@@ -768,8 +867,7 @@ std::string InterpolationText(const InterpolationComparison& c) {
     s += fmt::format(
         "  {} at t_s {:.0f} (kept R-tests {:.0f} s apart around it on "
         "average, {} held-out R-tests, {} evaluations over the phases)\n",
-        w.label, w.load_change_s, w.mean_bracket_s, w.held_out,
-        w.evaluations);
+        w.label, w.load_change_s, w.mean_bracket_s, w.held_out, w.evaluations);
     s += "     error   model    line   (RMS, um or um/m)\n";
     for (int e = 0; e < 7; ++e) {
       s += fmt::format("    {:>6} {:7.3f} {:7.3f}\n", kErrorNames[e],

@@ -83,6 +83,12 @@ struct DiagnosisOptions {
   // simulation (docs/DIAGNOSIS.md): at most 1 % of runs without a cause
   // get one named.
   double evidence_threshold = 12.0;
+  // The same for a cause seen only in the facet angles (c_axis_indexing,
+  // alone or added to another cause): their budget is the fits' own
+  // scatter, which the estimator's heavy-tailed error between R-tests
+  // hardly touches, so its evidence over runs without a cause stays
+  // chi2-like (docs/DIAGNOSIS.md: calibration).
+  double angle_evidence_threshold = 6.0;
   // Goodness of fit: the chosen model (or the nominal one) must leave
   // chi2 / degrees of freedom below this, else the residual holds
   // structure no known cause explains (`unexplained`).
@@ -120,6 +126,10 @@ struct DiagnosisOptions {
   // deviate beyond this after the named cause (calibrated on runs without
   // a cause: docs/DIAGNOSIS.md).
   double named_machine_z = 2.5;
+  // `refused` whatever the outcome when E_X, E_Y and E_Z pooled keep a
+  // chi2 deviate beyond this after the best model: above every run with
+  // its own log in the calibration and the batteries (docs/DIAGNOSIS.md).
+  double refuse_machine_pooled_z = 3.5;
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
 
@@ -175,6 +185,10 @@ struct DiagnosisReport {
   // and the largest chi2 a step in one figure kind explains after the
   // chosen model.
   double best_evidence = 0, structure_z = 0, step_chi2 = 0;
+  // The evidence threshold the chosen model was held to against the
+  // nominal one (DiagnosisOptions::evidence_threshold, or
+  // angle_evidence_threshold for a cause seen only in the facet angles).
+  double evidence_threshold = 0;
   // The largest per-kind deviate over E_X, E_Y, E_Z (the figures that
   // follow the machine's location errors).
   double machine_z = 0;

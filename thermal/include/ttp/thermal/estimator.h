@@ -54,6 +54,18 @@ struct EstimatorOptions {
   // cross-validation error: a floor of ErrorSigmaAt, calibrated by
   // simulation (docs/DIAGNOSIS.md).
   double cut_time_error_fraction = 0.5;
+  // The estimate at a cut time rests on R-tests that carry their own
+  // noise: a floor of ErrorSigmaAt is that noise carried through the
+  // estimator to the cut time (NoiseSigmaAt), times this factor.
+  double rtest_noise_floor_factor = 1.0;
+  // Between two R-tests the estimate follows the model's dynamics, which
+  // the R-tests pin only at the gap's ends (a first-order lag for a
+  // machine that is not one, an input missing): its error there is taken
+  // as this fraction of the model's deviation from its chord between the
+  // two R-tests (ShapeDeviationAt), added in quadrature. Large where a
+  // load change falls inside a gap, zero next to an R-test; calibrated on
+  // the estimator's actual errors at the cut times (docs/DIAGNOSIS.md).
+  double model_shape_error_fraction = 0.5;
   // Residual smoothing bandwidths tried (s); 0 = linear interpolation
   // through the R-tests, infinity = model only (plus mean residual). The
   // one with the least leave-one-out error is used, per error.
@@ -83,6 +95,7 @@ struct ErrorModel {
   // Blocked cross-validation: RMS error at held-out R-tests with the model
   // refitted without them (includes the R-test's own noise).
   double cv_rms_um_or_urad = 0;
+  int cv_evaluations = 0;  // held-out R-tests it rests on
 };
 
 class MachineErrorEstimator {
@@ -169,6 +182,21 @@ class MachineErrorEstimator {
   std::vector<std::vector<int>> model_input_index_, model_tau_index_;
   std::vector<std::array<double, 7>> residual_;  // per R-test, log units
   std::vector<Choice> choice_;  // per error
+  // Per error: the fit's map from the R-test values to the model's
+  // coefficients (columns: R-tests) and its hat matrix at the R-tests, to
+  // carry the R-tests' own noise through the estimator (NoiseSigmaAt).
+  std::vector<Eigen::MatrixXd> coef_map_, hat_;
+  // The R-tests' own noise carried through the estimator (model fit and
+  // residual smoother, both linear in the R-test values) to time t.
+  double NoiseSigmaAt(int error, double t_s) const;
+  // R-tests per cross-validation block: cv_block_rtests, fewer when the
+  // R-tests are too few for four blocks (sparse R-tests: one per block).
+  int CvBlock() const;
+  // ErrorSigmaAt without the model's shape term.
+  double CrossValidatedSigmaAt(int error, double t_s) const;
+  // |model - its chord between the R-tests around t|: how far the
+  // estimate between two R-tests rests on the model's dynamics alone.
+  double ShapeDeviationAt(int error, double t_s) const;
 };
 
 // Leave-one-R-test-out comparison of the ARX smoother and the straight line

@@ -1,0 +1,517 @@
+#!/usr/bin/env python3
+"""Outside generator: a TALC log and a measured piece, written from the
+customer's specs alone (../shared/spec/test-piece.md, talc-log.md,
+measurements.md, diagnosis.md rev. 2) and the thesis (R-test noise of table
+5.4). It shares no code and no parameterisation with the project's sim/.
+
+Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300]
+                   [--compensation off|on] [--measurement json|dial] -o DIR
+Writes DIR/talc.csv, DIR/piece.json or DIR/dial.csv, DIR/truth.json.
+Python 3 standard library only.
+"""
+import argparse
+import bisect
+import json
+import math
+import os
+import random
+
+# ---------------------------------------------------------------- constants
+R_FACET_MM = 97.3          # finished facet plane distance (test-piece.md 2)
+CUTTER_R_MM = 6.0          # 12 mm finishing end mill
+Z_TOP_MM = 54.0            # W origin at M z = 54 (adapter 30 + piece 24)
+Z_FLOOR_W_MM = -12.1       # strip floor / facet bottom in W
+SPHERE_MM = 160.0          # d/2
+ALPHA_PIECE = 23.4         # um/(m K), EN AW-6082
+ALPHA_TABLE = 11.0         # um/(m K), cast iron
+CYCLE0_S = 320.0           # the program's t = 0 in log time
+CYCLE_S = 3600.0
+FEATURE_OFFSETS_S = {"Z": 0.0, "X1": 10.0, "X2": 17.0, "Y1": 27.0, "Y2": 34.0}
+CENTRES_DEG = {"X1": 60.0, "Y1": 120.0, "X2": 240.0, "Y2": 300.0}
+NORMAL_M = {"X1": (1.0, 0.0), "X2": (-1.0, 0.0), "Y1": (0.0, 1.0), "Y2": (0.0, -1.0)}
+ERRS = ["EX0C", "EY0C", "EZ0T", "ER0T", "EA0C", "EB0C", "EC0C"]
+# thesis table 5.4: expanded uncertainty U (k = 2) of the R-test: um, um/m
+RTEST_U = {"EX0C": 0.4, "EY0C": 0.5, "EZ0T": 0.4, "ER0T": 0.6,
+           "EA0C": 2.3, "EB0C": 2.5, "EC0C": 2.6}
+RTEST_DUR_S = 95.0
+
+CATALOGUE = ["workpiece_expansion", "tool_wear", "clamping_distortion",
+             "c_axis_indexing"]
+OUTSIDE = ["step", "two_lobe", "strip_drift"]
+MISMATCH = ["other_log", "short_log"]
+
+
+def jprime(k):
+    return k if k <= 4 else k + 1
+
+
+def cut_schedule():
+    """(t_s, feature, set, j, commanded C deg) in cutting order."""
+    cuts = []
+    for k in range(9):
+        j = 5 if k == 0 else jprime(k)
+        t0 = CYCLE0_S + k * CYCLE_S
+        c = CENTRES_DEG["X1"] + (j - 5) * 6.0
+        cuts.append((t0, "Z%d" % (5 if k == 0 else jprime(k)), "Z", j, 0.0, k))
+        for s in ("X1", "X2", "Y1", "Y2"):
+            cc = c if s[0] == "X" else c - 30.0
+            cuts.append((t0 + FEATURE_OFFSETS_S[s], "%s-%d" % (s, j), s, j, cc, k))
+    return cuts
+
+
+# ------------------------------------------------------------ the machine
+class Machine:
+    """Seven C-axis errors as the response of a few thermal paths to the
+    C-axis heat (linear and squared in speed), the spindle and the room.
+    Each path is a first- or second-order lag; each error is a random mix
+    of the paths. The state is integrated exactly for piecewise constant
+    inputs (10 s steps)."""
+
+    def __init__(self, rng):
+        self.rng = rng
+        # paths: (input, time constants)
+        self.paths = [("c", (rng.uniform(600, 1500),)),
+                      ("c", (rng.uniform(2000, 4000), rng.uniform(1500, 3000))),
+                      ("s", (rng.uniform(300, 900),)),
+                      ("env", (rng.uniform(3000, 8000),))]
+        # steady-state gain of each error on each path (um, um/m per unit)
+        base = {"EX0C": 1.5, "EY0C": 3.0, "EZ0T": -9.0, "ER0T": 5.0,
+                "EA0C": -6.0, "EB0C": 2.5, "EC0C": -6.0}
+        self.gain = {}
+        for e in ERRS:
+            b = base[e] * rng.uniform(0.5, 1.5)
+            w = [rng.uniform(0.3, 1.0), rng.uniform(0.3, 1.0)]
+            self.gain[e] = [b * w[0] / sum(w), b * w[1] / sum(w),
+                            base[e] * rng.uniform(-0.15, 0.15),
+                            base[e] * rng.uniform(-0.5, 0.5)]
+        self.c_lin = rng.uniform(0.2, 0.5)   # share of heat linear in speed
+        # the machine did not start cold: a random earlier load
+        self.state = []
+        pre = rng.uniform(0.0, 0.6)
+        for inp, taus in self.paths:
+            self.state.append([pre if inp == "c" else 0.0] * len(taus))
+        self.env0 = rng.uniform(19.0, 21.0)
+        self.env_amp = rng.uniform(0.3, 1.0)
+        self.env_phase = rng.uniform(0, 2 * math.pi)
+
+    def env(self, t):
+        return self.env0 + self.env_amp * math.sin(2 * math.pi * t / 86400.0 + self.env_phase)
+
+    def heat(self, inp, c_rpm, sp_rpm, t):
+        if inp == "c":
+            x = c_rpm / 1200.0
+            return self.c_lin * x + (1 - self.c_lin) * x * x
+        if inp == "s":
+            return (sp_rpm / 8000.0) ** 2
+        return self.env(t) - self.env0
+
+    def step(self, dt, c_rpm, sp_rpm, t):
+        for p, (inp, taus) in enumerate(self.paths):
+            u = self.heat(inp, c_rpm, sp_rpm, t)
+            st = self.state[p]
+            for i, tau in enumerate(taus):
+                a = math.exp(-dt / tau)
+                st[i] = a * st[i] + (1 - a) * u
+                u = st[i]
+
+    def errors(self):
+        last = [st[-1] for st in self.state]
+        out = {}
+        for e in ERRS:
+            acc = 0
+            for g, x in zip(self.gain[e], last):
+                acc += g * x
+            out[e] = acc
+        return out
+
+
+def displacement(E, x, y, z):
+    """test-piece.md section 6: table point displacement (um) at machine
+    position (mm); E in um and um/m."""
+    dx = E["EB0C"] * z * 1e-3 + E["EX0C"] + E["ER0T"] * x / SPHERE_MM - E["EC0C"] * y * 1e-3
+    dy = E["EY0C"] + E["ER0T"] * y / SPHERE_MM - E["EA0C"] * z * 1e-3 + E["EC0C"] * x * 1e-3
+    dz = -E["EB0C"] * x * 1e-3 + E["EZ0T"] + E["EA0C"] * y * 1e-3
+    return dx, dy, dz
+
+
+def normal_shift(E, P, n, p, q):
+    """n . (o(q) - dP(p)) in um (P: predicted errors, None = comp off)."""
+    d = displacement(E, *p)
+    o = displacement(P, *q) if P is not None else (0.0, 0.0, 0.0)
+    return sum(n[i] * (o[i] - d[i]) for i in range(3))
+
+
+# ------------------------------------------------------------- the effects
+class Effect:
+    def __init__(self, name, size, rng):
+        self.name, self.size = name, size
+        self.params = {}
+        if name == "workpiece_expansion":
+            self.params = {"gain": size, "tau_wp_s": rng.uniform(1500, 4000)}
+        elif name == "tool_wear":
+            self.params = {"wear_um_per_m": size}
+        elif name == "clamping_distortion":
+            self.params = {"amplitude_um": size * rng.choice([-1, 1]),
+                           "phase_jitter_deg": rng.uniform(-8, 8)}
+        elif name == "c_axis_indexing":
+            # encoder eccentricity (1/turn), worm (2/turn), bearing (4/turn)
+            self.params = {"harmonics": [
+                [1, size, rng.uniform(0, 360)],
+                [2, size * rng.uniform(0.4, 0.8), rng.uniform(0, 360)],
+                [4, size * rng.uniform(0.2, 0.5), rng.uniform(0, 360)]]}
+        elif name == "step":
+            self.params = {"step_um": size * rng.choice([-1, 1]),
+                           "from_cycle": rng.randint(3, 7)}
+        elif name == "two_lobe":
+            self.params = {"amplitude_um": size, "phase_deg": rng.uniform(0, 180)}
+        elif name == "strip_drift":
+            self.params = {"total_um": size * rng.choice([-1, 1])}
+
+    def c_error_urad(self, c_deg):
+        if self.name != "c_axis_indexing":
+            return 0.0
+        return sum(a * math.cos(math.radians(k * c_deg + ph))
+                   for k, a, ph in self.params["harmonics"])
+
+    def lobes(self):
+        """(count, amplitude um, phase deg) of an elastic pattern in W."""
+        if self.name == "clamping_distortion":
+            return 3, self.params["amplitude_um"], 60.0 + self.params["phase_jitter_deg"]
+        if self.name == "two_lobe":
+            return 2, self.params["amplitude_um"], self.params["phase_deg"]
+        return None
+
+
+class Effects:
+    """Several effects acting at once (each adds to the piece)."""
+
+    def __init__(self, effs):
+        self.effs = effs
+        self.params = {n: e.params for n, e in effs.items()} if len(effs) > 1 else \
+            next(iter(effs.values())).params
+
+    def c_error_urad(self, c_deg):
+        return sum(e.c_error_urad(c_deg) for e in self.effs.values())
+
+    def lobes(self):
+        return [e.lobes() for e in self.effs.values() if e.lobes()]
+
+
+# --------------------------------------------------------------- one run
+def simulate(seed, effect, size, spacing_s, comp_on):
+    rng = random.Random(seed)
+    m = Machine(rng)
+    # "a+b": two effects at once, each of the given size (sizes "s1+s2")
+    names = effect.split("+")
+    sizes = [float(x) for x in str(size).split("+")] if isinstance(size, str) else [size] * len(names)
+    effs = {n: Effect(n, s, rng) for n, s in zip(names, sizes)}
+    eff = Effects(effs)
+    cuts = cut_schedule()
+    last_cut = cuts[-1][0]
+    # R-test times (row time = end of the cycle)
+    rt = [95.0]
+    t = 95.0 + spacing_s
+    while t < last_cut:
+        rt.append(t)
+        t += spacing_s
+    rt.append(last_cut + 150.0)
+    t_end = rt[-1] + 60.0
+    cut_windows = [(CYCLE0_S + k * CYCLE_S - 20.0, CYCLE0_S + k * CYCLE_S + 45.0) for k in range(9)]
+
+    def c_speed(t):
+        if t < -2700 or (-2700 <= t < -2400 and False):
+            return 0.0
+        if -2700 <= t < -2400:          # step 1: turning the outer profile
+            return 600.0
+        if t < CYCLE0_S + 45.0:         # pre-machining rest and NC hold
+            return 0.0
+        if t >= CYCLE0_S + 4 * CYCLE_S:  # cool-down
+            return 0.0
+        for a, b in cut_windows:
+            if a <= t < b:
+                return 0.0
+        for r in rt:
+            if r - RTEST_DUR_S - 10 <= t < r + 5:
+                return 0.0
+        return 1200.0
+
+    def sp_speed(t):
+        if -2400 <= t < -1800:          # steps 2-5
+            return 8000.0
+        for a, b in cut_windows:
+            if a <= t < b:
+                return 8000.0
+        return 0.0
+
+    # integrate from before pre-machining; keep the state on a 10 s grid
+    dt = 10.0
+    t0 = -3000.0
+    grid = {}
+    env = {}
+    tt = t0
+    n = int((t_end - t0) / dt) + 2
+    for i in range(n):
+        grid[round(tt, 1)] = m.errors()
+        env[round(tt, 1)] = m.env(tt)
+        m.step(dt, c_speed(tt), sp_speed(tt), tt)
+        tt += dt
+
+    def at(t):
+        k = math.floor((t - t0) / dt)
+        a = t0 + k * dt
+        e0, e1 = grid[round(a, 1)], grid[round(a + dt, 1)]
+        w = (t - a) / dt
+        return {e: e0[e] * (1 - w) + e1[e] * w for e in ERRS}
+
+    ref = at(rt[0] - RTEST_DUR_S / 2)
+
+    def rel(t):
+        a = at(t)
+        return {e: a[e] - ref[e] for e in ERRS}
+
+    # R-tests: noise of table 5.4 (sigma = U / 2); values relative to the
+    # first R-test, which carries its own noise into all of them
+    noise = [{e: rng.gauss(0, RTEST_U[e] / 2) for e in ERRS} for _ in rt]
+    meas = []
+    for i, r in enumerate(rt):
+        tr = rel(r - RTEST_DUR_S / 2)
+        meas.append({e: tr[e] + noise[i][e] - noise[0][e] for e in ERRS})
+
+    # the compensation in force: TALC's model, re-anchored at every R-test,
+    # follows 75 % of the machine's change since (an imperfect model)
+    G_PRED = 0.75
+
+    def pred(t):
+        if not comp_on:
+            return None
+        last = bisect.bisect_right(rt, t) - 1   # rt is increasing
+        if last < 0:
+            return {e: 0.0 for e in ERRS}
+        base = rel(rt[last] - RTEST_DUR_S / 2)
+        now = rel(t)
+        return {e: meas[last][e] + G_PRED * (now[e] - base[e]) for e in ERRS}
+
+    # ---- the piece
+    # datum X direction: big-notch flanks cut at C = 0 in pre-machining
+    t_notch = -2150.0
+    datum_urad = eff.c_error_urad(0.0) - rel(t_notch)["EC0C"]
+
+    # lumped aluminium mass (piece + adapter) lagging the table temperature
+    piece_T = {}
+    if "workpiece_expansion" in effs:
+        g, tau = effs["workpiece_expansion"].params["gain"], effs["workpiece_expansion"].params["tau_wp_s"]
+        Tp = 0.0
+        tt = t0
+        for i in range(n - 1):
+            Tt = grid[round(tt, 1)]["ER0T"] / (ALPHA_TABLE * SPHERE_MM * 1e-3)
+            a = math.exp(-dt / tau)
+            Tp = a * Tp + (1 - a) * g * Tt
+            piece_T[round(tt + dt, 1)] = Tp
+            tt += dt
+
+    def piece_dT(t):
+        k = math.floor((t - t0) / dt)
+        return piece_T.get(round(t0 + k * dt, 1), 0.0)
+
+    path_mm = 0.0
+    features = {}
+    for (tc, name, s, j, c_cmd, k) in cuts:
+        t_cut = tc - 3.0   # the row marks the end of the cut
+        E = rel(t_cut)
+        P = pred(t_cut)
+        if s == "Z":
+            y = (j - 5) * 11.75
+            zc = Z_TOP_MM + Z_FLOOR_W_MM
+            n3 = (0.0, 0.0, 1.0)
+            u0 = normal_shift(E, P, n3, (0.0, y, zc), (0.0, y, zc))
+            u1 = normal_shift(E, P, n3, (1.0, y, zc), (1.0, y, zc))
+            depth_um = -u0
+            beta_urad = (u1 - u0) * 1000.0
+            if "workpiece_expansion" in effs:
+                depth_um += ALPHA_PIECE * piece_dT(t_cut) * zc * 1e-3
+            if "strip_drift" in effs:
+                depth_um += effs["strip_drift"].params["total_um"] * k / 8.0
+            half = math.sqrt(101.5 ** 2 - y * y)
+            path_mm += 2 * (half - 5.0)
+            features[name] = {"depth_um": depth_um, "beta_urad": beta_urad, "t": t_cut, "cycle": k}
+            continue
+        nx, ny = NORMAL_M[s]
+        n3 = (nx, ny, 0.0)
+        tx, ty = -ny, nx
+        zm = Z_TOP_MM - 6.0                # middle of the facet's height
+        p0 = (R_FACET_MM * nx, R_FACET_MM * ny, zm)
+        q0 = ((R_FACET_MM + CUTTER_R_MM) * nx, (R_FACET_MM + CUTTER_R_MM) * ny, zm)
+        u0 = normal_shift(E, P, n3, p0, q0)
+        p1 = (p0[0] + tx, p0[1] + ty, zm)
+        q1 = (q0[0] + tx, q0[1] + ty, zm)
+        u1 = normal_shift(E, P, n3, p1, q1)
+        dist_um = u0
+        ang_urad = -(u1 - u0) * 1000.0     # normal turned by -du/ds
+        phi = CENTRES_DEG[s] + (j - 5) * 6.0
+        ang_urad += eff.c_error_urad(c_cmd) - datum_urad
+        if "workpiece_expansion" in effs:
+            dist_um -= (ALPHA_PIECE * piece_dT(t_cut) - E["ER0T"] / (SPHERE_MM * 1e-3)) * R_FACET_MM * 1e-3
+        if "tool_wear" in effs:
+            dist_um += effs["tool_wear"].params["wear_um_per_m"] * (path_mm + 6.1) * 1e-3
+        for lob in eff.lobes():
+            nl, amp, ph = lob
+            a = math.radians(nl * (phi - ph))
+            dist_um -= amp * math.cos(a)                       # spring-back
+            ang_urad += -nl * amp * math.sin(a) / R_FACET_MM * 1000.0
+        if "step" in effs and k >= effs["step"].params["from_cycle"]:
+            dist_um += effs["step"].params["step_um"]
+        path_mm += 12.2
+        features[name] = {"dist_um": dist_um, "angle_urad": ang_urad, "t": t_cut, "cycle": k}
+
+    # ---- the log rows
+    cut_rows = {round(c[0], 1): c for c in cuts}
+    rows = []
+    times = sorted(set([round(x * 60.0, 1) for x in range(int(t_end // 60) + 1)] +
+                       [round(r, 1) for r in rt] + list(cut_rows)))
+    for t in times:
+        Pt = pred(t)
+        predcols = {("pred_" + e): Pt[e] for e in ERRS} if Pt else {}
+        if t in cut_rows:
+            c = cut_rows[t]
+            rows.append(dict(t_s=t, event="cut", spindle_rpm=8000, feature=c[1], c_deg=c[4], **predcols))
+        if t in rt:
+            i = rt.index(t)
+            v = {e: meas[i][e] - (pred(t - RTEST_DUR_S / 2)[e] if comp_on else 0.0) for e in ERRS}
+            rows.append(dict(t_s=t, event="rtest", dur_s=RTEST_DUR_S, **v, **predcols))
+        if abs(t / 60.0 - round(t / 60.0)) < 1e-9:
+            cs = c_speed(t)
+            rows.append(dict(t_s=t, event="sample", T_env=env[round(math.floor(t / 10) * 10, 1)],
+                             T_ws=env[round(math.floor(t / 10) * 10, 1)] + 0.6 + 0.3 * m.heat("c", cs, 0, t),
+                             dT_cool=0.05 * (cs / 1200.0) ** 2, c_rpm=cs, spindle_rpm=sp_speed(t),
+                             mwf=0, c_deg=0.0, **predcols))
+    return {"rows": rows, "features": features, "rtests": rt, "effect": eff,
+            "comp": comp_on, "t_end": t_end}
+
+
+# ------------------------------------------------------------ the outputs
+COLS = ["t_s", "event", "T_env", "T_ws", "dT_cool", "c_rpm", "spindle_rpm", "mwf"] + ERRS + \
+       ["pred_" + e for e in ERRS] + ["feature", "c_deg", "dur_s"]
+
+
+def write_log(path, rows, comp_on, start="2026-03-02T06:00:00+01:00"):
+    cols = COLS if comp_on else [c for c in COLS if not c.startswith("pred_")]
+    with open(path, "w") as f:
+        f.write("# talc-log: 1\n# machine: outside generator, C-axis table\n")
+        f.write("# start: %s\n# sphere_distance_mm: 160\n# sphere_height_mm: 80\n" % start)
+        f.write("# compensation: %s\n" % ("on" if comp_on else "off"))
+        f.write(",".join(cols) + "\n")
+        for r in rows:
+            out = []
+            for c in cols:
+                v = r.get(c, "")
+                if isinstance(v, float):
+                    v = "%.4f" % v
+                out.append(str(v))
+            f.write(",".join(out) + "\n")
+
+
+SIG_D_UM, SIG_ANG_URAD, SIG_DEPTH_UM, SIG_BETA_URAD, SIG_DIAL_UM = 0.4, 6.0, 0.4, 2.0, 0.5
+
+
+def figures_from(features):
+    """test-piece.md section 4, from per-feature d (um, relative to
+    nominal) and strip depth (um)."""
+    figs = []
+    d = {k: v.get("d") for k, v in features.items()}
+    for i in range(1, 9):
+        j = jprime(i)
+        g = lambda s: d["%s-%d" % (s, j)] - d["%s-5" % s]
+        ex = (g("X2") - g("X1")) / 2
+        ey = (g("Y2") - g("Y1")) / 2
+        ettp = -((g("X1") + g("X2")) + (g("Y1") + g("Y2"))) / 4
+        ez = features["Z%d" % j]["depth"] - features["Z5"]["depth"]
+        eb = features["Z%d" % j]["beta"] - features["Z5"]["beta"]
+        figs.append({"cycle": i, "E_X": ex, "E_Y": ey, "E_Z": ez, "E_B": eb, "E_TTP": ettp})
+    return figs
+
+
+def measure(sim, kind, rng):
+    f = sim["features"]
+    if kind == "dial":
+        lines = ["feature,reading_um"]
+        for name in sorted(f):
+            v = f[name]
+            if name.startswith("Z"):
+                if name == "Z5":
+                    continue
+                r = v["depth_um"] - f["Z5"]["depth_um"] + rng.gauss(0, SIG_DIAL_UM)
+            else:
+                s, j = name.split("-")
+                if j == "5":
+                    continue
+                r = -(v["dist_um"] - f[s + "-5"]["dist_um"]) + rng.gauss(0, SIG_DIAL_UM)
+            lines.append("%s,%.1f" % (name, r))
+        return "dial.csv", "\n".join(lines) + "\n"
+    facets, strips, noisy = {}, {}, {}
+    for name in sorted(f):
+        v = f[name]
+        if name.startswith("Z"):
+            dep = v["depth_um"] + rng.gauss(0, SIG_DEPTH_UM)
+            bet = v["beta_urad"] + rng.gauss(0, SIG_BETA_URAD)
+            strips[name] = {"depth_mm": -Z_FLOOR_W_MM + dep * 1e-3, "beta_urad": bet,
+                            "U_depth_um": 2 * SIG_DEPTH_UM, "U_beta_urad": 2 * SIG_BETA_URAD}
+            noisy[name] = {"depth": dep, "beta": bet}
+        else:
+            dd = v["dist_um"] + rng.gauss(0, SIG_D_UM)
+            aa = v["angle_urad"] + rng.gauss(0, SIG_ANG_URAD)
+            facets[name] = {"distance_mm": R_FACET_MM + dd * 1e-3, "angle_error_urad": aa,
+                            "U_distance_um": 2 * SIG_D_UM, "U_angle_urad": 2 * SIG_ANG_URAD}
+            noisy[name] = {"d": dd}
+    doc = {"kind": "inspection-json", "source": "outside generator (per-feature CMM report)",
+           "figures": figures_from(noisy), "facets": facets, "strips": strips,
+           "units": {"U": "expanded uncertainty, k = 2"}, "warnings": []}
+    return "piece.json", json.dumps(doc, indent=1, sort_keys=True) + "\n"
+
+
+def generate(out, effect, size, seed, spacing_s, comp_on, kind):
+    os.makedirs(out, exist_ok=True)
+    eff_name = effect
+    if effect in MISMATCH:
+        eff_name = "none"
+    sim = simulate(seed, eff_name, size, spacing_s, comp_on)
+    rows = sim["rows"]
+    if effect == "other_log":
+        rows = simulate(seed + 7919, "none", 0.0, spacing_s, comp_on)["rows"]
+    elif effect == "short_log":
+        cut_at = CYCLE0_S + 5 * CYCLE_S + 600.0   # the log ends after cycle 5
+        rows = [r for r in rows if r["t_s"] <= cut_at]
+    write_log(os.path.join(out, "talc.csv"), rows, comp_on)
+    rng = random.Random(seed * 31 + 5)
+    fname, text = measure(sim, kind, rng)
+    with open(os.path.join(out, fname), "w") as fh:
+        fh.write(text)
+    truth = {"effect": effect, "size": size, "seed": seed, "spacing_s": spacing_s,
+             "compensation": "on" if comp_on else "off", "measurement": kind,
+             "params": sim["effect"].params}
+    with open(os.path.join(out, "truth.json"), "w") as fh:
+        json.dump(truth, fh, indent=1)
+    return os.path.join(out, fname), os.path.join(out, "talc.csv")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    known = ["none"] + CATALOGUE + OUTSIDE + MISMATCH
+    ap.add_argument("--effect", default="none",
+                    help="one of %s, or two joined by + (e.g. tool_wear+clamping_distortion)" % ", ".join(known))
+    ap.add_argument("--size", default="0", help="effect size; for two effects S1+S2")
+    ap.add_argument("--seed", type=int, required=True)
+    ap.add_argument("--spacing-s", type=float, default=300.0)
+    ap.add_argument("--compensation", choices=["on", "off"], default="off")
+    ap.add_argument("--measurement", choices=["json", "dial"], default="json")
+    ap.add_argument("-o", required=True)
+    a = ap.parse_args()
+    if any(n not in known for n in a.effect.split("+")):
+        ap.error("unknown effect %s" % a.effect)
+    if "+" not in a.size:
+        a.size = float(a.size)
+    m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement)
+    print(m, l)
+
+
+if __name__ == "__main__":
+    main()

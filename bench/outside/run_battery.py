@@ -1,0 +1,261 @@
+#!/usr/bin/env python3
+"""Outside battery: runs made by generate.py (written from the specs alone)
+fed to `ttp diagnose`, scored against the outcome they call for.
+
+Usage: run_battery.py [--ttp build/app/ttp] [--seed 20261125] [--reps 2]
+                      [--spacings 300,1800,3600,7200] [--json results.json]
+       run_battery.py --check [--ttp ...]   (the small fixed set of the ctest)
+
+Right outcome: the cause named for a catalogue effect, `none` for a run
+without an effect, `unexplained` for an effect outside the catalogue,
+`refused` for a mismatched log/piece pair. A false name is a cause named in
+a run without a catalogue cause. Python 3 standard library only.
+"""
+import argparse
+import json
+import os
+import random
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.dont_write_bytecode = True  # nothing written into the source tree
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import generate  # noqa: E402
+
+# effect sizes: from what the samples show (run-a gain 1.0, run-c 20 um/m,
+# the project's doc 50-100 urad of C error) down to a few times the noise
+SIZES = {
+    "workpiece_expansion": [1.5, 1.0, 0.75],   # gain: piece dT / table mean dT
+    "tool_wear": [20.0, 6.0, 2.0],            # um of radius per m cut
+    "clamping_distortion": [3.0, 1.5, 0.8],   # um, three-lobe spring-back
+    "c_axis_indexing": [100.0, 50.0, 25.0],   # urad, 1/turn harmonic
+    "step": [3.0, 1.5],                       # um on all facets from a cycle
+    "two_lobe": [3.0, 1.5],                   # um, two-lobe spring-back
+    "strip_drift": [4.0, 2.0],                # um over the run, strips only
+}
+
+PAIRS = [("tool_wear", "clamping_distortion"), ("workpiece_expansion", "c_axis_indexing"),
+         ("clamping_distortion", "c_axis_indexing"), ("tool_wear", "c_axis_indexing")]
+
+
+def expected(effect):
+    if "+" in effect:
+        return "+".join(sorted(effect.split("+")))
+    if effect in generate.CATALOGUE:
+        return effect
+    if effect in generate.OUTSIDE:
+        return "unexplained"
+    if effect in generate.MISMATCH:
+        return "refused"
+    return "none"
+
+
+def scenarios(spacing, comp, rng, reps):
+    """One block of runs for a spacing and compensation state."""
+    out = []
+    for r in range(reps):
+        for i in range(4):
+            out.append(("none", 0.0, "json" if i % 2 == 0 else "dial"))
+        for e in generate.CATALOGUE:
+            for k, s in enumerate(SIZES[e]):
+                kind = "json" if (e == "c_axis_indexing" or (k + r) % 2 == 0) else "dial"
+                out.append((e, s, kind))
+        for k, e in enumerate(generate.OUTSIDE):
+            s = SIZES[e][(k + r) % 2]
+            out.append((e, s, "json" if (k + r) % 2 == 0 else "dial"))
+        # two catalogue causes at once, sizes in the middle of their ranges
+        for k, (e1, e2) in enumerate(PAIRS[(r % 2) * 2:(r % 2) * 2 + 2]):
+            out.append(("%s+%s" % (e1, e2), "%g+%g" % (SIZES[e1][1], SIZES[e2][1]),
+                        "json" if k % 2 == 0 or "c_axis_indexing" in (e1, e2) else "dial"))
+        out.append(("other_log", 0.0, "json" if r % 2 == 0 else "dial"))
+        out.append(("short_log", 0.0, "dial" if r % 2 == 0 else "json"))
+    return [(e, s, kind, rng.randrange(1, 10 ** 6)) for e, s, kind in out]
+
+
+def diagnose(ttp, meas, log, out_json):
+    p = subprocess.run([ttp, "diagnose", "--log", log, meas, "--json", out_json],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    status, cause, detail = None, None, ""
+    if os.path.exists(out_json):
+        try:
+            d = json.load(open(out_json))
+            status, cause = d.get("status"), d.get("cause")
+        except ValueError:
+            pass
+    if status is None:
+        status = "error%d" % p.returncode
+        detail = (p.stderr or p.stdout).strip().splitlines()[-1:] or [""]
+        detail = detail[0]
+    outcome = cause if status == "named" else status
+    return outcome, p.returncode, detail
+
+
+def run_one(ttp, work, spacing, comp, effect, size, kind, seed):
+    d = os.path.join(work, "run")
+    shutil.rmtree(d, ignore_errors=True)
+    meas, log = generate.generate(d, effect, size, seed, spacing, comp, kind)
+    outcome, rc, detail = diagnose(ttp, meas, log, os.path.join(d, "diag.json"))
+    return {"spacing_s": spacing, "compensation": "on" if comp else "off", "effect": effect,
+            "size": size, "measurement": kind, "seed": seed, "expected": expected(effect),
+            "outcome": outcome, "exit": rc, "detail": detail}
+
+
+def fmt(size):
+    return size if isinstance(size, str) else "%g" % size
+
+
+def command_for(r):
+    return ("python3 bench/outside/generate.py --effect %s --size %s --seed %d --spacing-s %d "
+            "--compensation %s --measurement %s -o out/r && ttp diagnose --log out/r/talc.csv out/r/%s" %
+            (r["effect"], fmt(r["size"]), r["seed"], r["spacing_s"], r["compensation"], r["measurement"],
+             "dial.csv" if r["measurement"] == "dial" else "piece.json"))
+
+
+def report(results, spacings):
+    cols = ["workpiece_expansion", "tool_wear", "clamping_distortion", "c_axis_indexing",
+            "pair", "none", "unexplained", "refused", "other"]
+    rows = ["workpiece_expansion", "tool_wear", "clamping_distortion", "c_axis_indexing",
+            "pair", "none", "unexplained", "refused"]
+    short = {"pair": "a+b", "workpiece_expansion": "wp_exp", "tool_wear": "wear", "clamping_distortion": "clamp",
+             "c_axis_indexing": "c_idx", "none": "none", "unexplained": "unexpl",
+             "refused": "refused", "other": "other"}
+    total_right = total = 0
+    for sp in spacings:
+        rs = [r for r in results if r["spacing_s"] == sp]
+        right = sum(r["outcome"] == r["expected"] for r in rs)
+        false_names = [r for r in rs if r["expected"] in ("none", "unexplained", "refused")
+                       and r["outcome"] in generate.CATALOGUE + ["other"]
+                       or (r["expected"] in ("none", "unexplained", "refused") and "+" in r["outcome"])]
+        no_cause = [r for r in rs if r["expected"] in ("none", "unexplained", "refused")]
+        belong_refused = [r for r in rs if r["expected"] != "refused" and r["outcome"] == "refused"]
+        belong = [r for r in rs if r["expected"] != "refused"]
+        total_right += right
+        total += len(rs)
+        print("R-tests every %d s: right %d/%d (%.0f %%), false names %d/%d, refused belonging pairs %d/%d"
+              % (sp, right, len(rs), 100.0 * right / max(1, len(rs)), len(false_names), len(no_cause),
+                 len(belong_refused), len(belong)))
+        print("  %-9s" % "expected" + "".join("%8s" % short[c] for c in cols))
+        for e in rows:
+            er = [r for r in rs if r["expected"] == e or (e == "pair" and "+" in r["expected"])]
+            if not er:
+                continue
+            cnt = {c: 0 for c in cols}
+            for r in er:
+                o = "pair" if "+" in r["outcome"] else r["outcome"]
+                o = o if o in cols else "other"
+                cnt[o] += 1
+            line = "  %-9s" % short[e] + "".join("%8s" % (cnt[c] or ".") for c in cols)
+            if e == "pair":
+                line += "   (right pair: %d)" % sum(r["outcome"] == r["expected"] for r in er)
+            print(line)
+        for comp in ("off", "on"):
+            cr = [r for r in rs if r["compensation"] == comp]
+            print("  compensation %s: right %d/%d" % (comp, sum(r["outcome"] == r["expected"] for r in cr), len(cr)))
+    print("all spacings: right %d/%d" % (total_right, total))
+    print("right per effect and size (R-tests every %s s):" % " / ".join(str(s) for s in spacings))
+    keys = []
+    for r in results:
+        k = (r["effect"], fmt(r["size"]))
+        if k not in keys:
+            keys.append(k)
+    for e, s in sorted(keys):
+        cells = []
+        for sp in spacings:
+            rr = [r for r in results if (r["effect"], fmt(r["size"])) == (e, s) and r["spacing_s"] == sp]
+            cells.append("%d/%d" % (sum(r["outcome"] == r["expected"] for r in rr), len(rr)))
+        print("  %-40s %-8s %s" % (e, s, "  ".join(cells)))
+    print("misses (reproduce from the repository root with ttp on PATH):")
+    for r in results:
+        if r["outcome"] != r["expected"]:
+            print("  %-5d %-3s %-20s %-5s %-4s -> %-20s %s" % (
+                r["spacing_s"], r["compensation"], r["effect"], fmt(r["size"]), r["measurement"],
+                r["outcome"], r["detail"][:100]))
+            print("        " + command_for(r))
+
+
+# the ctest's fixed set: one block of the battery at 300 s (compensation off)
+# and one at 3600 s (on), seed 7: 46 runs, 18 of them without a catalogue
+# cause, in which no cause may be named
+CHECK_BLOCKS = [(300, False), (3600, True)]
+CHECK_SEED = 7
+# right outcomes of the set on main at 98a7426 (see README.md), and the
+# margin: the set is fixed, so a drop means the product changed; with
+# p ~ 0.85 on 46 runs one binomial sd is 2.4 runs, and a product change that
+# keeps the rate reshuffles outcomes within about that: fail below
+# MEASURED - 3 (about 7 percentage points)
+CHECK_MEASURED_RIGHT = 39
+CHECK_MARGIN = 3
+
+
+def check(ttp, work):
+    rng = random.Random(CHECK_SEED)
+    results = []
+    for sp, comp in CHECK_BLOCKS:
+        for e, s, kind, seed in scenarios(sp, comp, rng, 1):
+            results.append(run_one(ttp, work, sp, comp, e, s, kind, seed))
+    bad = 0
+    no_cause = [r for r in results if r["expected"] in ("none", "unexplained", "refused")]
+    for r in results:
+        if r["outcome"].startswith("error"):
+            print("FAIL (bad input or internal error): %s: %s" % (command_for(r), r["detail"]))
+            bad += 1
+    named = [r for r in no_cause if r["outcome"] not in ("none", "unexplained", "refused")
+             and not r["outcome"].startswith("error")]
+    for r in named:
+        print("FAIL: %s named in a run without a catalogue cause (%s): %s" % (
+            r["outcome"], r["effect"], command_for(r)))
+    right = sum(r["outcome"] == r["expected"] for r in results)
+    for r in results:
+        if r["outcome"] != r["expected"]:
+            print("miss: %s expected %s, got %s: %s" % (r["effect"], r["expected"], r["outcome"], command_for(r)))
+    need = (CHECK_MEASURED_RIGHT - CHECK_MARGIN) if CHECK_MEASURED_RIGHT is not None else 0
+    print("runs without a catalogue cause: %d, causes named in them: %d (0 allowed)" % (len(no_cause), len(named)))
+    print("right outcomes: %d/%d (main at 98a7426: %s; at least %d required)" % (
+        right, len(results), CHECK_MEASURED_RIGHT, need))
+    if named or right < need:
+        bad += 1
+    return 1 if bad else 0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--ttp", default="build/app/ttp")
+    ap.add_argument("--seed", type=int, default=20261125)
+    ap.add_argument("--reps", type=int, default=2)
+    ap.add_argument("--spacings", default="300,1800,3600,7200")
+    ap.add_argument("--only", help="comma-separated effects to keep (e.g. none,step,two_lobe,strip_drift)")
+    ap.add_argument("--json", help="write every run's result here")
+    ap.add_argument("--check", action="store_true", help="the ctest's fixed small set")
+    ap.add_argument("--workdir", help="scratch folder (default: a temporary one)")
+    a = ap.parse_args()
+    work = a.workdir or tempfile.mkdtemp(prefix="ttp-outside-")
+    os.makedirs(work, exist_ok=True)
+    try:
+        if a.check:
+            return check(a.ttp, work)
+        spacings = [int(x) for x in a.spacings.split(",")]
+        rng = random.Random(a.seed)
+        results = []
+        t0 = time.time()
+        for sp in spacings:
+            for comp in (False, True):
+                for e, s, kind, seed in scenarios(sp, comp, rng, a.reps):
+                    if a.only and e not in a.only.split(","):
+                        continue
+                    results.append(run_one(a.ttp, work, sp, comp, e, s, kind, seed))
+        report(results, spacings)
+        print("%d runs in %.0f s" % (len(results), time.time() - t0))
+        if a.json:
+            with open(a.json, "w") as f:
+                json.dump(results, f, indent=1)
+    finally:
+        if not a.workdir:
+            shutil.rmtree(work, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
