@@ -419,6 +419,10 @@ class Fitter {
       }
       if (spec.causes[k] == Cause::kToolWear && p[0] < 0)
         fit.note = "wear_um_per_m < 0 (a cutter does not grow)";
+      if (spec.causes[k] == Cause::kWorkpieceExpansion && p[1] < 0)
+        fit.note =
+            "gain_K_per_K < 0 (the piece does not cool while the machine "
+            "warms)";
       fit.params.push_back(p);
       fit.covariance.push_back(cov);
     }
@@ -767,6 +771,10 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
   if (max_c_harmonics < 1 || max_c_harmonics > 12)
     return fail("max_c_harmonics: must be 1..12");
   if (!(named_machine_z > 0)) return fail("named_machine_z: must be > 0");
+  if (!(min_heldout_gain_pct < 100))
+    return fail("min_heldout_gain_pct: must be < 100");
+  if (!(implausible_rival_margin >= 0))
+    return fail("implausible_rival_margin: must be >= 0");
   if (!(mismatch_slope_limit > 0))
     return fail("mismatch_slope_limit: must be > 0");
   if (tau_grid_s.empty()) return fail("tau_grid_s: empty");
@@ -870,6 +878,48 @@ std::vector<StructureLocation> LocateStructure(const Observations& obs,
     return a.chi2_per_observation > b.chi2_per_observation;
   });
   return out;
+}
+
+// Whether a name chosen on all cycles holds (diagnosis.md section 3: an
+// effect outside the catalogue is `unexplained`, never the nearest name).
+// BIC against the nominal model only says that the cause's shape lowers
+// chi2; an effect outside the catalogue (a step between cycles, another
+// lobe count, one feature type drifting) also projects onto some cause's
+// shape, most easily when few observations are left (a dial gauge: no
+// angles, 8 cycles). Two things a real cause leaves and a projection
+// does not: its fit predicts cycles it did not see (the selection
+// repeated without each cycle), and no physically implausible fit of a
+// catalogue shape (the residual wants a cutter that grows or a lag
+// outside the physical range) explains the data better than it does.
+// Returns an empty string when the name holds, else why not.
+std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
+                            const DiagnosisOptions& options) {
+  const CandidateResult& named = report.candidates[chosen];
+  // A rival that holds the named causes and adds an implausible one only
+  // describes what is left after them (the goodness-of-fit tests judge
+  // that); a rival of another shape competes with the name.
+  const auto contains_named = [&named](const CandidateResult& c) {
+    for (Cause cause : named.causes)
+      if (std::find(c.causes.begin(), c.causes.end(), cause) ==
+          c.causes.end())
+        return false;
+    return true;
+  };
+  for (const CandidateResult& c : report.candidates)
+    if (!c.note.empty() && !contains_named(c) &&
+        c.bic < named.bic - options.implausible_rival_margin)
+      return fmt::format(
+          "{} fits better (delta BIC {:.1f} against {:.1f} for {}) but is "
+          "physically implausible ({}): the residual has a shape no known "
+          "cause gives",
+          c.name, c.delta_bic, named.delta_bic, named.name, c.note);
+  if (!(report.gain_pct > options.min_heldout_gain_pct))
+    return fmt::format(
+        "{} fitted without each cycle does not predict it better than the "
+        "nominal model (held-out gain {:.1f} %, needs > {:g} %): its fit "
+        "follows structure of another shape",
+        named.name, report.gain_pct, options.min_heldout_gain_pct);
+  return "";
 }
 
 }  // namespace
@@ -980,6 +1030,24 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     const double e = angles_only ? report.heldout_extended_rms_urad
                                  : report.heldout_extended_rms_um;
     if (b > 0) report.gain_pct = 100.0 * (1.0 - e / b);
+    const std::string why = NamedCauseHolds(report, sel.chosen, options);
+    if (!why.empty()) {
+      report.status = DiagnosisStatus::kUnexplained;
+      report.cause = StatusName(report.status);
+      report.reason = fmt::format(
+          "{} beats the nominal model (delta BIC {:.1f}) but does not hold: "
+          "{}; the residual holds structure that no known cause explains",
+          chosen.spec.Name(), report.candidates[sel.chosen].delta_bic, why);
+      report.params.clear();
+      report.gain_pct = 0;
+      report.extended_rms_um = report.baseline_rms_um;
+      report.extended_rms_urad = report.baseline_rms_urad;
+      // Where the structure lives: after the nominal model, since the
+      // cause's fit does not hold.
+      const Column nominal = y - Prediction(sel.fits[0], cache, obs);
+      report.figure_after_um.assign(nominal.data(), nominal.data() + nf);
+      report.structure = LocateStructure(obs, nominal, part.cycles());
+    }
   }
   return report;
 }
