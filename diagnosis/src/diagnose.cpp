@@ -496,7 +496,48 @@ struct Selection {
   int step_group = -1, step_from_cycle = 0;
   // BIC of the chosen cause minus the best step alternative's.
   double step_rival = -kInf;
+  // Largest chi2 drop by a drift of one figure kind over the cycles.
+  double trend_chi2 = 0;
 };
+
+// A drift of one figure kind over the cycles (one feature type wearing or
+// moving in a way no catalogue cause does: every cause moves several
+// figures together or follows the machine's heat), fitted along with a
+// model: the largest chi2 it explains, and in which kind.
+struct TrendTest {
+  double chi2_drop = 0;
+  int group = -1;
+  double drift_um = 0;  // over the cycles measured
+};
+TrendTest FigureTrend(const Fitter& fitter, const Fit& fit,
+                      const Problem& problem) {
+  TrendTest out;
+  if (!fit.ok) return out;
+  double tau = 0;
+  for (size_t c = 0; c < fit.spec.causes.size(); ++c)
+    if (fit.spec.causes[c] == Cause::kWorkpieceExpansion) tau = fit.params[c][0];
+  std::vector<Eigen::VectorXd> columns;
+  std::vector<int> first;
+  Eigen::VectorXd base;
+  fitter.Columns(fit.spec, tau, &columns, &base, &first);
+  const Observations& obs = problem.obs();
+  const std::vector<int> kinds = problem.RowKinds();
+  for (int g = 0; g < kFigureKinds; ++g) {
+    if (std::count(kinds.begin(), kinds.end(), g) < 4) continue;
+    Column trend = Column::Zero(obs.size());
+    for (size_t i = 0; i < obs.figures(); ++i)
+      if (obs.figure_kind[i] == g) trend[i] = obs.figure_cycle[i];
+    std::vector<Eigen::VectorXd> with_trend = columns;
+    with_trend.push_back(problem.Whiten(trend));
+    const Problem::Solution with = problem.Solve(with_trend, base);
+    if (with.ok && fit.chi2 - with.chi2 > out.chi2_drop) {
+      out.chi2_drop = fit.chi2 - with.chi2;
+      out.group = g;
+      out.drift_um = with.b[with.b.size() - 1] * (part_cycles(obs) - 1);
+    }
+  }
+  return out;
+}
 
 // `tests`: false inside the held-out folds, where only the chosen model's
 // prediction is used.
@@ -679,11 +720,23 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
         "a step of {} from cycle {} on explains chi2 {:.1f} more (limit {:g})",
         kFigureNames[sel.step_group], sel.step_from_cycle, sel.step_chi2,
         options.step_chi2);
+  std::string trend;
+  {
+    const TrendTest t = FigureTrend(fitter, f, problem);
+    sel.trend_chi2 = t.chi2_drop;
+    if (t.chi2_drop > options.trend_chi2 &&
+        std::abs(t.drift_um) > options.trend_min_um)
+      trend = fmt::format(
+          "a drift of {} over the cycles ({:+.2f} um) explains chi2 {:.1f} "
+          "more (limit {:g})",
+          kFigureNames[t.group], t.drift_um, t.chi2_drop, options.trend_chi2);
+  }
   if (sel.chi2_per_dof > options.max_chi2_per_dof || !local.empty() ||
-      !step.empty() || !rival.empty()) {
+      !step.empty() || !rival.empty() || !trend.empty()) {
     sel.status = DiagnosisStatus::kUnexplained;
     std::string where = local;
     if (!step.empty()) where += (where.empty() ? "" : "; ") + step;
+    if (!trend.empty()) where += (where.empty() ? "" : "; ") + trend;
     if (!rival.empty()) where += (where.empty() ? "" : "; ") + rival;
     sel.reason = fmt::format(
         "{} leaves chi2 per degree of freedom {:.2f} (limit {:.2f}){}: the "
@@ -773,6 +826,8 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
   if (!(named_machine_z > 0)) return fail("named_machine_z: must be > 0");
   if (!(min_heldout_gain_pct < 100))
     return fail("min_heldout_gain_pct: must be < 100");
+  if (!(trend_chi2 > 0)) return fail("trend_chi2: must be > 0");
+  if (!(trend_min_um >= 0)) return fail("trend_min_um: must be >= 0");
   if (!(implausible_rival_margin >= 0))
     return fail("implausible_rival_margin: must be >= 0");
   if (!(mismatch_slope_limit > 0))
@@ -892,7 +947,11 @@ std::vector<StructureLocation> LocateStructure(const Observations& obs,
 // catalogue shape (the residual wants a cutter that grows or a lag
 // outside the physical range) explains the data better than it does.
 // Returns an empty string when the name holds, else why not.
+// `heldout_*_chi2`: the held-out cycles' residuals (nominal model and the
+// fold's chosen one) over their sigma, squared and summed over figures and
+// angles, so that a cause seen in the angles is judged there too.
 std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
+                            double heldout_base_chi2, double heldout_ext_chi2,
                             const DiagnosisOptions& options) {
   const CandidateResult& named = report.candidates[chosen];
   // A rival that holds the named causes and adds an implausible one only
@@ -913,12 +972,19 @@ std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
           "physically implausible ({}): the residual has a shape no known "
           "cause gives",
           c.name, c.delta_bic, named.delta_bic, named.name, c.note);
-  if (!(report.gain_pct > options.min_heldout_gain_pct))
+  // The gain as an RMS of normalised residuals (1 - sqrt of the chi2
+  // ratio), the same measure as gain_pct on one kind of observation.
+  const double gain_pct =
+      heldout_base_chi2 > 0
+          ? 100.0 * (1.0 - std::sqrt(heldout_ext_chi2 / heldout_base_chi2))
+          : 0.0;
+  if (!(gain_pct > options.min_heldout_gain_pct))
     return fmt::format(
         "{} fitted without each cycle does not predict it better than the "
-        "nominal model (held-out gain {:.1f} %, needs > {:g} %): its fit "
-        "follows structure of another shape",
-        named.name, report.gain_pct, options.min_heldout_gain_pct);
+        "nominal model (held-out residuals over their sigma, figures and "
+        "angles: gain {:.1f} %, needs > {:g} %): its fit follows structure "
+        "of another shape",
+        named.name, gain_pct, options.min_heldout_gain_pct);
   return "";
 }
 
@@ -999,6 +1065,9 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   // k, its chosen model and the nominal one predicting cycle k.
   if (sel.status == DiagnosisStatus::kNamed) {
     std::vector<double> base_um, ext_um, base_urad, ext_urad;
+    // Held-out residuals in units of their sigma, figures and angles
+    // together (what a name is judged on: NamedCauseHolds).
+    double heldout_base_chi2 = 0, heldout_ext_chi2 = 0;
     for (int k = 1; k <= part.cycles(); ++k) {
       std::vector<bool> use(n);
       bool any = false;
@@ -1016,6 +1085,10 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
         if (use[i]) continue;
         (i < nf ? base_um : base_urad).push_back(y[i] - pb[i]);
         (i < nf ? ext_um : ext_urad).push_back(y[i] - pe[i]);
+        const double sigma =
+            i < nf ? obs.figure_sigma_um[i] : obs.angle_sigma_urad[i - nf];
+        heldout_base_chi2 += std::pow((y[i] - pb[i]) / sigma, 2);
+        heldout_ext_chi2 += std::pow((y[i] - pe[i]) / sigma, 2);
       }
     }
     report.heldout_baseline_rms_um = Rms(base_um);
@@ -1030,7 +1103,8 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     const double e = angles_only ? report.heldout_extended_rms_urad
                                  : report.heldout_extended_rms_um;
     if (b > 0) report.gain_pct = 100.0 * (1.0 - e / b);
-    const std::string why = NamedCauseHolds(report, sel.chosen, options);
+    const std::string why = NamedCauseHolds(
+        report, sel.chosen, heldout_base_chi2, heldout_ext_chi2, options);
     if (!why.empty()) {
       report.status = DiagnosisStatus::kUnexplained;
       report.cause = StatusName(report.status);

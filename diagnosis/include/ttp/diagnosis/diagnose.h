@@ -93,6 +93,14 @@ struct DiagnosisOptions {
   // A step in one figure kind from some cycle on, fitted along with the
   // chosen model, must not lower chi2 by more than this.
   double step_chi2 = 40.0;
+  // A drift of one figure kind over the cycles (linear in the cycle),
+  // fitted along with the chosen model, must not lower chi2 by more than
+  // this (one parameter; calibrated on runs without a cause) while
+  // drifting by more than `trend_min_um` over the cycles measured (less is
+  // within the R-tests' expanded uncertainty, thesis table 5.4, and the
+  // figures' model error on real pieces).
+  double trend_chi2 = 20.0;
+  double trend_min_um = 1.0;
   // A named cause must beat the best such step (as an alternative to the
   // cause, two parameters: height and first cycle) by this much in BIC.
   double step_rival_margin = 6.0;
