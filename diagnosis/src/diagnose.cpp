@@ -515,7 +515,8 @@ TrendTest FigureTrend(const Fitter& fitter, const Fit& fit,
   if (!fit.ok) return out;
   double tau = 0;
   for (size_t c = 0; c < fit.spec.causes.size(); ++c)
-    if (fit.spec.causes[c] == Cause::kWorkpieceExpansion) tau = fit.params[c][0];
+    if (fit.spec.causes[c] == Cause::kWorkpieceExpansion)
+      tau = fit.params[c][0];
   std::vector<Eigen::VectorXd> columns;
   std::vector<int> first;
   Eigen::VectorXd base;
@@ -959,8 +960,7 @@ std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
   // that); a rival of another shape competes with the name.
   const auto contains_named = [&named](const CandidateResult& c) {
     for (Cause cause : named.causes)
-      if (std::find(c.causes.begin(), c.causes.end(), cause) ==
-          c.causes.end())
+      if (std::find(c.causes.begin(), c.causes.end(), cause) == c.causes.end())
         return false;
     return true;
   };
