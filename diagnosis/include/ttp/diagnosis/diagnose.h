@@ -99,9 +99,28 @@ struct DiagnosisOptions {
   // A step in one figure kind from some cycle on, fitted along with the
   // chosen model, must not lower chi2 by more than this.
   double step_chi2 = 40.0;
+  // A drift of one figure kind over the cycles (linear in the cycle),
+  // fitted along with the chosen model, must not lower chi2 by more than
+  // this (one parameter; calibrated on runs without a cause) while
+  // drifting by more than `trend_min_um` over the cycles measured (less is
+  // within the R-tests' expanded uncertainty, thesis table 5.4, and the
+  // figures' model error on real pieces).
+  double trend_chi2 = 20.0;
+  double trend_min_um = 1.0;
   // A named cause must beat the best such step (as an alternative to the
   // cause, two parameters: height and first cycle) by this much in BIC.
-  double step_rival_margin = 0.0;
+  double step_rival_margin = 6.0;
+  // A name must hold on what the cause's fit did not see and against the
+  // shapes the physics excludes (NamedCauseHolds in diagnose.cpp): the
+  // chosen model, selected again without each cycle, must predict the
+  // held-out cycles better than the nominal model by more than this (%),
+  // and no candidate whose fitted parameters are physically implausible
+  // (negative wear, a time constant at its bound), unless it holds the
+  // named causes, may beat it in BIC by more than
+  // `implausible_rival_margin` (the residual then has a shape no known
+  // cause gives).
+  double min_heldout_gain_pct = 0.0;
+  double implausible_rival_margin = 2.0;
   // Lower bounds of the residual uncertainties (um, urad).
   double min_sigma_um = 0.02, min_sigma_urad = 0.3;
   // Scale on the estimator's blocked cross-validation error (which holds
