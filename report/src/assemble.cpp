@@ -110,7 +110,6 @@ json AssembleReportData(const Config& config, const ReportInputs& in,
   if ((in.diagnosis == nullptr) != (in.explanation == nullptr))
     throw InputError("report", 0, "",
                      "a diagnosis and its explanation go together");
-  const PartSpec& part = config.part;
   const inspect::InspectionResult& measured = in.measurement->result;
   const inspect::GradeLimits& limits = in.grade->limits;
   json data = {{"schema", kReportSchema}, {"title", options.title}};
