@@ -195,42 +195,10 @@ int Coverage(const Config& config, double spacing, int runs) {
       t.seed = 90001 + 7919ULL * k;
       t.rtest_interval_s = spacing;
       t.compensation = k % 2 == 1;
-      const TwinRun twin = RunTwin(config, t);
-      const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin");
-      const MeasuredPiece m =
-          MeasuredPieceFromFeatures(config.part, twin.true_results);
-      const auto est = thermal::MachineErrorEstimator::Fit(log);
-      const PreparedRun run = PrepareRun(
-          log, config, est, thermal::SimulatePiece(log, config, est, {}), m);
-      const Observations& o = run.observations;
-      const auto& rt = est.rtest_times_s();
-      for (int g = 0; g < 4; ++g) {
-        std::vector<size_t> idx;
-        for (size_t i = 0; i < o.figures(); ++i)
-          if (o.figure_kind[i] == g) idx.push_back(i);
-        const int n = static_cast<int>(idx.size());
-        if (n < 3) continue;
-        Eigen::MatrixXd c(n, n);
-        Eigen::VectorXd r(n), one = Eigen::VectorXd::Ones(n);
-        for (int a = 0; a < n; ++a) {
-          r[a] = o.figure_value_um[idx[a]];
-          for (int b = 0; b < n; ++b)
-            c(a, b) = o.figure_covariance_um2(idx[a], idx[b]);
-        }
-        const Eigen::LLT<Eigen::MatrixXd> llt(c);
-        const Eigen::VectorXd cr = llt.solve(r), c1 = llt.solve(one);
-        const double off = one.dot(cr) / one.dot(c1);
-        chi2[k].push_back((r.dot(cr) - off * one.dot(cr)) / (n - 1));
-        for (int a = 0; a < n; ++a) {
-          const double ti = o.figure_t_s[idx[a]];
-          const auto hi = std::upper_bound(rt.begin(), rt.end(), ti);
-          double frac = 1;
-          if (hi != rt.begin() && hi != rt.end())
-            frac = std::min(ti - *(hi - 1), *hi - ti) / (*hi - *(hi - 1));
-          zin[k].push_back((r[a] - off) / std::sqrt(c(a, a)));
-          place[k].push_back(frac);
-        }
-      }
+      const sim::BudgetCoverage cover = sim::MeasureBudgetCoverage(config, t);
+      chi2[k] = cover.chi2_per_dof;
+      zin[k] = cover.z;
+      place[k] = cover.gap_place;
     }
   };
   std::vector<std::thread> pool;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -13,6 +14,8 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/inspect/inspect.h"
+#include "ttp/thermal/estimator.h"
+#include "ttp/thermal/simulate.h"
 #include "ttp/thermal/talc_log.h"
 
 namespace ttp::sim {
@@ -311,6 +314,47 @@ std::string ConfusionText(const BatteryResult& result) {
       result.correct, result.runs.size(), result.false_names,
       result.no_cause_runs, result.seconds, result.threads);
   return s;
+}
+
+BudgetCoverage MeasureBudgetCoverage(const Config& config,
+                                     const TwinOptions& twin_options) {
+  const TwinRun twin = RunTwin(config, twin_options);
+  const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin");
+  const auto est = thermal::MachineErrorEstimator::Fit(log);
+  const diagnosis::PreparedRun run = diagnosis::PrepareRun(
+      log, config, est, thermal::SimulatePiece(log, config, est, {}),
+      diagnosis::MeasuredPieceFromFeatures(config.part, twin.true_results));
+  const diagnosis::Observations& o = run.observations;
+  const auto& rt = est.rtest_times_s();
+  BudgetCoverage out;
+  for (int g = 0; g < 4; ++g) {
+    std::vector<size_t> idx;
+    for (size_t i = 0; i < o.figures(); ++i)
+      if (o.figure_kind[i] == g) idx.push_back(i);
+    const int n = static_cast<int>(idx.size());
+    if (n < 3) continue;
+    Eigen::MatrixXd c(n, n);
+    Eigen::VectorXd r(n), one = Eigen::VectorXd::Ones(n);
+    for (int a = 0; a < n; ++a) {
+      r[a] = o.figure_value_um[idx[a]];
+      for (int b = 0; b < n; ++b)
+        c(a, b) = o.figure_covariance_um2(idx[a], idx[b]);
+    }
+    const Eigen::LLT<Eigen::MatrixXd> llt(c);
+    const Eigen::VectorXd cr = llt.solve(r), c1 = llt.solve(one);
+    const double offset = one.dot(cr) / one.dot(c1);
+    out.chi2_per_dof.push_back((r.dot(cr) - offset * one.dot(cr)) / (n - 1));
+    for (int a = 0; a < n; ++a) {
+      const double ti = o.figure_t_s[idx[a]];
+      const auto hi = std::upper_bound(rt.begin(), rt.end(), ti);
+      double place = 1;
+      if (hi != rt.begin() && hi != rt.end())
+        place = std::min(ti - *(hi - 1), *hi - ti) / (*hi - *(hi - 1));
+      out.z.push_back((r[a] - offset) / std::sqrt(c(a, a)));
+      out.gap_place.push_back(place);
+    }
+  }
+  return out;
 }
 
 }  // namespace ttp::sim

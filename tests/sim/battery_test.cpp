@@ -119,33 +119,10 @@ TEST(Battery, EstimatorBudgetCoversItsErrorsAtTheCuts) {
       t.seed = 777 + 31 * k;
       t.rtest_interval_s = spacing;
       t.compensation = k % 2 == 1;
-      const TwinRun twin = RunTwin(config, t);
-      const thermal::TalcLog log =
-          thermal::ParseTalcLog(twin.log_text, "twin");
-      const auto est = thermal::MachineErrorEstimator::Fit(log);
-      const diagnosis::PreparedRun run = diagnosis::PrepareRun(
-          log, config, est, thermal::SimulatePiece(log, config, est, {}),
-          diagnosis::MeasuredPieceFromFeatures(config.part,
-                                               twin.true_results));
-      const diagnosis::Observations& o = run.observations;
-      for (int g = 0; g < 4; ++g) {
-        std::vector<size_t> idx;
-        for (size_t i = 0; i < o.figures(); ++i)
-          if (o.figure_kind[i] == g) idx.push_back(i);
-        const int n = static_cast<int>(idx.size());
-        ASSERT_GE(n, 3);
-        Eigen::MatrixXd c(n, n);
-        Eigen::VectorXd r(n), one = Eigen::VectorXd::Ones(n);
-        for (int a = 0; a < n; ++a) {
-          r[a] = o.figure_value_um[idx[a]];
-          for (int b = 0; b < n; ++b)
-            c(a, b) = o.figure_covariance_um2(idx[a], idx[b]);
-        }
-        const Eigen::LLT<Eigen::MatrixXd> llt(c);
-        const Eigen::VectorXd cr = llt.solve(r), c1 = llt.solve(one);
-        const double offset = one.dot(cr) / one.dot(c1);
-        chi2.push_back((r.dot(cr) - offset * one.dot(cr)) / (n - 1));
-      }
+      const BudgetCoverage cover = MeasureBudgetCoverage(config, t);
+      ASSERT_EQ(cover.chi2_per_dof.size(), 4u);
+      chi2.insert(chi2.end(), cover.chi2_per_dof.begin(),
+                  cover.chi2_per_dof.end());
     }
     double mean = 0;
     for (double v : chi2) mean += v / chi2.size();

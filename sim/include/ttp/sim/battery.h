@@ -50,6 +50,21 @@ struct BatteryRun {
   std::string reason;  // the diagnosis' sentence
 };
 
+// The estimator's error budget against the estimator's actual errors at
+// the cut times of one twin run: the noise-free cut piece minus the
+// simulation from the log is the estimator's error in the figures. Per
+// figure kind (E_X, E_Y, E_Z, E_TTP; kinds with fewer than three figures
+// are left out), after the kind's offset, whitened by the budget.
+struct BudgetCoverage {
+  // chi2 per degree of freedom per kind: about 1 when the budget is right.
+  std::vector<double> chi2_per_dof;
+  // Per figure: its whitened error after the offset, and where its cut
+  // sits between two R-tests (0 at one, 0.5 midway; 1 outside them).
+  std::vector<double> z, gap_place;
+};
+BudgetCoverage MeasureBudgetCoverage(const Config& config,
+                                     const TwinOptions& twin);
+
 struct BatteryOptions {
   int runs = 100;
   std::uint64_t seed = 20261122;
