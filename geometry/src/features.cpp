@@ -74,6 +74,8 @@ std::string FeatureId::ToString() const {
       return "MARK";
     case FeatureKind::kNotchFloor:
       return index == 0 ? "NOTCH_SMALL" : "NOTCH_BIG";
+    case FeatureKind::kSphere:
+      return "SPHERE";
   }
   return "?";
 }
@@ -98,11 +100,21 @@ std::optional<FeatureId> FeatureId::Parse(const std::string& text) {
   if (text == "MARK") return Datum(FeatureKind::kMark);
   if (text == "NOTCH_SMALL") return Datum(FeatureKind::kNotchFloor, 0);
   if (text == "NOTCH_BIG") return Datum(FeatureKind::kNotchFloor, 1);
+  if (text == "SPHERE") return Sphere();
   if (std::regex_match(text, m, cylinder)) {
     const long um = std::lround(std::stod(m[1]) * 1000);
     if (um > 0) return Datum(FeatureKind::kCylinder, static_cast<int>(um));
   }
   return std::nullopt;
+}
+
+FeatureId FeatureId::Cylinder(double diameter_mm) {
+  return Datum(FeatureKind::kCylinder,
+               static_cast<int>(std::lround(diameter_mm * 1000)));
+}
+
+FeatureId FeatureId::DatumCylinder(const PartSpec& part) {
+  return Cylinder(part.ref_cylinders.front().diameter_mm);
 }
 
 std::ostream& operator<<(std::ostream& os, const FeatureId& id) {
