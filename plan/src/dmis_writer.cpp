@@ -16,16 +16,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// DMIS labels allow letters, digits and '_'.
-std::string DmisLabel(const FeatureId& feature) {
-  if (feature.kind == FeatureKind::kFlank)
-    return feature.index < 0 ? "FLANK_NY" : "FLANK_PY";
-  std::string s = feature.ToString();
-  for (char& c : s)
-    if (c == '-' || c == '+') c = '_';
-  return s;
-}
-
 std::string Num(double v) { return fmt::format("{:.4f}", v + 0.0); }
 std::string Xyz(const Eigen::Vector3d& p) {
   return Num(p.x()) + "," + Num(p.y()) + "," + Num(p.z());

@@ -118,6 +118,15 @@ struct FeatureId {
 // Writes the name (messages, test failures).
 std::ostream& operator<<(std::ostream& os, const FeatureId& id);
 
+// A feature's label in DMIS programs and outputs (letters, digits, '_'):
+// "X1_5", "Z3", "TOP", "FLANK_PY", "FLANK_NY", "CYL199".
+std::string DmisLabel(const FeatureId& id);
+// The test feature or datum a DMIS label stands for, case-blind: DmisLabel's
+// forms, the names ("X1-5", "FLANK+Y") and "STRIP_3" for Z3, "FLANKPY" /
+// "FLANKNY". Nothing for any other label (the mark's points MARK and
+// MARK_OPP are read by their labels).
+std::optional<FeatureId> FeatureIdForDmisLabel(const std::string& label);
+
 // Parses a test feature's name (a facet or a strip) of talc-log.md section
 // 5. Returns false if it is not one (the caller reports it). Equivalent to
 // FeatureId::Parse restricted to facets and strips.
