@@ -1,5 +1,7 @@
 #include "ttp/geometry/features.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <ostream>
 #include <regex>
@@ -74,6 +76,8 @@ std::string FeatureId::ToString() const {
       return "MARK";
     case FeatureKind::kNotchFloor:
       return index == 0 ? "NOTCH_SMALL" : "NOTCH_BIG";
+    case FeatureKind::kSphere:
+      return "SPHERE";
   }
   return "?";
 }
@@ -98,11 +102,21 @@ std::optional<FeatureId> FeatureId::Parse(const std::string& text) {
   if (text == "MARK") return Datum(FeatureKind::kMark);
   if (text == "NOTCH_SMALL") return Datum(FeatureKind::kNotchFloor, 0);
   if (text == "NOTCH_BIG") return Datum(FeatureKind::kNotchFloor, 1);
+  if (text == "SPHERE") return Sphere();
   if (std::regex_match(text, m, cylinder)) {
     const long um = std::lround(std::stod(m[1]) * 1000);
     if (um > 0) return Datum(FeatureKind::kCylinder, static_cast<int>(um));
   }
   return std::nullopt;
+}
+
+FeatureId FeatureId::Cylinder(double diameter_mm) {
+  return Datum(FeatureKind::kCylinder,
+               static_cast<int>(std::lround(diameter_mm * 1000)));
+}
+
+FeatureId FeatureId::DatumCylinder(const PartSpec& part) {
+  return Cylinder(part.ref_cylinders.front().diameter_mm);
 }
 
 std::ostream& operator<<(std::ostream& os, const FeatureId& id) {
@@ -114,6 +128,33 @@ FeatureId NominalFeature::Key() const {
     return FeatureId::Facet(*segment, index);
   if (kind == FeatureKind::kStrip) return FeatureId::Strip(index);
   return FeatureId::Parse(id).value_or(FeatureId::Datum(kind, index));
+}
+
+std::string DmisLabel(const FeatureId& id) {
+  if (id.kind == FeatureKind::kFlank)
+    return id.index < 0 ? "FLANK_NY" : "FLANK_PY";
+  std::string s = id.ToString();
+  for (char& c : s)
+    if (c == '-' || c == '+') c = '_';
+  return s;
+}
+
+std::optional<FeatureId> FeatureIdForDmisLabel(const std::string& label) {
+  const size_t b = label.find_first_not_of(" \t");
+  const size_t e = label.find_last_not_of(" \t");
+  std::string s = b == std::string::npos ? "" : label.substr(b, e - b + 1);
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  if (s == "FLANK_PY" || s == "FLANKPY") return FeatureId::Flank(+1);
+  if (s == "FLANK_NY" || s == "FLANKNY") return FeatureId::Flank(-1);
+  const std::string strip = "STRIP_";
+  if (s.compare(0, strip.size(), strip) == 0) s = "Z" + s.substr(strip.size());
+  std::replace(s.begin(), s.end(), '_', '-');
+  const std::optional<FeatureId> id = FeatureId::Parse(s);
+  if (id && (id->IsTestFeature() || id->kind == FeatureKind::kTopFace ||
+             id->kind == FeatureKind::kFlank ||
+             id->kind == FeatureKind::kCylinder))
+    return id;
+  return std::nullopt;
 }
 
 bool FeatureId::operator<(const FeatureId& o) const {

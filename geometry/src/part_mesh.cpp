@@ -120,6 +120,8 @@ const char* FeatureKindName(FeatureKind kind) {
       return "notch_floor";
     case FeatureKind::kMark:
       return "mark";
+    case FeatureKind::kSphere:
+      return "sphere";
   }
   return "?";
 }

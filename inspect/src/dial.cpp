@@ -50,18 +50,19 @@ FeatureResults ReadDialReadings(const std::string& csv_text,
                      "no readings (the file holds its header only): not a "
                      "measurement");
   FeatureResults results;
-  std::map<std::string, int> seen_on_line;
+  std::map<FeatureId, int> seen_on_line;
   const std::vector<NominalFeature> nominal = TestFeatures(part);
-  std::map<std::string, const NominalFeature*> by_id;
-  for (const NominalFeature& f : nominal) by_id[f.id] = &f;
+  std::map<FeatureId, const NominalFeature*> by_id;
+  for (const NominalFeature& f : nominal) by_id[f.Key()] = &f;
 
   for (const CsvRow& row : table.rows) {
     const std::string& id = table.Text(row, feature_col);
-    auto it = by_id.find(id);
+    const std::optional<FeatureId> key = FeatureId::Parse(id);
+    auto it = key ? by_id.find(*key) : by_id.end();
     if (it == by_id.end())
       throw InputError(source, row.line, "feature",
                        "'" + id + "' is not a facet or strip of the piece");
-    if (auto [pos, fresh] = seen_on_line.emplace(id, row.line); !fresh)
+    if (auto [pos, fresh] = seen_on_line.emplace(*key, row.line); !fresh)
       throw InputError(source, row.line, "feature",
                        id + " is read twice (first on line " +
                            std::to_string(pos->second) + ")");

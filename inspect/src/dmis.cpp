@@ -179,55 +179,54 @@ DmisResults ParseDmisOutput(const std::string& text,
   return out;
 }
 
-std::string TestFeatureIdForDmisLabel(const std::string& label) {
-  std::string s = Upper(Trim(label));
-  if (s == "TOP") return "TOP";
-  if (s == "FLANK_PY" || s == "FLANK+Y" || s == "FLANKPY") return "FLANK+Y";
-  if (s == "FLANK_NY" || s == "FLANK-Y" || s == "FLANKNY") return "FLANK-Y";
-  if (s.rfind("CYL", 0) == 0) return s;  // a reference cylinder, "CYL199"
-  if (s.rfind("STRIP_", 0) == 0) s = "Z" + s.substr(6);
-  std::replace(s.begin(), s.end(), '_', '-');
-  const std::optional<FeatureId> id = FeatureId::Parse(s);
-  return id && id->IsTestFeature() ? id->ToString() : "";
-}
-
 DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
   DmisImport out;
-  std::map<std::string, const DmisFeature*> by_id;
+  std::map<FeatureId, const DmisFeature*> by_id;
+  // The two points of the half-turn check (not features of their own).
+  const DmisFeature* mark_point = nullptr;
+  const DmisFeature* opposite_point = nullptr;
   for (const DmisFeature& f : dmis.features) {
-    std::string id = TestFeatureIdForDmisLabel(f.label);
     const std::string up = Upper(Trim(f.label));
-    if (up == "MARK" || up == "MARK_OPP") id = up;
-    if (id.empty()) continue;  // another feature: not a result
-    if (by_id.count(id))
+    const std::optional<FeatureId> id = FeatureIdForDmisLabel(f.label);
+    const DmisFeature** slot = up == "MARK"       ? &mark_point
+                               : up == "MARK_OPP" ? &opposite_point
+                               : id               ? &by_id[*id]
+                                                  : nullptr;
+    if (!slot) continue;  // another feature: not a result
+    if (*slot)
       throw InputError(dmis.source, f.line, "FA(" + f.label + ")",
-                       id + " is reported twice (first on line " +
-                           std::to_string(by_id[id]->line) + ")");
-    by_id[id] = &f;
+                       (id ? id->ToString() : up) +
+                           " is reported twice (first on line " +
+                           std::to_string((*slot)->line) + ")");
+    *slot = &f;
   }
 
   // W from the datums (test-piece.md section 5), if all are there.
   Eigen::Isometry3d to_w = Eigen::Isometry3d::Identity();
   double top_z_mm = 0.0;
-  const std::string datum = DatumCylinderId(part);
-  const auto has = [&](const std::string& id,
-                       std::initializer_list<const char*> t) {
-    auto it = by_id.find(id);
-    if (it == by_id.end()) return false;
+  const FeatureId datum = FeatureId::DatumCylinder(part);
+  const auto of_type = [](const DmisFeature* f,
+                          std::initializer_list<const char*> t) {
+    if (!f) return false;
     for (const char* type : t)
-      if (it->second->type == type) return true;
+      if (f->type == type) return true;
     return false;
   };
-  if (has("TOP", {"PLANE"}) && has("FLANK+Y", {"PLANE"}) &&
-      has("FLANK-Y", {"PLANE"}) && has(datum, {"CIRCLE", "CYLNDR"})) {
-    const DmisFeature& top = *by_id["TOP"];
+  const auto has = [&](const FeatureId& id,
+                       std::initializer_list<const char*> t) {
+    auto it = by_id.find(id);
+    return it != by_id.end() && of_type(it->second, t);
+  };
+  if (has(FeatureId::Top(), {"PLANE"}) && has(FeatureId::Flank(+1), {"PLANE"}) &&
+      has(FeatureId::Flank(-1), {"PLANE"}) && has(datum, {"CIRCLE", "CYLNDR"})) {
+    const DmisFeature& top = *by_id[FeatureId::Top()];
     const Eigen::Vector3d z = top.direction.z() >= 0
                                   ? top.direction
                                   : Eigen::Vector3d(-top.direction);
     // The flanks are parallel: W's Y is their common normal, oriented from
     // the -Y flank towards the +Y flank (the reported normals' signs vary).
-    const DmisFeature& plus = *by_id["FLANK+Y"];
-    const DmisFeature& minus = *by_id["FLANK-Y"];
+    const DmisFeature& plus = *by_id[FeatureId::Flank(+1)];
+    const DmisFeature& minus = *by_id[FeatureId::Flank(-1)];
     const Eigen::Vector3d across = plus.point_mm - minus.point_mm;
     const auto towards = [&](const Eigen::Vector3d& n) -> Eigen::Vector3d {
       return n.dot(across) >= 0 ? n : Eigen::Vector3d(-n);
@@ -248,23 +247,22 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     out.aligned_from_datums = true;
   } else {
     out.warnings.push_back(
-        "datums TOP, FLANK+Y, FLANK-Y and " + datum +
+        "datums TOP, FLANK+Y, FLANK-Y and " + datum.ToString() +
         " not all reported: the reported coordinates are taken as the "
         "workpiece frame W");
-    if (has("TOP", {"PLANE"})) {
-      const DmisFeature& top = *by_id["TOP"];
+    if (has(FeatureId::Top(), {"PLANE"})) {
+      const DmisFeature& top = *by_id[FeatureId::Top()];
       top_z_mm = top.point_mm.z();
     }
   }
 
   // The half-turn from the engraved mark.
   if (out.aligned_from_datums) {
-    const bool mark = has("MARK", {"POINT"}), opp = has("MARK_OPP", {"POINT"});
-    if (mark && opp) {
+    if (of_type(mark_point, {"POINT"}) && of_type(opposite_point, {"POINT"})) {
       constexpr double kMinDepthMm = 0.005;
-      const DmisFeature& m = *by_id["MARK"];
+      const DmisFeature& m = *mark_point;
       const double depth =
-          (to_w * by_id["MARK_OPP"]->point_mm).z() - (to_w * m.point_mm).z();
+          (to_w * opposite_point->point_mm).z() - (to_w * m.point_mm).z();
       if (depth <= -kMinDepthMm)
         throw InputError(
             dmis.source, m.line, "FA(" + m.label + ")",
@@ -284,7 +282,7 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
 
   std::vector<std::string> reversed;
   for (const NominalFeature& nominal : TestFeatures(part)) {
-    auto it = by_id.find(nominal.id);
+    auto it = by_id.find(nominal.Key());
     if (it == by_id.end()) continue;
     const DmisFeature& f = *it->second;
     if (f.type != "PLANE")

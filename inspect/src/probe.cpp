@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <limits>
@@ -278,8 +279,8 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   std::map<int, int> seen_drift;              // id -> line (drift)
   std::map<int, Eigen::Vector3d> measured_w;  // id -> surface point in W
   bool frame_decided = false, program_frame = false;
-  std::map<std::string, std::vector<Touch>> by_feature;
-  std::map<std::string, std::vector<double>> drift_um;
+  std::map<FeatureId, std::vector<Touch>> by_feature;
+  std::map<FeatureId, std::vector<double>> drift_um;
   for (const LogRow& row : rows) {
     if (row.pass == plan::ProbePass::kQualify) continue;
     const std::string& id_text = row.id_text;
@@ -303,10 +304,12 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
                        "point " + id_text + " is given twice (first on line " +
                            std::to_string(pos->second) + ")");
     const plan::PlannedPoint& pp = *it->second;
-    if (!row.feature.empty() && Upper(row.feature) != Upper(pp.feature))
+    // Names are compared case-blind (FANUC prints upper case).
+    if (!row.feature.empty() &&
+        FeatureId::Parse(Upper(row.feature)) != pp.feature)
       throw InputError(source, row.line, "feature",
                        "point " + id_text + " is " + row.feature +
-                           " in the results but " + pp.feature +
+                           " in the results but " + pp.feature.ToString() +
                            " in the point list (--probe-points must be the "
                            "list the program was written for)");
     const Eigen::Vector3d xyz = row.xyz;
@@ -351,7 +354,7 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
     if (std::abs(off) > 1.0 || along > 2.0)
       throw InputError(
           source, row.line, "x,y,z",
-          "point " + id_text + " (" + pp.feature + ") lands " +
+          "point " + id_text + " (" + pp.feature.ToString() + ") lands " +
               std::to_string(std::abs(off) > 1.0 ? off : along) +
               " mm from where the plan puts it: machine frame (M), c_deg and "
               "the point list must match the probing program");
@@ -375,7 +378,13 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
         "probe drift over the run (reference facets probed again at the "
         "end, along their normals):";
     double worst = 0;
-    for (const auto& [feature, values] : drift_um) {
+    // Reported in name order (X1-5, X2-5, Y1-5, Y2-5).
+    std::vector<std::pair<std::string, FeatureId>> named;
+    for (const auto& entry : drift_um)
+      named.emplace_back(entry.first.ToString(), entry.first);
+    std::sort(named.begin(), named.end());
+    for (const auto& [name, feature] : named) {
+      const std::vector<double>& values = drift_um.at(feature);
       ProbeDrift d;
       d.feature = feature;
       d.points = static_cast<int>(values.size());
@@ -384,7 +393,7 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
         d.max_abs_um = std::max(d.max_abs_um, std::abs(v));
       }
       worst = std::max(worst, d.max_abs_um);
-      text += fmt::format(" {} {:+.2f} um;", feature, d.mean_um);
+      text += fmt::format(" {} {:+.2f} um;", name, d.mean_um);
       out.drift.push_back(d);
     }
     text += fmt::format(" largest |drift| {:.2f} um", worst);
@@ -392,7 +401,7 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   }
 
   const double sigma = options.repeatability_um * 1e-3;
-  auto points_of = [&](const std::string& id) {
+  auto points_of = [&](const FeatureId& id) {
     std::vector<Eigen::Vector3d> v;
     auto it = by_feature.find(id);
     if (it != by_feature.end())
@@ -407,10 +416,10 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   Eigen::Matrix2d origin_cov = Eigen::Matrix2d::Zero();
   double var_top_mm2 = 0;
   {
-    const auto top = points_of("TOP");
-    const auto fp = points_of("FLANK+Y");
-    const auto fm = points_of("FLANK-Y");
-    const auto cyl = points_of(DatumCylinderId(config.part));
+    const auto top = points_of(FeatureId::Top());
+    const auto fp = points_of(FeatureId::Flank(+1));
+    const auto fm = points_of(FeatureId::Flank(-1));
+    const auto cyl = points_of(FeatureId::DatumCylinder(config.part));
     const Plane pt = FitPlaneKnownSigma(top, Eigen::Vector3d::UnitZ(),
                                         Eigen::Vector3d::UnitX(), sigma);
     // The flanks are probed at one height: lines in the top face's plane.
@@ -472,7 +481,7 @@ ProbeImport ReadProbeResults(const Config& config, const std::string& csv_text,
   }
 
   for (const NominalFeature& nominal : TestFeatures(part)) {
-    std::vector<Eigen::Vector3d> pts = points_of(nominal.id);
+    std::vector<Eigen::Vector3d> pts = points_of(nominal.Key());
     if (pts.empty()) continue;
     if (pts.size() < 3) {
       out.warnings.push_back(nominal.id + " has " + std::to_string(pts.size()) +

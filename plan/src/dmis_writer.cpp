@@ -16,16 +16,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// DMIS labels allow letters, digits and '_'.
-std::string DmisLabel(const std::string& feature) {
-  if (feature == "FLANK+Y") return "FLANK_PY";
-  if (feature == "FLANK-Y") return "FLANK_NY";
-  std::string s = feature;
-  for (char& c : s)
-    if (c == '-' || c == '+') c = '_';
-  return s;
-}
-
 std::string Num(double v) { return fmt::format("{:.4f}", v + 0.0); }
 std::string Xyz(const Eigen::Vector3d& p) {
   return Num(p.x()) + "," + Num(p.y()) + "," + Num(p.z());
@@ -96,10 +86,10 @@ class Writer {
 
   // One feature: nominal, MEAS block with its points, OUTPUT (unless the
   // output waits for the part frame). Manual blocks carry no moves.
-  void Feature(const std::string& label, const std::string& id,
+  void Feature(const std::string& label, const FeatureId& id,
                const std::vector<const PlannedPoint*>& pts, bool manual,
                bool output) {
-    const bool circle = id.rfind("CYL", 0) == 0;
+    const bool circle = id.kind == FeatureKind::kCylinder;
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (const PlannedPoint* p : pts) centre += p->point_w_mm;
     centre /= static_cast<double>(pts.size());
@@ -241,16 +231,16 @@ std::vector<PlannedPoint> CmmPoints(const PartSpec& part,
                                  "top {:.3f}",
                                  dmis.stylus_diameter_mm, circle_z,
                                  part.datum_circle_z_max_mm));
-  const std::string circle_id = DatumCylinderId(part);
+  const FeatureId circle_id = FeatureId::DatumCylinder(part);
   // Flanks: alternately a third and two thirds down the wall; strips:
   // alternately a quarter of the strip width either side of its centre.
-  std::map<std::string, int> seen;
+  std::map<FeatureId, int> seen;
   for (PlannedPoint& p : points) {
     const int k = seen[p.feature]++;
     if (p.feature == circle_id) p.point_w_mm.z() = circle_z;
-    if (p.feature == "FLANK+Y" || p.feature == "FLANK-Y") {
+    if (p.feature.kind == FeatureKind::kFlank) {
       p.point_w_mm.z() = part.big_notch_floor_z_mm * (k % 2 ? 2.0 : 1.0) / 3;
-    } else if (!p.feature.empty() && p.feature[0] == 'Z') {
+    } else if (p.feature.kind == FeatureKind::kStrip) {
       const double y = p.point_w_mm.y();
       p.point_w_mm.y() = y + (k % 2 ? 0.25 : -0.25) * part.strip_width_mm;
     }
@@ -265,23 +255,31 @@ std::string WriteDmisProgram(const PartSpec& part,
                              const DmisOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) ThrowInvalid(why);
-  std::vector<std::string> order;
-  std::map<std::string, std::vector<const PlannedPoint*>> by_feature;
+  std::vector<FeatureId> order;
+  std::map<FeatureId, std::vector<const PlannedPoint*>> by_feature;
   for (const PlannedPoint& p : points) {
     if (!by_feature.count(p.feature)) order.push_back(p.feature);
     by_feature[p.feature].push_back(&p);
   }
-  const std::string cyl = DatumCylinderId(part);
-  for (const std::string& datum : {std::string("TOP"), std::string("FLANK+Y"),
-                                   std::string("FLANK-Y"), cyl})
+  const FeatureId cyl = FeatureId::DatumCylinder(part);
+  const std::vector<FeatureId> datums = {FeatureId::Top(), FeatureId::Flank(+1),
+                                         FeatureId::Flank(-1), cyl};
+  for (const FeatureId& datum : datums)
     if (!by_feature.count(datum))
-      throw InputError("points", 0, datum,
+      throw InputError("points", 0, datum.ToString(),
                        "the datum is not among the points: the part frame "
                        "cannot be built");
-  for (const auto& [feature, pts] : by_feature) {
-    const bool circle = feature.rfind("CYL", 0) == 0;
+  // Checked in name order: the first bad feature by name is reported.
+  std::vector<FeatureId> by_name = order;
+  std::sort(by_name.begin(), by_name.end(),
+            [](const FeatureId& a, const FeatureId& b) {
+              return a.ToString() < b.ToString();
+            });
+  for (const FeatureId& feature : by_name) {
+    const auto& pts = by_feature[feature];
+    const bool circle = feature.kind == FeatureKind::kCylinder;
     if (pts.size() < 3 || (!circle && SecondSpan(pts) < 1.0))
-      throw InputError("points", 0, feature,
+      throw InputError("points", 0, feature.ToString(),
                        "its points lie on a line (or are fewer than 3): a "
                        "plane needs points spanning two directions (more "
                        "rows or points: --facet-rows, --strip-points)");
@@ -319,20 +317,20 @@ std::string WriteDmisProgram(const PartSpec& part,
       "towards machine +X. Take the points shown: 3 on the top face, 4 "
       "on the -Y flank of the big notch, 4 around the 199 mm cylinder. "
       "Leave the stylus above the piece.");
-  const auto& top = by_feature["TOP"];
+  const auto& top = by_feature[FeatureId::Top()];
   const size_t per_segment = std::max<size_t>(1, top.size() / 4);
   std::vector<const PlannedPoint*> top_m;
   for (size_t s = 0; s < 3 && s * per_segment < top.size(); ++s)
     top_m.push_back(top[s * per_segment]);
-  const auto& flank = by_feature["FLANK-Y"];
+  const auto& flank = by_feature[FeatureId::Flank(-1)];
   std::vector<const PlannedPoint*> flank_m(
       flank.begin(), flank.begin() + std::min<size_t>(flank.size(), 4));
   const auto& circle = by_feature[cyl];
   std::vector<const PlannedPoint*> circle_m;
   for (size_t k = 0; k < 4; ++k)
     circle_m.push_back(circle[k * circle.size() / 4]);
-  w.Feature("TOP_M", "TOP", top_m, true, false);
-  w.Feature("FLANK_M", "FLANK-Y", flank_m, true, false);
+  w.Feature("TOP_M", FeatureId::Top(), top_m, true, false);
+  w.Feature("FLANK_M", FeatureId::Flank(-1), flank_m, true, false);
   w.Feature("CYL_M", cyl, circle_m, true, false);
   w.Line("DATDEF/FA(TOP_M),DAT(AM)");
   w.Line("DATDEF/FA(FLANK_M),DAT(BM)");
@@ -342,8 +340,7 @@ std::string WriteDmisProgram(const PartSpec& part,
   // 2. The datums, automatically, and the part frame W from them.
   w.Line("$$ 2. Datums in automatic mode; the part frame W from them.");
   w.Line("MODE/PROG,MAN");
-  const std::vector<std::string> datums = {"TOP", "FLANK+Y", "FLANK-Y", cyl};
-  for (const std::string& d : datums)
+  for (const FeatureId& d : datums)
     w.Feature(DmisLabel(d), d, by_feature[d], false, false);
   w.Line(
       fmt::format("F(FLANK_MID)=FEAT/PLANE,CART,0.0000,0.0000,{},0.0000,"
@@ -354,7 +351,7 @@ std::string WriteDmisProgram(const PartSpec& part,
   w.Line("DATDEF/FA(FLANK_MID),DAT(B)");
   w.Line(fmt::format("DATDEF/FA({}),DAT(C)", DmisLabel(cyl)));
   w.Line("D(W)=DATSET/DAT(A),ZDIR,ZORIG,DAT(B),YDIR,DAT(C),XORIG,YORIG");
-  for (const std::string& d : datums)
+  for (const FeatureId& d : datums)
     w.Line(fmt::format("OUTPUT/FA({})", DmisLabel(d)));
   // The half-turn: one point in the engraved mark (the ball sinks into the
   // groove) and one at the same place turned by 180 deg, if that lies on a
@@ -363,9 +360,9 @@ std::string WriteDmisProgram(const PartSpec& part,
     const double r_mark = (part.mark_r_start_mm + part.mark_r_end_mm) / 2;
     const double phi = part.mark_phi_deg * kPi / 180;
     PlannedPoint mark, opp;
-    mark.feature = "MARK";
+    mark.feature = FeatureId::Datum(FeatureKind::kMark);
     mark.point_w_mm = {r_mark * std::cos(phi), r_mark * std::sin(phi), 0};
-    opp.feature = "MARK_OPP";
+    opp.feature = FeatureId::Top();  // the top face, half a turn away
     opp.point_w_mm = {-mark.point_w_mm.x(), -mark.point_w_mm.y(), 0};
     const auto on_top = [&](const Eigen::Vector3d& p) {
       const double ang = std::atan2(p.y(), p.x()) * 180 / kPi;
@@ -387,17 +384,19 @@ std::string WriteDmisProgram(const PartSpec& part,
 
   // 3. Strips, then the facets segment by segment.
   w.Line("$$ 3. Strips and facets in W.");
-  std::vector<std::string> rest;
-  for (const std::string& f : order)
+  std::vector<FeatureId> rest;
+  for (const FeatureId& f : order)
     if (std::find(datums.begin(), datums.end(), f) == datums.end())
       rest.push_back(f);
+  // Strips first, then by name: X1-1 .. X1-9, X2-1 .., Y1-1 .., Y2-1 ..
   std::stable_sort(rest.begin(), rest.end(),
-                   [](const std::string& a, const std::string& b) {
-                     const bool sa = a[0] == 'Z', sb = b[0] == 'Z';
+                   [](const FeatureId& a, const FeatureId& b) {
+                     const bool sa = a.kind == FeatureKind::kStrip,
+                                sb = b.kind == FeatureKind::kStrip;
                      if (sa != sb) return sa;
-                     return a < b;  // "X1-1" < "X1-2" ... by segment, index
+                     return a.ToString() < b.ToString();
                    });
-  for (const std::string& f : rest)
+  for (const FeatureId& f : rest)
     w.Feature(DmisLabel(f), f, by_feature[f], false, true);
   w.Line(fmt::format("GOTO/0.0000,0.0000,{}",
                      Num(o.clearance_height_mm + o.stylus_length_mm)));

@@ -55,7 +55,7 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
                                      const PlanOptions& options) {
   options.Validate();
   std::vector<PlannedPoint> out;
-  const auto add = [&](const std::string& feature, const Eigen::Vector3d& p,
+  const auto add = [&](const FeatureId& feature, const Eigen::Vector3d& p,
                        const Eigen::Vector3d& n) {
     PlannedPoint q;
     q.id = static_cast<int>(out.size()) + 1;
@@ -82,7 +82,8 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
           std::abs(std::remainder(phi_deg - part.mark_phi_deg, 360.0)) < 2.0 &&
           r > part.mark_r_start_mm - 2 && r < part.mark_r_end_mm + 2;
       if (on_mark) r = r_out;
-      add("TOP", Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), 0), z);
+      add(FeatureId::Top(),
+          Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), 0), z);
     }
   }
   // Flanks: y = +-h, normal into the notch, between the small notch and the
@@ -102,7 +103,7 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
     for (double x : Spread(x_min, x_max, right)) xs.push_back(x);
     for (double x : Spread(x_min, x_max, left)) xs.push_back(-x);
     for (double x : xs)
-      add(side > 0 ? "FLANK+Y" : "FLANK-Y", Eigen::Vector3d(x, side * h, zc),
+      add(FeatureId::Flank(side), Eigen::Vector3d(x, side * h, zc),
           Eigen::Vector3d(0, -side, 0));
   }
   // The 199 datum circle, in the middle of its datum band.
@@ -111,7 +112,7 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
     const double r = c.diameter_mm / 2;
     const double zc =
         (part.datum_circle_z_min_mm + part.datum_circle_z_max_mm) / 2;
-    const std::string id = CylinderId(c.diameter_mm);
+    const FeatureId id = FeatureId::Cylinder(c.diameter_mm);
     for (int i = 0; i < options.cylinder_points; ++i) {
       const double phi = (2 * kPi * (i + 0.5)) / options.cylinder_points;
       const Eigen::Vector3d n(std::cos(phi), std::sin(phi), 0);
@@ -127,14 +128,14 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
       const int n = options.strip_points_per_side;
       for (int side : {-1, +1})
         for (double x : Spread(x_lo, x_hi, n))
-          add(f.id, Eigen::Vector3d(side * x, f.point.y(), f.point.z()), z);
+          add(f.Key(), Eigen::Vector3d(side * x, f.point.y(), f.point.z()), z);
       continue;
     }
     const Eigen::Vector3d t = z.cross(f.normal);
     for (double zz : Spread(f.z_min_mm + m, f.z_max_mm - m, options.facet_rows))
       for (double tt :
            Spread(f.t_min_mm + m, f.t_max_mm - m, options.facet_columns))
-        add(f.id, f.point + tt * t + zz * z, f.normal);
+        add(f.Key(), f.point + tt * t + zz * z, f.normal);
   }
   return out;
 }
@@ -144,9 +145,10 @@ std::string PointsToCsv(const std::vector<PlannedPoint>& points) {
       "point_id,feature,x_mm,y_mm,z_mm,approach_i,approach_j,approach_k\n";
   for (const PlannedPoint& p : points) {
     const Eigen::Vector3d a = -p.normal_w;
-    out += fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.9f},{:.9f},{:.9f}\n",
-                       p.id, p.feature, p.point_w_mm.x(), p.point_w_mm.y(),
-                       p.point_w_mm.z(), a.x() + 0.0, a.y() + 0.0, a.z() + 0.0);
+    out +=
+        fmt::format("{},{},{:.6f},{:.6f},{:.6f},{:.9f},{:.9f},{:.9f}\n", p.id,
+                    p.feature.ToString(), p.point_w_mm.x(), p.point_w_mm.y(),
+                    p.point_w_mm.z(), a.x() + 0.0, a.y() + 0.0, a.z() + 0.0);
   }
   return out;
 }
@@ -167,7 +169,14 @@ std::vector<PlannedPoint> PointsFromCsv(const std::string& text,
       throw InputError(source, row.line, "point_id",
                        "must be a whole number >= 1");
     p.id = static_cast<int>(idv);
-    p.feature = t.Text(row, feature);
+    const std::string name = t.Text(row, feature);
+    const std::optional<FeatureId> parsed = FeatureId::Parse(name);
+    if (!parsed)
+      throw InputError(source, row.line, "feature",
+                       "'" + name +
+                           "' is not a feature name (X1-1..Y2-9, "
+                           "Z1..Z9, TOP, FLANK+Y, FLANK-Y, CYL<diameter>)");
+    p.feature = *parsed;
     p.point_w_mm = {t.Number(row, x), t.Number(row, y), t.Number(row, zc)};
     const Eigen::Vector3d a(t.Number(row, i), t.Number(row, j),
                             t.Number(row, k));

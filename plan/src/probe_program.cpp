@@ -52,7 +52,7 @@ double BallClearanceMm(const PartSpec& part, const PlannedPoint& p, double r,
   if (Vertical(p)) {
     // Down onto a floor: the walls beside it (strips lie between the
     // big-notch flanks).
-    if (p.feature.rfind("Z", 0) == 0)
+    if (p.feature.kind == FeatureKind::kStrip)
       consider(part.big_notch_half_width_mm - std::abs(centre.y()) - r,
                "a big-notch flank");
     return best;
@@ -60,11 +60,11 @@ double BallClearanceMm(const PartSpec& part, const PlannedPoint& p, double r,
   // Horizontal approach: the shoulders of the reference cylinders below or
   // beside the contact (other than the touched cylinder).
   for (const RefCylinder& c : part.ref_cylinders) {
-    if (p.feature == CylinderId(c.diameter_mm)) continue;
+    if (p.feature == FeatureId::Cylinder(c.diameter_mm)) continue;
     consider(BandDistanceMm(centre, c) - r,
              "the shoulder of " + CylinderId(c.diameter_mm));
   }
-  if (p.feature.rfind("FLANK", 0) == 0) {
+  if (p.feature.kind == FeatureKind::kFlank) {
     const double floor =
         std::max(part.big_notch_floor_z_mm, part.strip_floor_z_mm);
     consider(centre.z() - r - floor, "the big-notch floor");
@@ -141,7 +141,7 @@ std::vector<PlannedPoint> PlanProbePoints(const Config& config,
   std::vector<PlannedPoint> points = PlanPoints(config.part, plan);
   const PartSpec& part = config.part;
   const double r = config.process.probe.diameter_mm / 2;
-  const std::string datum = DatumCylinderId(part);
+  const FeatureId datum = FeatureId::DatumCylinder(part);
   // The datum circle's touches: the lowest height in its band where the
   // ball clears the shoulder below (a ball in the middle of a 2 mm band
   // reaches the next larger cylinder first).
@@ -172,7 +172,8 @@ std::vector<PlannedPoint> PlanProbePoints(const Config& config,
                     "{:g}..{:g} mm (part.datum_circle_z_min_mm/_max_mm) "
                     "{:g} mm clear of the next cylinder's shoulder: use a "
                     "smaller stylus",
-                    2 * r, datum, z_lo, z_hi, probe.min_ball_clearance_mm));
+                    2 * r, datum.ToString(), z_lo, z_hi,
+                    probe.min_ball_clearance_mm));
   for (PlannedPoint& p : points)
     if (p.feature == datum) p.point_w_mm.z() = *z_ok;
   CheckBallReach(config, points, probe);
@@ -194,7 +195,7 @@ void CheckBallReach(const Config& config,
                       "(ProbeOptions.min_ball_clearance_mm = {:g}): it cannot "
                       "reach the feature; use a smaller stylus or move the "
                       "points (PlanOptions.edge_margin_mm)",
-                      2 * r, p.id, p.feature, p.point_w_mm.x(),
+                      2 * r, p.id, p.feature.ToString(), p.point_w_mm.x(),
                       p.point_w_mm.y(), p.point_w_mm.z(), clearance, what,
                       options.min_ball_clearance_mm));
   }
@@ -226,7 +227,7 @@ namespace {
 struct Touch {
   ProbePass pass = ProbePass::kMeasure;
   int id = 0;
-  std::string feature;
+  FeatureId feature;
   double c_deg = 0;
   Eigen::Vector3d contact = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
@@ -272,7 +273,7 @@ std::vector<Touch> PieceTouches(const Config& config,
     t.standoff_mm = options.clearance_mm;
     if (!vertical) {
       const double radial = p.point_w_mm.head<2>().norm();
-      if (p.feature.rfind("CYL", 0) == 0 || radial > 90.0)
+      if (p.feature.kind == FeatureKind::kCylinder || radial > 90.0)
         t.standoff_mm =
             std::max(t.standoff_mm, widest_radius_mm + 1.0 - radial);
     }
@@ -377,14 +378,15 @@ class ProgramBuilder {
     int axis = 0;
     for (int a = 1; a < 3; ++a)
       if (std::abs(t.normal[a]) > std::abs(t.normal[axis])) axis = a;
-    Comment(fmt::format("{} {} on {}", ProbePassName(t.pass), t.id, t.feature));
+    Comment(fmt::format("{} {} on {}", ProbePassName(t.pass), t.id,
+                        t.feature.ToString()));
     Add(gcode::Rapid{Z(travel_z_)});
     Index(t.c_deg);
     Add(gcode::Rapid{XY(start.x(), start.y())});
     Add(gcode::Rapid{Z(start.z())});
     gcode::Probe probe{Along(axis, end[axis]),
                        config_.process.probe.feed_mm_min, t.id};
-    probe.feature = t.feature;
+    probe.feature = t.feature.ToString();  // NC text
     probe.pass = ProbePassName(t.pass);
     probe.nominal_mm = t.contact[axis];
     probe.touch_window_mm = options_.touch_window_mm;
@@ -426,7 +428,7 @@ std::string WriteProbeProgram(const Config& config,
       Touch t;
       t.pass = ProbePass::kQualify;
       t.id = s.id;
-      t.feature = "SPHERE";
+      t.feature = FeatureId::Sphere();
       t.c_deg = sphere.c_deg;
       t.normal = s.normal_m;
       t.contact =
@@ -442,7 +444,7 @@ std::string WriteProbeProgram(const Config& config,
     std::vector<PlannedPoint> reference;
     for (const PlannedPoint& p : points)
       for (Segment s : kSegments)
-        if (p.feature == FacetId(s, config.part.reference_index))
+        if (p.feature == FeatureId::Facet(s, config.part.reference_index))
           reference.push_back(p);
     for (const Touch& t :
          PieceTouches(config, reference, options, ProbePass::kDrift))

@@ -109,9 +109,9 @@ SetupSheet BuildSetupSheet(const Config& config) {
   // at C = 0 with the gauge vertical at x = +20 mm (W).
   for (const NominalFeature& f : BuildNominalFeatures(part, Stage::kFinished)) {
     SetupDialPosition d;
-    d.feature = f.id;
+    d.feature = f.Key();
     if (f.kind == FeatureKind::kFacet) {
-      d.zero_on = FacetId(*f.segment, part.reference_index);
+      d.zero_on = FeatureId::Facet(*f.segment, part.reference_index);
       const double phi_f = std::atan2(f.normal.y(), f.normal.x());
       double c = TableAngleFor(phi_f, 0.0, m.c_sense);
       d.c_deg = std::fmod(std::fmod(c / kDeg, 360.0) + 360.0, 360.0);
@@ -122,7 +122,7 @@ SetupSheet BuildSetupSheet(const Config& config) {
       d.contact_m_mm = Arr(WorkpieceToMachine(config, on, d.c_deg * kDeg));
       d.direction = "-X";
     } else if (f.kind == FeatureKind::kStrip) {
-      d.zero_on = StripId(part.reference_index);
+      d.zero_on = FeatureId::Strip(part.reference_index);
       d.c_deg = 0;
       const Eigen::Vector3d on(20.0, f.point.y(), f.point.z());
       d.contact_m_mm = Arr(WorkpieceToMachine(config, on, 0.0));
@@ -182,8 +182,8 @@ nlohmann::json SetupSheetToJson(const SetupSheet& s) {
   j["c_sense"] = s.c_sense;
   nlohmann::json dial = nlohmann::json::array();
   for (const SetupDialPosition& d : s.dial)
-    dial.push_back({{"feature", d.feature},
-                    {"zero_on", d.zero_on},
+    dial.push_back({{"feature", d.feature.ToString()},
+                    {"zero_on", d.zero_on.ToString()},
                     {"c_deg", d.c_deg},
                     {"contact_m_mm", d.contact_m_mm},
                     {"direction", d.direction}});
@@ -220,11 +220,12 @@ std::string SetupSheetHtml(const SetupSheet& s) {
     bolts += fmt::format("{}{:.0f}&deg;", bolts.empty() ? "" : ", ", b);
   std::string dial;
   for (const SetupDialPosition& d : s.dial) {
-    const std::string k = "dial-" + d.feature + "-";
+    const std::string name = d.feature.ToString();
+    const std::string k = "dial-" + name + "-";
     dial += fmt::format(
         "<tr><td>{}</td><td>{}</td>{}<td><code>G90 G0 C{:.3f}</code></td>{}{}"
         "{}<td>{}</td></tr>\n",
-        d.feature, d.zero_on, Cell(k + "c", d.c_deg), d.c_deg,
+        name, d.zero_on.ToString(), Cell(k + "c", d.c_deg), d.c_deg,
         Cell(k + "x", d.contact_m_mm[0]), Cell(k + "y", d.contact_m_mm[1]),
         Cell(k + "z", d.contact_m_mm[2]), d.direction);
   }

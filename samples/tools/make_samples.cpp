@@ -42,15 +42,15 @@ using test::TruePlane;
 
 // The piece's planes in W from per-feature results (facets: distance and
 // normal angle error; strips: depth and slope).
-std::map<std::string, TruePlane> Planes(const PartSpec& part,
-                                        const FeatureResults& features) {
-  std::map<std::string, TruePlane> planes;
+std::map<FeatureId, TruePlane> Planes(const PartSpec& part,
+                                      const FeatureResults& features) {
+  std::map<FeatureId, TruePlane> planes;
   for (const NominalFeature& f : TestFeatures(part)) {
     const auto it = features.find(f.Key());
     if (it == features.end() || !it->second.present) continue;
     const FeatureResult& r = it->second;
     const double angle = std::isfinite(r.angle_rad) ? r.angle_rad : 0.0;
-    planes[f.id] = test::TrueFeaturePlane(f, r.d_mm, angle);
+    planes[f.Key()] = test::TrueFeaturePlane(f, r.d_mm, angle);
   }
   return planes;
 }
@@ -92,7 +92,7 @@ std::string DialCsv(const PartSpec& part, const FeatureResults& features,
 }
 
 std::string ProbeCsv(const Config& config,
-                     const std::map<std::string, TruePlane>& planes,
+                     const std::map<FeatureId, TruePlane>& planes,
                      std::mt19937& rng) {
   const PartSpec& part = config.part;
   std::normal_distribution<double> noise(0.0, 0.3e-3);
@@ -123,7 +123,7 @@ std::string Label(const std::string& id) {
 }
 
 std::string DmisOutput(const PartSpec& part,
-                       const std::map<std::string, TruePlane>& planes) {
+                       const std::map<FeatureId, TruePlane>& planes) {
   std::string out =
       "$$ DMIS output of the thermal test piece (samples/README.md)\n"
       "DMISMN/'ttp sample run-c',05.2\nUNITS/MM,ANGDEC\n";
@@ -131,12 +131,12 @@ std::string DmisOutput(const PartSpec& part,
     if (f.kind == FeatureKind::kNotchFloor || f.kind == FeatureKind::kMark)
       continue;
     Eigen::Vector3d n = f.normal, point = f.point;
-    if (const auto it = planes.find(f.id); it != planes.end()) {
+    if (const auto it = planes.find(f.Key()); it != planes.end()) {
       n = it->second.n;
       point = f.point + (it->second.d - n.dot(f.point)) * n;  // on the plane
     }
     if (f.kind == FeatureKind::kCylinder) {
-      if (f.id != "CYL199") continue;
+      if (f.Key() != FeatureId::DatumCylinder(part)) continue;
       out += fmt::format(
           "FA(CYL199)=FEAT/CIRCLE,INNER,CART,0,0,{:.4f},0,0,1,{:.4f}\n",
           point.z(), f.size_mm);

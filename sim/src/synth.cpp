@@ -190,10 +190,9 @@ SynthPiece SynthesizePiece(const PartSpec& part, const PartMesh& mesh,
 
   std::vector<double> cyl_radius(mesh.feature_ids.size(), 0.0);
   for (size_t k = 0; k < mesh.feature_ids.size(); ++k) {
-    const std::string& id = mesh.feature_ids[k];
-    if (id.rfind("CYL", 0) == 0 && id.size() > 3 &&
-        std::isdigit(static_cast<unsigned char>(id[3])))
-      cyl_radius[k] = std::stod(id.substr(3)) / 2;
+    const std::optional<FeatureId> id = FeatureId::Parse(mesh.feature_ids[k]);
+    if (id && id->kind == FeatureKind::kCylinder)
+      cyl_radius[k] = id->index / 1000.0 / 2;  // index: diameter in um
   }
   SynthPiece out;
   if (o.random_pose) {

@@ -54,7 +54,7 @@ inline double ProbeTableAngleRad(const Config& config,
 // `planes` where the point's feature has one, the datum cylinder CYL199,
 // else the nominal plane through the planned point (top face, flanks).
 inline Eigen::Vector3d BallCentreAtTouch(
-    const PartSpec& part, const std::map<std::string, TruePlane>& planes,
+    const PartSpec& part, const std::map<FeatureId, TruePlane>& planes,
     const plan::PlannedPoint& p, const Eigen::Vector3d& start,
     const Eigen::Vector3d& dir, double r) {
   const auto it = planes.find(p.feature);
@@ -64,7 +64,7 @@ inline Eigen::Vector3d BallCentreAtTouch(
     const double t = (r + tp.d - tp.n.dot(start)) / tp.n.dot(dir);
     return start + t * dir;
   }
-  if (p.feature == "CYL199") {
+  if (p.feature == FeatureId::DatumCylinder(part)) {
     // |xy(start + t dir)| = R + r
     const double big = part.ref_cylinders.front().diameter_mm / 2 + r;
     const Eigen::Vector2d s2 = start.head<2>(), d2 = dir.head<2>();

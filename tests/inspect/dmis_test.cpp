@@ -72,11 +72,16 @@ TEST(DmisTest, BadFilesNameLineAndWord) {
 }
 
 TEST(DmisTest, LabelsMapToFeatureIds) {
-  EXPECT_EQ(TestFeatureIdForDmisLabel("x1_5"), "X1-5");
-  EXPECT_EQ(TestFeatureIdForDmisLabel("Y2-9"), "Y2-9");
-  EXPECT_EQ(TestFeatureIdForDmisLabel("STRIP_3"), "Z3");
-  EXPECT_EQ(TestFeatureIdForDmisLabel("FLANK_PY"), "FLANK+Y");
-  EXPECT_EQ(TestFeatureIdForDmisLabel("A_CIRCLE"), "");
+  EXPECT_EQ(FeatureIdForDmisLabel("x1_5"), FeatureId::Facet(Segment::kX1, 5));
+  EXPECT_EQ(FeatureIdForDmisLabel("Y2-9"), FeatureId::Facet(Segment::kY2, 9));
+  EXPECT_EQ(FeatureIdForDmisLabel("STRIP_3"), FeatureId::Strip(3));
+  EXPECT_EQ(FeatureIdForDmisLabel("FLANK_PY"), FeatureId::Flank(+1));
+  EXPECT_EQ(FeatureIdForDmisLabel("flank-y"), FeatureId::Flank(-1));
+  EXPECT_EQ(FeatureIdForDmisLabel("TOP"), FeatureId::Top());
+  EXPECT_EQ(FeatureIdForDmisLabel("CYL199"), FeatureId::Cylinder(199));
+  EXPECT_EQ(FeatureIdForDmisLabel("A_CIRCLE"), std::nullopt);
+  EXPECT_EQ(FeatureIdForDmisLabel("MARK_OPP"), std::nullopt);
+  EXPECT_EQ(FeatureIdForDmisLabel("NOTCH_BIG"), std::nullopt);
 }
 
 // A CMM report of the whole piece in an arbitrary pose with known plane

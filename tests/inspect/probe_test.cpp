@@ -48,7 +48,7 @@ ProbingRun SimulateProbing(const Config& config, uint32_t seed, double noise_um,
       noise(0.0, noise_um * 1e-3);
   // True planes in W: facets n . x = d (n rotated by angle about Z), strips
   // z = -d + tan(beta) x; datums nominal.
-  std::map<std::string, test::TruePlane> planes;
+  std::map<FeatureId, test::TruePlane> planes;
   ProbingRun run;
   for (const NominalFeature& f : TestFeatures(part)) {
     FeatureResult r;
@@ -57,7 +57,7 @@ ProbingRun SimulateProbing(const Config& config, uint32_t seed, double noise_um,
                                            : f.size_mm + dev_d(rng);
     r.angle_rad = dev_a(rng);
     run.truth.features[f.Key()] = r;
-    planes[f.id] = test::TrueFeaturePlane(f, r.d_mm, r.angle_rad);
+    planes[f.Key()] = test::TrueFeaturePlane(f, r.d_mm, r.angle_rad);
   }
   ComputeResultFigures(part, &run.truth);
   // The piece on the table: W_true -> W_nominal.
@@ -263,7 +263,8 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
     const auto pts = plan::PlanPoints(config.part);
     int kept = 0;
     for (size_t i = 1; i < v.size(); ++i)
-      if (pts[i - 1].feature != "X2-4" || kept++ < 2) keep.push_back(v[i]);
+      if (pts[i - 1].feature != test::Fid("X2-4") || kept++ < 2)
+        keep.push_back(v[i]);
     imp = ReadProbeResults(config, join(keep), "probe.csv");
     EXPECT_EQ(imp.results.count(test::Fid("X2-4")), 0u);
     EXPECT_EQ(imp.results.count(test::Fid("X2-3")), 1u);

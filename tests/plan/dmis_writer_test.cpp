@@ -209,9 +209,10 @@ TEST(DmisWriterTest, RefusesWhatCannotRun) {
     EXPECT_EQ(e.field(), "stylus_diameter_mm");
   }
   auto points = CmmPoints(part);
-  points.erase(std::remove_if(
-                   points.begin(), points.end(),
-                   [](const PlannedPoint& p) { return p.feature == "CYL199"; }),
+  points.erase(std::remove_if(points.begin(), points.end(),
+                              [](const PlannedPoint& p) {
+                                return p.feature == FeatureId::Cylinder(199);
+                              }),
                points.end());
   EXPECT_THROW(WriteDmisProgram(part, points), InputError);
 }

@@ -47,9 +47,11 @@ TEST(PlanPointsTest, EveryPointLiesOnItsNominalSurfaceInsideItsEdges) {
   int expected_id = 1;
   for (const PlannedPoint& p : points) {
     EXPECT_EQ(p.id, expected_id++);
-    ++count[p.feature];
-    ASSERT_TRUE(nominal.count(p.feature)) << p.feature;
-    const NominalFeature& f = nominal.at(p.feature);
+    const std::string name = p.feature.ToString();
+    ++count[name];
+    ASSERT_TRUE(nominal.count(name)) << name;
+    const NominalFeature& f = nominal.at(name);
+    EXPECT_EQ(f.Key(), p.feature);
     const Eigen::Vector3d& q = p.point_w_mm;
     EXPECT_NEAR(p.normal_w.norm(), 1.0, 1e-12);
     switch (f.kind) {
@@ -123,6 +125,17 @@ TEST(PlanPointsTest, BadOptionsAndFilesNameTheField) {
                     "approach_k\n1,TOP,0,0,0,0,0,-2\n",
                     "p.csv"),
       InputError);
+  // A feature name the piece does not have: refused, naming the column.
+  try {
+    PointsFromCsv(
+        "point_id,feature,x_mm,y_mm,z_mm,approach_i,approach_j,"
+        "approach_k\n1,X5-1,0,0,0,0,0,-1\n",
+        "p.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "feature");
+    EXPECT_EQ(e.line(), 2);
+  }
 }
 
 }  // namespace

@@ -57,15 +57,14 @@ std::vector<Expected> ExpectedTouches(const Config& config,
     const Eigen::Vector3d n_m =
         WorkpieceToMachineRotation(c, m.c_sense) * p.normal_w;
     out.push_back(
-        {p.feature,
+        {p.feature.ToString(),
          MachineToProgram(config, WorkpieceToMachine(config, p.point_w_mm, c)) +
              r * n_m,
          n_m});
   };
   for (const PlannedPoint& p : points) piece(p);
   for (const PlannedPoint& p : points)
-    if (p.feature.size() == 4 && p.feature[2] == '-' && p.feature[3] == '5')
-      piece(p);
+    if (p.feature.kind == FeatureKind::kFacet && p.feature.index == 5) piece(p);
   return out;
 }
 
@@ -289,7 +288,7 @@ TEST(ProbeProgramTest, BallMustReachEveryFeature) {
   const auto points = PlanProbePoints(config);
   const double r = config.process.probe.diameter_mm / 2;
   for (const PlannedPoint& p : points) {
-    if (p.feature != "CYL199") continue;
+    if (p.feature != FeatureId::Cylinder(199)) continue;
     EXPECT_GE(p.point_w_mm.z(), config.part.datum_circle_z_min_mm);
     EXPECT_LE(p.point_w_mm.z(), config.part.datum_circle_z_max_mm);
     // The ball centre is off the 200 mm band (radius 100, z <= -16).
@@ -334,7 +333,7 @@ TEST(ProbeProgramTest, BallMustReachEveryFeature) {
   config.process.probe.diameter_mm = 13.0;
   std::vector<PlannedPoint> strips;
   for (const PlannedPoint& p : plain)
-    if (p.feature == "Z1") strips.push_back(p);
+    if (p.feature == FeatureId::Strip(1)) strips.push_back(p);
   try {
     CheckBallReach(config, strips);
     FAIL();

@@ -27,6 +27,8 @@ enum class FeatureKind {
   kCylinder,    // reference cylinders (axis Z)
   kNotchFloor,  // big-notch floor outside the strips; small-notch floor
   kMark,        // engraved line
+  kSphere,      // the R-test sphere on the table (stylus qualification):
+                // a feature of the setup, not of the piece
 };
 
 enum class Stage { kBlank, kPreMachined, kFinished };
@@ -73,10 +75,10 @@ std::string DatumCylinderId(const PartSpec& part);
 // A feature's identity as typed data: a facet (segment, index 1..9), a
 // strip (index 1..9) or a datum (the top face; a flank, index +1 / -1 for
 // FLANK+Y / FLANK-Y; a reference cylinder, index = its diameter in um; the
-// mark; a notch floor, index 0 small / 1 big). Code keys and compares features by this; the name of talc-log.md
-// section 5 ("X1-5", "Z3", "TOP", "FLANK+Y", "CYL199", "MARK",
-// "NOTCH_BIG") is its form
-// in files and messages only (ToString / Parse).
+// mark; a notch floor, index 0 small / 1 big) or the R-test sphere. Code
+// keys and compares features by this; the name of talc-log.md section 5
+// ("X1-5", "Z3", "TOP", "FLANK+Y", "CYL199", "MARK", "NOTCH_BIG", "SPHERE")
+// is its form in files and messages only (ToString / Parse).
 struct FeatureId {
   FeatureKind kind = FeatureKind::kFacet;
   Segment segment = Segment::kX1;  // facets only
@@ -89,6 +91,15 @@ struct FeatureId {
   static FeatureId Datum(FeatureKind kind, int index = 0) {
     return {kind, Segment::kX1, index};
   }
+  static FeatureId Top() { return Datum(FeatureKind::kTopFace); }
+  // side +1: FLANK+Y, -1: FLANK-Y.
+  static FeatureId Flank(int side) {
+    return Datum(FeatureKind::kFlank, side < 0 ? -1 : +1);
+  }
+  static FeatureId Cylinder(double diameter_mm);
+  // The datum circle's cylinder: the first reference cylinder ("CYL199").
+  static FeatureId DatumCylinder(const PartSpec& part);
+  static FeatureId Sphere() { return Datum(FeatureKind::kSphere); }
   bool IsTestFeature() const {
     return kind == FeatureKind::kFacet || kind == FeatureKind::kStrip;
   }
@@ -106,6 +117,15 @@ struct FeatureId {
 };
 // Writes the name (messages, test failures).
 std::ostream& operator<<(std::ostream& os, const FeatureId& id);
+
+// A feature's label in DMIS programs and outputs (letters, digits, '_'):
+// "X1_5", "Z3", "TOP", "FLANK_PY", "FLANK_NY", "CYL199".
+std::string DmisLabel(const FeatureId& id);
+// The test feature or datum a DMIS label stands for, case-blind: DmisLabel's
+// forms, the names ("X1-5", "FLANK+Y") and "STRIP_3" for Z3, "FLANKPY" /
+// "FLANKNY". Nothing for any other label (the mark's points MARK and
+// MARK_OPP are read by their labels).
+std::optional<FeatureId> FeatureIdForDmisLabel(const std::string& label);
 
 // Parses a test feature's name (a facet or a strip) of talc-log.md section
 // 5. Returns false if it is not one (the caller reports it). Equivalent to

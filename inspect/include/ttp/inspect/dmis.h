@@ -38,10 +38,8 @@ struct DmisResults {
 // unknown units, polar (POL) coordinates, missing or non-numeric values.
 DmisResults ParseDmisOutput(const std::string& text, const std::string& source);
 
-// The test feature id a DMIS label stands for: "X1-5", "X1_5", "x1_5" ->
-// "X1-5"; "Z3", "STRIP_3" -> "Z3"; datums "TOP", "FLANK_PY"/"FLANK+Y",
-// "FLANK_NY"/"FLANK-Y", "CYL199". Empty if the label is none of them.
-std::string TestFeatureIdForDmisLabel(const std::string& label);
+// DMIS labels of features: DmisLabel / FeatureIdForDmisLabel
+// (ttp/geometry/features.h).
 
 struct DmisImport {
   FeatureResults results;

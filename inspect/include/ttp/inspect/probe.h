@@ -50,7 +50,7 @@ struct ProbeReadOptions {
 // Reference facet probed again at the end of the run: change of the touch
 // along the outward normal (positive outwards), um.
 struct ProbeDrift {
-  std::string feature;
+  FeatureId feature;
   int points = 0;
   double mean_um = 0;
   double max_abs_um = 0;

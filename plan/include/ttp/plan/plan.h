@@ -11,6 +11,7 @@
 
 #include "ttp/gcode/program.h"
 #include "ttp/geometry/config.h"
+#include "ttp/geometry/features.h"
 
 namespace ttp::plan {
 
@@ -30,7 +31,7 @@ struct PlanOptions {
 // probe travels along -normal_w (the approach vector).
 struct PlannedPoint {
   int id = 0;           // 1-based, in plan order
-  std::string feature;  // "X1-5", "Z3", "TOP", "FLANK+Y", "CYL199"
+  FeatureId feature;    // a test feature or a datum (TOP, FLANK+-Y, CYL199)
   Eigen::Vector3d point_w_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal_w = Eigen::Vector3d::UnitZ();
 };
@@ -43,7 +44,8 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
 // CSV: point_id,feature,x_mm,y_mm,z_mm,approach_i,approach_j,approach_k
 // (approach = direction of probe travel = -outward normal).
 std::string PointsToCsv(const std::vector<PlannedPoint>& points);
-// Reads a point list written by PointsToCsv (InputError on bad rows).
+// Reads a point list written by PointsToCsv (InputError on bad rows, and
+// on a feature name that FeatureId::Parse does not know).
 std::vector<PlannedPoint> PointsFromCsv(const std::string& text,
                                         const std::string& source);
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "ttp/geometry/config.h"
+#include "ttp/geometry/features.h"
 
 namespace ttp::plan {
 
@@ -40,8 +41,8 @@ struct SetupClamp {
 // A dial-gauge reading position: the table angle that brings the feature
 // under the gauge and where the gauge touches, in machine coordinates.
 struct SetupDialPosition {
-  std::string feature;  // "X1-3", "Z3"
-  std::string zero_on;  // the reference feature the gauge is zeroed on
+  FeatureId feature;    // a facet or a strip
+  FeatureId zero_on;    // the reference feature the gauge is zeroed on
   double c_deg = 0;     // commanded C (absolute, [0, 360))
   std::array<double, 3> contact_m_mm = {0, 0, 0};
   std::string direction;  // "-X" (radial, towards the axis) or "-Z"
