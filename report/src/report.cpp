@@ -74,19 +74,8 @@ std::string ScriptSafeJson(const json& doc) {
   return out;
 }
 
-// "log_span" -> "log span" for display.
-std::string Spaced(std::string key) {
-  for (char& c : key)
-    if (c == '_') c = ' ';
-  return key;
-}
-
 std::string NotAvailable(const std::string& what) {
   return "<p class=\"na\">Not available: " + Escape(what) + "</p>\n";
-}
-
-const char* FigureUnit(const std::string& key) {
-  return key == "E_B" ? "um/m" : "um";
 }
 
 std::string Num(double v, int decimals = 2) {

@@ -217,11 +217,11 @@ struct SecondOrderPlant {
       rows.push_back({t0 + 20, fmt::format("{},cut,,,,,,,,,,,{},0,", t0 + 20,
                                            StripId(j))});
       int k = 0;
-      for (Segment s : kSegments)
-        rows.push_back(
-            {t0 + 30 + 10 * k, fmt::format("{},cut,,,,,,,,,,,{},{},",
-                                           t0 + 30 + 10 * k++, FacetId(s, j),
-                                           FacetPhiDeg(part, s, j))});
+      for (Segment s : kSegments) {
+        const double t = t0 + 30 + 10 * k++;
+        rows.push_back({t, fmt::format("{},cut,,,,,,,,,,,{},{},", t,
+                                       FacetId(s, j), FacetPhiDeg(part, s, j))});
+      }
     }
     std::stable_sort(rows.begin(), rows.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
