@@ -10,7 +10,7 @@ packages=(
   linuxcnc-uspace
   slurm-wlm munge parallel
   chromium chromium-driver
-  python3-jsonschema
+  python3 python3-jsonschema
   clang-14 libclang-rt-14-dev ccache
 )
 missing=()
