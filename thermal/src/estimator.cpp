@@ -43,6 +43,12 @@ constexpr int kReselectBelowRTests = 40;
 // Shortest lag of an input that is on only between R-tests (the spindle).
 constexpr double kPulsedMinTauS = 1200;
 
+// The smoother's Gaussian kernel of bandwidth h (h = inf: every R-test
+// weighs the same).
+double KernelWeight(double t, double x, double h) {
+  return std::isinf(h) ? 1.0 : std::exp(-0.5 * std::pow((t - x) / h, 2));
+}
+
 // Kernel-smoothed (h > 0; h = inf: mean) or linearly interpolated (h = 0)
 // residuals at t.
 double Smooth(const std::vector<double>& t, const std::vector<double>& r,
@@ -51,8 +57,7 @@ double Smooth(const std::vector<double>& t, const std::vector<double>& r,
   if (h == 0) return Interpolate(t, r, x);
   double sw = 0, swr = 0;
   for (size_t k = 0; k < t.size(); ++k) {
-    const double w =
-        std::isinf(h) ? 1.0 : std::exp(-0.5 * std::pow((t[k] - x) / h, 2));
+    const double w = KernelWeight(t[k], x, h);
     sw += w;
     swr += w * r[k];
   }
@@ -81,7 +86,7 @@ Eigen::VectorXd SmoothWeights(const std::vector<double>& t, double h,
     return w;
   }
   for (int k = 0; k < n; ++k)
-    w[k] = std::isinf(h) ? 1.0 : std::exp(-0.5 * std::pow((t[k] - x) / h, 2));
+    w[k] = KernelWeight(t[k], x, h);
   const double sw = w.sum();
   return sw > 1e-300 ? Eigen::VectorXd(w / sw) : Eigen::VectorXd::Zero(n);
 }
@@ -237,6 +242,8 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
   est.model_input_index_.resize(7);
   est.model_tau_index_.resize(7);
   est.choice_.resize(7);
+  est.coef_map_.resize(7);
+  est.hat_.resize(7);
   est.residual_.assign(n, {});
   std::vector<int> all(n);
   for (int k = 0; k < n; ++k) all[k] = k;
@@ -256,10 +263,6 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
           x.colPivHouseholderQr()
               .solve(Eigen::MatrixXd::Identity(x.rows(), x.rows()))
               .leftCols(n);
-      if (est.coef_map_.size() < 7) {
-        est.coef_map_.resize(7);
-        est.hat_.resize(7);
-      }
       est.coef_map_[e] = map;
       est.hat_[e] = x.topRows(n) * map;
     }
