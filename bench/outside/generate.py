@@ -5,8 +5,10 @@ measurements.md, diagnosis.md rev. 2) and the thesis (R-test noise of table
 5.4). It shares no code and no parameterisation with the project's sim/.
 
 Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300]
-                   [--compensation off|on] [--measurement json|dial] -o DIR
-Writes DIR/talc.csv, DIR/piece.json or DIR/dial.csv, DIR/truth.json.
+                   [--compensation off|on] [--measurement json|dial|cloud]
+                   [--points 20000] [--cloud-format auto|ply|xyz] [--pose auto|table|any] -o DIR
+Writes DIR/talc.csv, DIR/piece.json, DIR/dial.csv, DIR/piece.ply or
+DIR/piece.xyz, and DIR/truth.json.
 Python 3 standard library only.
 """
 import argparse
@@ -15,6 +17,7 @@ import json
 import math
 import os
 import random
+import struct
 
 # ---------------------------------------------------------------- constants
 R_FACET_MM = 97.3          # finished facet plane distance (test-piece.md 2)
@@ -468,7 +471,219 @@ def measure(sim, kind, rng):
     return "piece.json", json.dumps(doc, indent=1, sort_keys=True) + "\n"
 
 
-def generate(out, effect, size, seed, spacing_s, comp_on, kind):
+# ------------------------------------------------------- the point cloud
+# A CMM point cloud of the finished piece, written from test-piece.md
+# sections 1-5 and measurements.md section 1 only. Shares of the points per
+# surface follow what a CMM program spreads over the features (and what the
+# sample clouds hold): 250 per facet, 555 per strip, 800 per flank, 1800 on
+# the 199 cylinder at 20,000 points.
+CLOUD_SHARES = [             # (surface, share of the points on surfaces)
+    ("facets", 0.450),       # 36 facets, an equal share each
+    ("strips", 0.250),       # 9 strips, an equal share each
+    ("top", 0.085),          # top faces of the four segments, z = 0
+    ("mark", 0.005),         # the engraved groove's two flanks
+    ("flanks", 0.080),       # y = +-53, an equal share each
+    ("cyl199", 0.090),       # the datum cylinder (most in z -16..-14)
+    ("cyl200", 0.015),
+    ("cyl201", 0.015),
+    ("small_notch", 0.010),  # floor z = -14 and walls x = +-5: to be ignored
+]
+CLOUD_STRAY_SHARE = 0.002    # dust and double hits
+CLOUD_SIG_UM = (0.4, 0.6)    # Gaussian noise per point along the surface normal (drawn per run)
+MARK = {"phi_deg": 60.0, "r0": 70.0, "r1": 90.0, "depth": 0.3, "half_w": 0.3}
+FLANK_Y_MM = 53.0
+SMALL_NOTCH_X_MM = 5.0
+
+
+def _unit(v):
+    n = math.sqrt(sum(c * c for c in v))
+    return tuple(c / n for c in v)
+
+
+def _split(total, weights):
+    """Integers summing to total, proportional to weights."""
+    s = sum(weights)
+    out = [int(total * w / s) for w in weights]
+    rem = sorted(range(len(weights)), key=lambda i: -(total * weights[i] / s - out[i]))
+    for i in rem[:total - sum(out)]:
+        out[i] += 1
+    return out
+
+
+def cloud_surfaces(features, n_points, rng):
+    """Noise-free points of the finished piece in W with their outward unit
+    normals and the surface each lies on: a list of (p, n, label)."""
+    pts = []
+    names = [n for n, _ in CLOUD_SHARES]
+    counts = dict(zip(names, _split(n_points, [w for _, w in CLOUD_SHARES])))
+    # facets: vertical planes, normal turned by the angle error towards +phi,
+    # at the cut distance from W's Z axis; points 1 mm inside the side edges
+    # (10.2 mm wide) and 0.7 mm inside the top and bottom (z -12.1 .. 0)
+    facet_names = ["%s-%d" % (s, j) for s in ("X1", "Y1", "X2", "Y2") for j in range(1, 10)]
+    for name, cnt in zip(facet_names, _split(counts["facets"], [1] * 36)):
+        s, j = name.split("-")
+        f = features[name]
+        phi = math.radians(CENTRES_DEG[s] + (int(j) - 5) * 6.0) + f["angle_urad"] * 1e-6
+        n = (math.cos(phi), math.sin(phi), 0.0)
+        t = (-n[1], n[0], 0.0)
+        d = R_FACET_MM + f["dist_um"] * 1e-3
+        for _ in range(cnt):
+            u, z = rng.uniform(-4.0, 4.0), rng.uniform(-11.4, -0.7)
+            pts.append(((d * n[0] + u * t[0], d * n[1] + u * t[1], z), n, name))
+    # strips: floor z = -12.1 - depth + tan(beta) x, along X across the big
+    # notch floor, 5 mm either side of y_k, clear of the small notch
+    # (|x| <= 5) and of the 199 cylinder's rim
+    for k, cnt in zip(range(1, 10), _split(counts["strips"], [1] * 9)):
+        f = features["Z%d" % k]
+        yk = (k - 5) * 11.75
+        z0 = Z_FLOOR_W_MM - f["depth_um"] * 1e-3
+        tb = math.tan(f["beta_urad"] * 1e-6)
+        n = _unit((-tb, 0.0, 1.0))
+        for _ in range(cnt):
+            y = yk + rng.uniform(-5.0, 5.0)
+            xmax = math.sqrt(99.5 ** 2 - y * y) - 2.0
+            x = rng.uniform(SMALL_NOTCH_X_MM + 2.0, xmax) * rng.choice([-1, 1])
+            pts.append(((x, y, z0 + tb * x), n, "Z%d" % k))
+    # top faces of the segments (z = 0): outside the big notch (|y| > 53),
+    # outside the small notch (|x| > 5), inside the facets; not in the groove
+    ang = math.radians(MARK["phi_deg"])
+    mu, mv = (math.cos(ang), math.sin(ang)), (-math.sin(ang), math.cos(ang))
+    got = 0
+    while got < counts["top"]:
+        x, y = rng.uniform(-96.0, 96.0), rng.uniform(-96.0, 96.0)
+        if abs(y) < FLANK_Y_MM + 1.0 or abs(x) < SMALL_NOTCH_X_MM + 1.0 or math.hypot(x, y) > 95.5:
+            continue
+        r_along, lat = x * mu[0] + y * mu[1], x * mv[0] + y * mv[1]
+        if abs(lat) < MARK["half_w"] + 0.05 and MARK["r0"] - 0.4 < r_along < MARK["r1"] + 0.4:
+            continue
+        pts.append(((x, y, 0.0), (0.0, 0.0, 1.0), "top"))
+        got += 1
+    # the engraved mark: a 90 deg V groove, 0.3 mm deep, 0.6 mm wide, along
+    # phi = 60 deg from r = 70 to 90 mm (segment X1); points on its flanks
+    for _ in range(counts["mark"]):
+        lat = rng.uniform(-MARK["half_w"] + 0.02, MARK["half_w"] - 0.02)
+        r_along = rng.uniform(MARK["r0"] + 0.3, MARK["r1"] - 0.3)
+        z = -(MARK["depth"] - abs(lat) * MARK["depth"] / MARK["half_w"])
+        sg = 1.0 if lat > 0 else -1.0
+        n = _unit((-sg * mv[0], -sg * mv[1], 1.0))
+        pts.append(((r_along * mu[0] + lat * mv[0], r_along * mu[1] + lat * mv[1], z), n, "mark"))
+    # big-notch flanks, y = +-53 (normals into the notch), z in [-12, 0];
+    # clear of the small notch and of the facets at their ends
+    for sg, cnt in zip((1, -1), _split(counts["flanks"], [1, 1])):
+        for _ in range(cnt):
+            x = rng.uniform(SMALL_NOTCH_X_MM + 2.0, 78.0) * rng.choice([-1, 1])
+            pts.append(((x, sg * FLANK_Y_MM, rng.uniform(-11.5, -0.5)), (0.0, -sg, 0.0),
+                        "flank%s" % ("+" if sg > 0 else "-")))
+    # reference cylinders turned in step 1: 199 on z -16..-12 (above -14 the
+    # small notch removes it at |x| <= 5; the strips' and the facets' cutter
+    # ends at -12.1), 200 on -20..-16, 201 on -24..-20
+    for label, rad, z0, z1 in (("cyl199", 99.5, -15.8, -12.4), ("cyl200", 100.0, -19.7, -16.3),
+                               ("cyl201", 100.5, -23.7, -20.3)):
+        got = 0
+        while got < counts[label]:
+            # the 199: three quarters of its points in the datum band -16..-14
+            if label == "cyl199":
+                z = rng.uniform(-15.8, -14.2) if rng.random() < 0.75 else rng.uniform(-14.0, z1)
+            else:
+                z = rng.uniform(z0, z1)
+            a = rng.uniform(0.0, 2.0 * math.pi)
+            x, y = rad * math.cos(a), rad * math.sin(a)
+            if z > -14.0 and abs(x) < SMALL_NOTCH_X_MM + 0.5:
+                continue
+            pts.append(((x, y, z), (math.cos(a), math.sin(a), 0.0), label))
+            got += 1
+    # the small notch (|x| <= 5, floor z = -14, through along Y): floor and walls
+    for _ in range(counts["small_notch"]):
+        y = rng.uniform(-98.0, 98.0)
+        if rng.random() < 0.5:
+            pts.append(((rng.uniform(-4.5, 4.5), y, -14.0), (0.0, 0.0, 1.0), "small_notch"))
+        else:
+            sg = rng.choice([-1, 1])
+            ztop = -12.0 if abs(y) < FLANK_Y_MM else 0.0
+            pts.append(((sg * SMALL_NOTCH_X_MM, y, rng.uniform(-13.7, ztop - 0.3)), (-sg, 0.0, 0.0),
+                        "small_notch"))
+    return pts
+
+
+def random_rotation(rng, kind):
+    """Proper rotation matrix: 'table' = any yaw, tilted up to 2 deg (the
+    piece on a CMM table); 'any' = uniform over all orientations."""
+    if kind == "table":
+        yaw = rng.uniform(0.0, 2.0 * math.pi)
+        tilt = math.radians(rng.uniform(0.0, 2.0))
+        ax = rng.uniform(0.0, 2.0 * math.pi)
+        q = (math.cos(tilt / 2), math.sin(tilt / 2) * math.cos(ax), math.sin(tilt / 2) * math.sin(ax), 0.0)
+        qz = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        w1, x1, y1, z1 = q
+        w2, x2, y2, z2 = qz
+        q = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+             w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
+    else:
+        q = _unit([rng.gauss(0, 1) for _ in range(4)])
+    w, x, y, z = q
+    return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+
+
+def measure_cloud(sim, rng, n_points, fmt, pose_kind):
+    """measurements.md section 1: the piece's points in an arbitrary CMM
+    pose (cloud = R w + t), Gaussian noise along each surface's normal,
+    a share of stray points; binary little-endian PLY of doubles or .xyz."""
+    sigma_um = rng.uniform(*CLOUD_SIG_UM)
+    n_stray = int(round(n_points * CLOUD_STRAY_SHARE))
+    surf = cloud_surfaces(sim["features"], n_points - n_stray, rng)
+    pts = []
+    for p, n, _ in surf:
+        e = rng.gauss(0.0, sigma_um * 1e-3)
+        pts.append((p[0] + e * n[0], p[1] + e * n[1], p[2] + e * n[2]))
+    # strays: half of them 10-150 um off a surface along its normal (inside
+    # the band a fit has to reject, like the samples' strays), half 0.5-4 mm
+    # off in any direction (dust, double hits)
+    strays = []
+    for i in range(n_stray):
+        p, n, _ = surf[rng.randrange(len(surf))]
+        if i % 2 == 0:
+            o = rng.uniform(0.01, 0.15) * rng.choice([-1, 1])
+            strays.append((p[0] + o * n[0], p[1] + o * n[1], p[2] + o * n[2]))
+        else:
+            dv = _unit([rng.gauss(0, 1) for _ in range(3)])
+            o = rng.uniform(0.5, 4.0)
+            strays.append((p[0] + o * dv[0], p[1] + o * dv[1], p[2] + o * dv[2]))
+    for q in strays:   # scattered through the file, as a CMM writes them
+        pts.insert(rng.randrange(len(pts) + 1), q)
+    R = random_rotation(rng, pose_kind)
+    t = [rng.uniform(-400.0, 400.0) for _ in range(3)]
+    cloud = [tuple(R[i][0] * p[0] + R[i][1] * p[1] + R[i][2] * p[2] + t[i] for i in range(3)) for p in pts]
+    counts = {}
+    for _, _, label in surf:
+        key = label if not (label[0] in "XY" and "-" in label) else "facet"
+        key = "strip" if key[0] == "Z" else key
+        counts[key] = counts.get(key, 0) + 1
+    counts["stray"] = n_stray
+    info = {"noise_um": sigma_um, "points": len(cloud), "format": fmt,
+            "points_per_surface": counts,
+            "pose": {"kind": pose_kind, "R": R, "t_mm": t, "convention": "cloud = W @ R.T + t"}}
+    if fmt == "ply":
+        head = ("ply\nformat binary_little_endian 1.0\ncomment outside generator, CMM point cloud (mm)\n"
+                "element vertex %d\nproperty double x\nproperty double y\nproperty double z\n"
+                "end_header\n" % len(cloud))
+        flat = [c for p in cloud for c in p]
+        return "piece.ply", head.encode("ascii") + struct.pack("<%dd" % len(flat), *flat), info
+    lines = ["# outside generator: CMM point cloud of the thermal test piece, x y z in mm"]
+    lines += ["%.6f %.6f %.6f" % p for p in cloud]
+    return "piece.xyz", "\n".join(lines) + "\n", info
+
+
+def noise_free_figures(features):
+    f = {}
+    for k, v in features.items():
+        f[k] = {"depth": v["depth_um"], "beta": v["beta_urad"]} if k.startswith("Z") else {"d": v["dist_um"]}
+    return figures_from(f)
+
+
+def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cloud_format="auto",
+             pose="auto"):
     os.makedirs(out, exist_ok=True)
     eff_name = effect
     if effect in MISMATCH:
@@ -482,12 +697,30 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind):
         rows = [r for r in rows if r["t_s"] <= cut_at]
     write_log(os.path.join(out, "talc.csv"), rows, comp_on)
     rng = random.Random(seed * 31 + 5)
-    fname, text = measure(sim, kind, rng)
-    with open(os.path.join(out, fname), "w") as fh:
+    info = None
+    if kind == "cloud":
+        fmt = cloud_format if cloud_format != "auto" else ("ply" if seed % 2 == 0 else "xyz")
+        pk = pose if pose != "auto" else ("table" if (seed // 2) % 2 == 0 else "any")
+        fname, text, info = measure_cloud(sim, rng, points, fmt, pk)
+    else:
+        fname, text = measure(sim, kind, rng)
+    for stale in ("piece.json", "dial.csv", "piece.ply", "piece.xyz"):
+        if stale != fname and os.path.exists(os.path.join(out, stale)):
+            os.remove(os.path.join(out, stale))
+    with open(os.path.join(out, fname), "wb" if isinstance(text, bytes) else "w") as fh:
         fh.write(text)
+    f = sim["features"]
     truth = {"effect": effect, "size": size, "seed": seed, "spacing_s": spacing_s,
              "compensation": "on" if comp_on else "off", "measurement": kind,
-             "params": sim["effect"].params}
+             "params": sim["effect"].params,
+             # the piece as cut (no measurement noise): what a measurement should give
+             "figures": noise_free_figures(f),
+             "facets": {k: {"distance_mm": R_FACET_MM + v["dist_um"] * 1e-3, "angle_error_urad": v["angle_urad"]}
+                        for k, v in sorted(f.items()) if not k.startswith("Z")},
+             "strips": {k: {"depth_mm": -Z_FLOOR_W_MM + v["depth_um"] * 1e-3, "beta_urad": v["beta_urad"]}
+                        for k, v in sorted(f.items()) if k.startswith("Z")}}
+    if info:
+        truth["cloud"] = info
     with open(os.path.join(out, "truth.json"), "w") as fh:
         json.dump(truth, fh, indent=1)
     return os.path.join(out, fname), os.path.join(out, "talc.csv")
@@ -502,14 +735,22 @@ def main():
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--spacing-s", type=float, default=300.0)
     ap.add_argument("--compensation", choices=["on", "off"], default="off")
-    ap.add_argument("--measurement", choices=["json", "dial"], default="json")
+    ap.add_argument("--measurement", choices=["json", "dial", "cloud"], default="json",
+                    help="json: per-feature CMM report; dial: dial-gauge CSV; cloud: CMM point cloud")
+    ap.add_argument("--points", type=int, default=20000, help="cloud: points in total (default 20000)")
+    ap.add_argument("--cloud-format", choices=["auto", "ply", "xyz"], default="auto",
+                    help="cloud: binary PLY or .xyz text (auto: by the seed's parity, even = ply)")
+    ap.add_argument("--pose", choices=["auto", "table", "any"], default="auto",
+                    help="cloud: 'table' any yaw and up to 2 deg tilt, 'any' a uniform random "
+                         "rotation (auto: by the seed)")
     ap.add_argument("-o", required=True)
     a = ap.parse_args()
     if any(n not in known for n in a.effect.split("+")):
         ap.error("unknown effect %s" % a.effect)
     if "+" not in a.size:
         a.size = float(a.size)
-    m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement)
+    m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement,
+                    a.points, a.cloud_format, a.pose)
     print(m, l)
 
 
