@@ -4,6 +4,7 @@ fed to `ttp diagnose`, scored against the outcome they call for.
 
 Usage: run_battery.py [--ttp build/app/ttp] [--seed 20261125] [--reps 2]
                       [--spacings 300,1800,3600,7200] [--json results.json]
+                      [--only EFFECTS] [--no-clouds]
        run_battery.py --check [--ttp ...]   (the small fixed set of the ctest)
 
 Right outcome: the cause named for a catalogue effect, `none` for a run
@@ -53,25 +54,36 @@ def expected(effect):
     return "none"
 
 
-def scenarios(spacing, comp, rng, reps):
-    """One block of runs for a spacing and compensation state."""
+KINDS = ["json", "dial", "cloud"]
+
+
+def scenarios(spacing, comp, rng, reps, clouds=False):
+    """One block of runs for a spacing and compensation state. Without
+    clouds the measurements alternate json/dial (the ctest's fixed set);
+    with clouds they rotate json/dial/cloud (C indexing: json/cloud, a dial
+    gauge cannot see it). The seeds are drawn the same way either way."""
     out = []
     for r in range(reps):
+        q = r + (1 if comp else 0)   # clouds: the kinds' rotation shifted with compensation on
         for i in range(4):
-            out.append(("none", 0.0, "json" if i % 2 == 0 else "dial"))
+            out.append(("none", 0.0, KINDS[(i + q) % 3] if clouds else "json" if i % 2 == 0 else "dial"))
         for e in generate.CATALOGUE:
             for k, s in enumerate(SIZES[e]):
-                kind = "json" if (e == "c_axis_indexing" or (k + r) % 2 == 0) else "dial"
+                if clouds:
+                    kind = ("json", "cloud")[(k + q) % 2] if e == "c_axis_indexing" else KINDS[(k + q) % 3]
+                else:
+                    kind = "json" if (e == "c_axis_indexing" or (k + r) % 2 == 0) else "dial"
                 out.append((e, s, kind))
         for k, e in enumerate(generate.OUTSIDE):
             s = SIZES[e][(k + r) % 2]
-            out.append((e, s, "json" if (k + r) % 2 == 0 else "dial"))
+            out.append((e, s, KINDS[(k + q) % 3] if clouds else "json" if (k + r) % 2 == 0 else "dial"))
         # two catalogue causes at once, sizes in the middle of their ranges
         for k, (e1, e2) in enumerate(PAIRS[(r % 2) * 2:(r % 2) * 2 + 2]):
+            kind = "json" if k % 2 == 0 or "c_axis_indexing" in (e1, e2) else "dial"
             out.append(("%s+%s" % (e1, e2), "%g+%g" % (SIZES[e1][1], SIZES[e2][1]),
-                        "json" if k % 2 == 0 or "c_axis_indexing" in (e1, e2) else "dial"))
-        out.append(("other_log", 0.0, "json" if r % 2 == 0 else "dial"))
-        out.append(("short_log", 0.0, "dial" if r % 2 == 0 else "json"))
+                        "cloud" if clouds and k == 1 else kind))
+        out.append(("other_log", 0.0, KINDS[(q + 2) % 3] if clouds else "json" if r % 2 == 0 else "dial"))
+        out.append(("short_log", 0.0, KINDS[(q + 1) % 3] if clouds else "dial" if r % 2 == 0 else "json"))
     return [(e, s, kind, rng.randrange(1, 10 ** 6)) for e, s, kind in out]
 
 
@@ -99,8 +111,8 @@ def run_one(ttp, work, spacing, comp, effect, size, kind, seed):
     meas, log = generate.generate(d, effect, size, seed, spacing, comp, kind)
     outcome, rc, detail = diagnose(ttp, meas, log, os.path.join(d, "diag.json"))
     return {"spacing_s": spacing, "compensation": "on" if comp else "off", "effect": effect,
-            "size": size, "measurement": kind, "seed": seed, "expected": expected(effect),
-            "outcome": outcome, "exit": rc, "detail": detail}
+            "size": size, "measurement": kind, "file": os.path.basename(meas), "seed": seed,
+            "expected": expected(effect), "outcome": outcome, "exit": rc, "detail": detail}
 
 
 def fmt(size):
@@ -111,7 +123,7 @@ def command_for(r):
     return ("python3 bench/outside/generate.py --effect %s --size %s --seed %d --spacing-s %d "
             "--compensation %s --measurement %s -o out/r && ttp diagnose --log out/r/talc.csv out/r/%s" %
             (r["effect"], fmt(r["size"]), r["seed"], r["spacing_s"], r["compensation"], r["measurement"],
-             "dial.csv" if r["measurement"] == "dial" else "piece.json"))
+             r.get("file") or ("dial.csv" if r["measurement"] == "dial" else "piece.json")))
 
 
 def report(results, spacings):
@@ -154,7 +166,27 @@ def report(results, spacings):
         for comp in ("off", "on"):
             cr = [r for r in rs if r["compensation"] == comp]
             print("  compensation %s: right %d/%d" % (comp, sum(r["outcome"] == r["expected"] for r in cr), len(cr)))
+        print("  measurement: " + ", ".join(
+            "%s right %d/%d" % (k, sum(r["outcome"] == r["expected"] for r in rs if r["measurement"] == k),
+                                sum(r["measurement"] == k for r in rs))
+            for k in KINDS if any(r["measurement"] == k for r in rs)))
     print("all spacings: right %d/%d" % (total_right, total))
+    print("per measurement (all spacings): right / false names (runs without a catalogue cause) / error exits")
+    for k in KINDS:
+        kr = [r for r in results if r["measurement"] == k]
+        if not kr:
+            continue
+        nc = [r for r in kr if r["expected"] in ("none", "unexplained", "refused")]
+        fn = [r for r in nc if r["outcome"] not in ("none", "unexplained", "refused")
+              and not r["outcome"].startswith("error")]
+        err = [r for r in kr if r["outcome"].startswith("error")]
+        print("  %-6s right %d/%d, false names %d/%d, errors %d" % (
+            k, sum(r["outcome"] == r["expected"] for r in kr), len(kr), len(fn), len(nc), len(err)))
+        for e in ["none", "workpiece_expansion", "tool_wear", "clamping_distortion", "c_axis_indexing",
+                  "pair", "unexplained", "refused"]:
+            er = [r for r in kr if (r["expected"] == e) or (e == "pair" and "+" in r["expected"])]
+            if er:
+                print("    %-20s %d/%d" % (e, sum(r["outcome"] == r["expected"] for r in er), len(er)))
     print("right per effect and size (R-tests every %s s):" % " / ".join(str(s) for s in spacings))
     keys = []
     for r in results:
@@ -230,6 +262,8 @@ def main():
     ap.add_argument("--json", help="write every run's result here")
     ap.add_argument("--check", action="store_true", help="the ctest's fixed small set")
     ap.add_argument("--workdir", help="scratch folder (default: a temporary one)")
+    ap.add_argument("--no-clouds", action="store_true",
+                    help="measurements json/dial only (the battery before point clouds)")
     a = ap.parse_args()
     work = a.workdir or tempfile.mkdtemp(prefix="ttp-outside-")
     os.makedirs(work, exist_ok=True)
@@ -242,7 +276,7 @@ def main():
         t0 = time.time()
         for sp in spacings:
             for comp in (False, True):
-                for e, s, kind, seed in scenarios(sp, comp, rng, a.reps):
+                for e, s, kind, seed in scenarios(sp, comp, rng, a.reps, clouds=not a.no_clouds):
                     if a.only and e not in a.only.split(","):
                         continue
                     results.append(run_one(a.ttp, work, sp, comp, e, s, kind, seed))
