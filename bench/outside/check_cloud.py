@@ -8,6 +8,7 @@ feature geometry are those of the specs as the CLI reads them.
 
 Usage: check_cloud.py [--ttp build/app/ttp] [--runs 6] [--seed 1]
                       [--effect none] [--points 20000] [DIR ...]
+       check_cloud.py --stats DIR ...   (points per surface, ranges in W)
 With DIRs: check those runs (each with truth.json and piece.ply/.xyz);
 without: generate --runs runs (seeds seed, seed+1, ...: PLY and .xyz, table
 and arbitrary poses alternate) and check them. One ttp process at a time.
@@ -18,6 +19,7 @@ import json
 import math
 import os
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -40,14 +42,19 @@ def inspect(ttp, path, out_json):
 def compare(truth, got):
     """Differences (measured - truth) per kind."""
     diff = {k: [] for k in ["facet d um", "facet angle urad", "strip depth um", "strip beta urad"] + FIGS}
-    for name, t in truth["facets"].items():
+    diff["angle pairs"] = []
+    facets = truth.get("facets") or {n: {"distance_mm": None, "angle_error_urad": a}   # the samples' truth
+                                     for n, a in truth.get("facet_angle_err_urad", {}).items()}
+    for name, t in facets.items():
         g = (got.get("facets") or {}).get(name)
         if not g or g.get("distance_mm") is None:
             continue
-        diff["facet d um"].append((g["distance_mm"] - t["distance_mm"]) * 1e3)
+        if t["distance_mm"] is not None:
+            diff["facet d um"].append((g["distance_mm"] - t["distance_mm"]) * 1e3)
         if g.get("angle_error_urad") is not None:
             diff["facet angle urad"].append(g["angle_error_urad"] - t["angle_error_urad"])
-    for name, t in truth["strips"].items():
+            diff["angle pairs"].append((t["angle_error_urad"], g["angle_error_urad"]))
+    for name, t in (truth.get("strips") or {}).items():
         g = (got.get("strips") or {}).get(name)
         if not g or g.get("depth_mm") is None:
             continue
@@ -71,6 +78,72 @@ def stats(v):
     return "n %4d  mean %+7.3f  rms %6.3f  max %+7.3f" % (len(v), sum(v) / len(v), rms, mx)
 
 
+def read_cloud(path):
+    data = open(path, "rb").read()
+    if data.startswith(b"ply"):
+        end = data.index(b"end_header\n") + len(b"end_header\n")
+        head = data[:end].decode("ascii").splitlines()
+        n = int([h for h in head if h.startswith("element vertex")][0].split()[2])
+        props = [h.split() for h in head if h.startswith("property")]
+        assert "binary_little_endian" in data[:end].decode() and all(p[1] == "double" for p in props)
+        v = struct.unpack_from("<%dd" % (n * len(props)), data, end)
+        return [v[i * len(props):i * len(props) + 3] for i in range(n)]
+    pts = []
+    for line in data.decode().splitlines():
+        line = line.split("#")[0].replace(",", " ").replace(";", " ").split()
+        if len(line) >= 3:
+            pts.append(tuple(float(x) for x in line[:3]))
+    return pts
+
+
+def surface_of(p, tol=0.02):
+    """The nominal surface a W point lies on (within tol mm), else 'off'."""
+    x, y, z = p
+    r = math.hypot(x, y)
+    if abs(z) < tol:
+        return "top"
+    u = (math.cos(math.radians(60)), math.sin(math.radians(60)))
+    if -0.3 - tol < z < 0 and abs(-x * u[1] + y * u[0]) < 0.3 + tol and 69 < x * u[0] + y * u[1] < 91:
+        return "mark"
+    if abs(abs(y) - 53.0) < tol and -12.0 <= z <= 0:
+        return "flank"
+    if abs(z + 12.1) < tol and abs(y) < 53:
+        return "strip"
+    for s, c in generate.CENTRES_DEG.items():
+        for j in range(1, 10):
+            ph = math.radians(c + (j - 5) * 6)
+            n, t = (math.cos(ph), math.sin(ph)), (-math.sin(ph), math.cos(ph))
+            if abs(x * n[0] + y * n[1] - 97.3) < tol and abs(x * t[0] + y * t[1]) < 5.2 and -12.2 < z < 0:
+                return "facet"
+    for d in (199.0, 200.0, 201.0):
+        if abs(r - d / 2) < tol:
+            return "cyl%d" % d
+    if abs(z + 14.0) < tol or (abs(abs(x) - 5.0) < tol and z > -14.0):
+        return "small_notch"
+    return "off"
+
+
+def cloud_stats(d):
+    """Points per surface and their extents in W (the truth's pose)."""
+    truth = json.load(open(os.path.join(d, "truth.json")))
+    pose = truth.get("pose") or truth["cloud"]["pose"]
+    R, t = pose["R"], pose["t_mm"]
+    cloud = [f for f in os.listdir(d) if f.startswith("piece.") and f[-3:] in ("ply", "xyz")][0]
+    pts = read_cloud(os.path.join(d, cloud))
+    by = {}
+    for c in pts:
+        q = [c[i] - t[i] for i in range(3)]
+        w = tuple(sum(q[i] * R[i][j] for i in range(3)) for j in range(3))   # W = (cloud - t) R
+        by.setdefault(surface_of(w), []).append(w)
+    print("%s (%s, %d points): points per surface, x y z ranges in W (mm)" % (d, cloud, len(pts)))
+    for k in ["top", "mark", "flank", "facet", "strip", "cyl199", "cyl200", "cyl201", "small_notch", "off"]:
+        v = by.get(k, [])
+        if v:
+            print("  %-11s %6d  x [%7.2f %7.2f]  y [%7.2f %7.2f]  z [%7.3f %7.3f]" % (
+                k, len(v), min(p[0] for p in v), max(p[0] for p in v), min(p[1] for p in v),
+                max(p[1] for p in v), min(p[2] for p in v), max(p[2] for p in v)))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--ttp", default="build/app/ttp")
@@ -79,8 +152,15 @@ def main():
     ap.add_argument("--effect", default="none")
     ap.add_argument("--size", default="0")
     ap.add_argument("--points", type=int, default=20000)
+    ap.add_argument("--stats", action="store_true",
+                    help="only the points per surface and their ranges of the DIRs' clouds, in W "
+                         "from truth.json's pose (the samples' or the generator's); no ttp")
     ap.add_argument("dirs", nargs="*")
     a = ap.parse_args()
+    if a.stats:
+        for d in a.dirs:
+            cloud_stats(d)
+        return 0
     work = tempfile.mkdtemp(prefix="ttp-cloud-")
     try:
         dirs = a.dirs
@@ -95,10 +175,12 @@ def main():
         for d in dirs:
             truth = json.load(open(os.path.join(d, "truth.json")))
             cloud = [f for f in os.listdir(d) if f.startswith("piece.") and f[-3:] in ("ply", "xyz")][0]
+            truth.setdefault("seed", "?")
             got, rc, err = inspect(a.ttp, os.path.join(d, cloud), os.path.join(work, "inspect.json"))
             c = truth.get("cloud", {})
             head = "%s seed %s %s pose %s, %s points, noise %.2f um" % (
-                d, truth["seed"], cloud, c.get("pose", {}).get("kind"), c.get("points"), c.get("noise_um", 0))
+                d, truth["seed"], cloud, c.get("pose", {}).get("kind"), c.get("points"),
+                c.get("noise_um", truth.get("noise_um", 0)))
             if got is None:
                 print(head + ": ttp inspect exit %d: %s" % (rc, err.splitlines()[-1:] if err else ""))
                 bad += 1
@@ -110,8 +192,13 @@ def main():
             for k, v in diff.items():
                 total.setdefault(k, []).extend(v)
         print("measured - truth over %d runs:" % (len(dirs) - bad))
+        pairs = total.pop("angle pairs", [])
         for k, v in total.items():
             print("  %-18s %s" % (k, stats(v)))
+        if pairs:
+            st = sum(t * t for t, _ in pairs)
+            print("  facet angles: truth RMS %.1f urad, slope of measured on truth %.3f" % (
+                math.sqrt(st / len(pairs)), sum(t * m for t, m in pairs) / st if st else float("nan")))
         return 1 if bad else 0
     finally:
         shutil.rmtree(work, ignore_errors=True)

@@ -490,6 +490,11 @@ CLOUD_SHARES = [             # (surface, share of the points on surfaces)
 ]
 CLOUD_STRAY_SHARE = 0.002    # dust and double hits
 CLOUD_SIG_UM = (0.4, 0.6)    # Gaussian noise per point along the surface normal (drawn per run)
+# where a CMM program puts its points (mm, W): inside each feature's edges
+FACET_U_MM = 4.0             # facets 10.2 mm wide: +-4 mm about the middle
+FACET_Z_MM = (-11.1, -1.0)   # facets z -12.1 .. 0
+FLANK_Z_MM = (-11.0, -1.0)   # flanks z -12 .. 0 (the upper ends: --wall-top-mm)
+STRIP_HALF_MM = 5.0          # strips 12 mm wide, 0.25 mm overlap
 MARK = {"phi_deg": 60.0, "r0": 70.0, "r1": 90.0, "depth": 0.3, "half_w": 0.3}
 FLANK_Y_MM = 53.0
 SMALL_NOTCH_X_MM = 5.0
@@ -510,7 +515,7 @@ def _split(total, weights):
     return out
 
 
-def cloud_surfaces(features, n_points, rng):
+def cloud_surfaces(features, n_points, rng, wall_top_mm=1.0):
     """Noise-free points of the finished piece in W with their outward unit
     normals and the surface each lies on: a list of (p, n, label)."""
     pts = []
@@ -528,7 +533,7 @@ def cloud_surfaces(features, n_points, rng):
         t = (-n[1], n[0], 0.0)
         d = R_FACET_MM + f["dist_um"] * 1e-3
         for _ in range(cnt):
-            u, z = rng.uniform(-4.0, 4.0), rng.uniform(-11.4, -0.7)
+            u, z = rng.uniform(-FACET_U_MM, FACET_U_MM), rng.uniform(FACET_Z_MM[0], -wall_top_mm)
             pts.append(((d * n[0] + u * t[0], d * n[1] + u * t[1], z), n, name))
     # strips: floor z = -12.1 - depth + tan(beta) x, along X across the big
     # notch floor, 5 mm either side of y_k, clear of the small notch
@@ -540,7 +545,7 @@ def cloud_surfaces(features, n_points, rng):
         tb = math.tan(f["beta_urad"] * 1e-6)
         n = _unit((-tb, 0.0, 1.0))
         for _ in range(cnt):
-            y = yk + rng.uniform(-5.0, 5.0)
+            y = yk + rng.uniform(-STRIP_HALF_MM, STRIP_HALF_MM)
             xmax = math.sqrt(99.5 ** 2 - y * y) - 2.0
             x = rng.uniform(SMALL_NOTCH_X_MM + 2.0, xmax) * rng.choice([-1, 1])
             pts.append(((x, y, z0 + tb * x), n, "Z%d" % k))
@@ -572,7 +577,7 @@ def cloud_surfaces(features, n_points, rng):
     for sg, cnt in zip((1, -1), _split(counts["flanks"], [1, 1])):
         for _ in range(cnt):
             x = rng.uniform(SMALL_NOTCH_X_MM + 2.0, 78.0) * rng.choice([-1, 1])
-            pts.append(((x, sg * FLANK_Y_MM, rng.uniform(-11.5, -0.5)), (0.0, -sg, 0.0),
+            pts.append(((x, sg * FLANK_Y_MM, rng.uniform(FLANK_Z_MM[0], -wall_top_mm)), (0.0, -sg, 0.0),
                         "flank%s" % ("+" if sg > 0 else "-")))
     # reference cylinders turned in step 1: 199 on z -16..-12 (above -14 the
     # small notch removes it at |x| <= 5; the strips' and the facets' cutter
@@ -626,13 +631,13 @@ def random_rotation(rng, kind):
             [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
 
 
-def measure_cloud(sim, rng, n_points, fmt, pose_kind):
+def measure_cloud(sim, rng, n_points, fmt, pose_kind, wall_top_mm=1.0):
     """measurements.md section 1: the piece's points in an arbitrary CMM
     pose (cloud = R w + t), Gaussian noise along each surface's normal,
     a share of stray points; binary little-endian PLY of doubles or .xyz."""
     sigma_um = rng.uniform(*CLOUD_SIG_UM)
     n_stray = int(round(n_points * CLOUD_STRAY_SHARE))
-    surf = cloud_surfaces(sim["features"], n_points - n_stray, rng)
+    surf = cloud_surfaces(sim["features"], n_points - n_stray, rng, wall_top_mm)
     pts = []
     for p, n, _ in surf:
         e = rng.gauss(0.0, sigma_um * 1e-3)
@@ -661,7 +666,7 @@ def measure_cloud(sim, rng, n_points, fmt, pose_kind):
         key = "strip" if key[0] == "Z" else key
         counts[key] = counts.get(key, 0) + 1
     counts["stray"] = n_stray
-    info = {"noise_um": sigma_um, "points": len(cloud), "format": fmt,
+    info = {"noise_um": sigma_um, "points": len(cloud), "format": fmt, "wall_top_mm": wall_top_mm,
             "points_per_surface": counts,
             "pose": {"kind": pose_kind, "R": R, "t_mm": t, "convention": "cloud = W @ R.T + t"}}
     if fmt == "ply":
@@ -683,7 +688,7 @@ def noise_free_figures(features):
 
 
 def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cloud_format="auto",
-             pose="auto"):
+             pose="auto", wall_top_mm=1.0):
     os.makedirs(out, exist_ok=True)
     eff_name = effect
     if effect in MISMATCH:
@@ -701,7 +706,7 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cl
     if kind == "cloud":
         fmt = cloud_format if cloud_format != "auto" else ("ply" if seed % 2 == 0 else "xyz")
         pk = pose if pose != "auto" else ("table" if (seed // 2) % 2 == 0 else "any")
-        fname, text, info = measure_cloud(sim, rng, points, fmt, pk)
+        fname, text, info = measure_cloud(sim, rng, points, fmt, pk, wall_top_mm)
     else:
         fname, text = measure(sim, kind, rng)
     for stale in ("piece.json", "dial.csv", "piece.ply", "piece.xyz"):
@@ -743,6 +748,9 @@ def main():
     ap.add_argument("--pose", choices=["auto", "table", "any"], default="auto",
                     help="cloud: 'table' any yaw and up to 2 deg tilt, 'any' a uniform random "
                          "rotation (auto: by the seed)")
+    ap.add_argument("--wall-top-mm", type=float, default=1.0,
+                    help="cloud: the highest points on the facets and flanks, mm below the top face "
+                         "(default 1: a CMM program's margin, as in the samples; a scanner sees up to the edge)")
     ap.add_argument("-o", required=True)
     a = ap.parse_args()
     if any(n not in known for n in a.effect.split("+")):
@@ -750,7 +758,7 @@ def main():
     if "+" not in a.size:
         a.size = float(a.size)
     m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement,
-                    a.points, a.cloud_format, a.pose)
+                    a.points, a.cloud_format, a.pose, a.wall_top_mm)
     print(m, l)
 
 
