@@ -105,14 +105,38 @@ def diagnose(ttp, meas, log, out_json):
     return outcome, p.returncode, detail
 
 
-def run_one(ttp, work, spacing, comp, effect, size, kind, seed):
+def inspection_check(ttp, meas, truth_path, out_json):
+    """A missed cloud run: how far `ttp inspect`'s figures are from the
+    truth (the piece as cut), and the fitted top face's RMS, so that a miss
+    of the inspection (a wrong W) is told from a miss of the diagnosis."""
+    p = subprocess.run([ttp, "inspect", meas, "--json", out_json],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if not os.path.exists(out_json):
+        return "inspect exit %d" % p.returncode
+    got, truth = json.load(open(out_json)), json.load(open(truth_path))
+    gf = {f["cycle"]: f for f in got.get("figures") or []}
+    dev = 0.0
+    for f in truth["figures"]:
+        for k in ("E_X", "E_Y", "E_Z", "E_TTP"):
+            g = (gf.get(f["cycle"]) or {}).get(k)
+            dev = max(dev, abs(g - f[k]) if g is not None else float("inf"))
+    a = got.get("alignment") or {}
+    return "inspect: figures off the truth by up to %.2f um, top face rms %.1f um (%s points)" % (
+        dev, a.get("top_face_rms_um", float("nan")), a.get("top_face_points"))
+
+
+def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0):
     d = os.path.join(work, "run")
     shutil.rmtree(d, ignore_errors=True)
-    meas, log = generate.generate(d, effect, size, seed, spacing, comp, kind)
+    meas, log = generate.generate(d, effect, size, seed, spacing, comp, kind, wall_top_mm=wall_top_mm)
     outcome, rc, detail = diagnose(ttp, meas, log, os.path.join(d, "diag.json"))
+    if kind == "cloud" and outcome != expected(effect):
+        detail = (detail + "; " if detail else "") + inspection_check(
+            ttp, meas, os.path.join(d, "truth.json"), os.path.join(d, "inspect.json"))
     return {"spacing_s": spacing, "compensation": "on" if comp else "off", "effect": effect,
             "size": size, "measurement": kind, "file": os.path.basename(meas), "seed": seed,
-            "expected": expected(effect), "outcome": outcome, "exit": rc, "detail": detail}
+            "expected": expected(effect), "outcome": outcome, "exit": rc, "detail": detail,
+            "wall_top_mm": wall_top_mm}
 
 
 def fmt(size):
@@ -120,9 +144,10 @@ def fmt(size):
 
 
 def command_for(r):
+    extra = " --wall-top-mm %g" % r["wall_top_mm"] if r.get("wall_top_mm", 1.0) != 1.0 else ""
     return ("python3 bench/outside/generate.py --effect %s --size %s --seed %d --spacing-s %d "
-            "--compensation %s --measurement %s -o out/r && ttp diagnose --log out/r/talc.csv out/r/%s" %
-            (r["effect"], fmt(r["size"]), r["seed"], r["spacing_s"], r["compensation"], r["measurement"],
+            "--compensation %s --measurement %s%s -o out/r && ttp diagnose --log out/r/talc.csv out/r/%s" %
+            (r["effect"], fmt(r["size"]), r["seed"], r["spacing_s"], r["compensation"], r["measurement"], extra,
              r.get("file") or ("dial.csv" if r["measurement"] == "dial" else "piece.json")))
 
 
@@ -204,7 +229,7 @@ def report(results, spacings):
         if r["outcome"] != r["expected"]:
             print("  %-5d %-3s %-20s %-5s %-4s -> %-20s %s" % (
                 r["spacing_s"], r["compensation"], r["effect"], fmt(r["size"]), r["measurement"],
-                r["outcome"], r["detail"][:100]))
+                r["outcome"], r["detail"][:130]))
             print("        " + command_for(r))
 
 
@@ -264,6 +289,8 @@ def main():
     ap.add_argument("--workdir", help="scratch folder (default: a temporary one)")
     ap.add_argument("--no-clouds", action="store_true",
                     help="measurements json/dial only (the battery before point clouds)")
+    ap.add_argument("--cloud-wall-top-mm", type=float, default=1.0,
+                    help="clouds: highest facet and flank points, mm below the top face (generate.py --wall-top-mm)")
     a = ap.parse_args()
     work = a.workdir or tempfile.mkdtemp(prefix="ttp-outside-")
     os.makedirs(work, exist_ok=True)
@@ -279,7 +306,7 @@ def main():
                 for e, s, kind, seed in scenarios(sp, comp, rng, a.reps, clouds=not a.no_clouds):
                     if a.only and e not in a.only.split(","):
                         continue
-                    results.append(run_one(a.ttp, work, sp, comp, e, s, kind, seed))
+                    results.append(run_one(a.ttp, work, sp, comp, e, s, kind, seed, a.cloud_wall_top_mm))
         report(results, spacings)
         print("%d runs in %.0f s" % (len(results), time.time() - t0))
         if a.json:
