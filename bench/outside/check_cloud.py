@@ -185,10 +185,12 @@ def main():
                 print(head + ": ttp inspect exit %d: %s" % (rc, err.splitlines()[-1:] if err else ""))
                 bad += 1
                 continue
-            print(head + ": warnings %d" % len(got.get("warnings") or []))
+            diff = compare(truth, got)
+            dev = max([abs(x) for k in ("E_X", "E_Y", "E_Z", "E_TTP") for x in diff[k]] or [float("nan")])
+            print(head + ": warnings %d, figures off by up to %.2f um, top face rms %.2f um" % (
+                len(got.get("warnings") or []), dev, (got.get("alignment") or {}).get("top_face_rms_um", float("nan"))))
             for w in got.get("warnings") or []:
                 print("   warning: %s" % w)
-            diff = compare(truth, got)
             for k, v in diff.items():
                 total.setdefault(k, []).extend(v)
         print("measured - truth over %d runs:" % (len(dirs) - bad))
