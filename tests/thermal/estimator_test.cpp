@@ -149,6 +149,111 @@ TEST(Estimator, CompensationOnAddsThePredictionBack) {
   }
 }
 
+// A compensated run whose controller updates its model with every R-test
+// (thesis chapter 6: TALC re-anchors the prediction on each measurement),
+// written here from that description: the prediction in force is the last
+// R-test's machine error plus `follow` times the machine's change since,
+// so pred_ jumps at every R-test; with `follow` applied to the whole
+// change since the start instead, pred_ is continuous. The machine is the
+// synthetic first-order lag of the C-axis speed.
+std::string CompensatedLogText(const test::SyntheticRun& run, bool reanchor,
+                               double follow) {
+  std::vector<double> rtests;
+  for (double t = 95; t <= run.end_s; t += run.rtest_interval_s)
+    rtests.push_back(t);
+  std::mt19937 rng(run.seed);
+  std::normal_distribution<double> noise(0.0, run.rtest_noise_um);
+  std::vector<std::array<double, 7>> measured;  // machine at each R-test
+  for (double t : rtests) {
+    auto e = run.TruthMicro(t - 47.5);
+    for (double& v : e) v += noise(rng);
+    measured.push_back(e);
+  }
+  auto pred = [&](double t) {
+    std::array<double, 7> p{};
+    const auto now = run.TruthMicro(t);
+    if (!reanchor) {
+      for (int i = 0; i < 7; ++i) p[i] = follow * now[i];
+      return p;
+    }
+    int last = -1;
+    for (size_t k = 0; k < rtests.size(); ++k)
+      if (rtests[k] <= t) last = static_cast<int>(k);
+    if (last < 0) return p;
+    const auto base = run.TruthMicro(rtests[last] - 47.5);
+    for (int i = 0; i < 7; ++i)
+      p[i] = measured[last][i] + follow * (now[i] - base[i]);
+    return p;
+  };
+  auto pred_cells = [&](double t) {
+    std::string s;
+    for (double v : pred(t)) s += fmt::format(",{:.5f}", v);
+    return s;
+  };
+  std::vector<std::pair<double, std::string>> rows;
+  for (double t = 0; t <= run.end_s; t += 60) {
+    const int rpm = t > run.warmup_s && t <= run.cooldown_s ? 1200 : 0;
+    rows.push_back({t, fmt::format("{},sample,{},,,,,,,,{}", t, rpm,
+                                   pred_cells(t))});
+  }
+  for (size_t k = 0; k < rtests.size(); ++k) {
+    const double t = rtests[k];
+    const auto p = pred(t - 47.5);
+    std::string r = fmt::format("{},rtest,", t);
+    for (int i = 0; i < 7; ++i) r += fmt::format(",{:.5f}", measured[k][i] - p[i]);
+    rows.push_back({t, r + ",95" + pred_cells(t)});
+  }
+  std::stable_sort(rows.begin(), rows.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::string text =
+      "# talc-log: 1\n# start: 2026-03-02T06:00:00Z\n# compensation: on\n"
+      "t_s,event,c_rpm,EX0C,EY0C,EZ0T,ER0T,EA0C,EB0C,EC0C,dur_s,pred_EX0C,"
+      "pred_EY0C,pred_EZ0T,pred_ER0T,pred_EA0C,pred_EB0C,pred_EC0C\n";
+  for (const auto& r : rows) text += r.second + "\n";
+  return text;
+}
+
+// Re-anchored at every R-test, the residual (machine - pred_) between two
+// R-tests follows the machine's change since the last one, which a fit
+// through the R-tests' residuals cannot see: the estimator fits the
+// machine's own error instead and follows the truth between R-tests half
+// an hour apart; fitting the residual is off by much more there.
+TEST(Estimator, PredictionReanchoredAtRTestsFitsTheMachineError) {
+  test::SyntheticRun run;
+  run.rtest_interval_s = 1800;
+  const TalcLog log = ParseTalcLog(CompensatedLogText(run, true, 0.75), "c.csv");
+  const auto est = MachineErrorEstimator::Fit(log);
+  EXPECT_TRUE(est.fits_machine_error());
+  EstimatorOptions residual_options;
+  residual_options.compensation_fit =
+      EstimatorOptions::CompensationFit::kResidual;
+  const auto residual = MachineErrorEstimator::Fit(log, residual_options);
+  EXPECT_FALSE(residual.fits_machine_error());
+  const double t0 = est.FirstRTestS(), t1 = est.LastRTestS();
+  const double machine_rms = RmsAgainstTruth(
+      run, [&](double t) { return est.MachineErrorsAt(t); }, t0, t1);
+  const double residual_rms = RmsAgainstTruth(
+      run, [&](double t) { return residual.MachineErrorsAt(t); }, t0, t1);
+  EXPECT_LT(machine_rms, 0.2);  // largest error 9.6 um, R-test noise 0.05
+  EXPECT_LT(machine_rms, 0.5 * residual_rms)
+      << machine_rms << " vs " << residual_rms;
+}
+
+// A prediction that follows the inputs continuously (no jump at the
+// R-tests) leaves a smooth residual: that is what the fit takes.
+TEST(Estimator, ContinuousPredictionFitsTheResidual) {
+  test::SyntheticRun run;
+  run.rtest_interval_s = 1800;
+  const TalcLog log =
+      ParseTalcLog(CompensatedLogText(run, false, 0.75), "c.csv");
+  const auto est = MachineErrorEstimator::Fit(log);
+  EXPECT_FALSE(est.fits_machine_error());
+  const double rms = RmsAgainstTruth(
+      run, [&](double t) { return est.MachineErrorsAt(t); },
+      est.FirstRTestS(), est.LastRTestS());
+  EXPECT_LT(rms, 0.2);
+}
+
 // A plant outside the estimator's model class, written here with its own
 // parameterisation: each error is a second-order response (two cascaded
 // lags, 700 s and 4000 s) to the bearing heat (C speed squared), plus a

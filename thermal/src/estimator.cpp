@@ -118,6 +118,49 @@ void Subsets(int n, int max_size, int first, std::vector<int>& current,
   }
 }
 
+// Whether the prediction in force jumps at the R-tests (the controller
+// re-anchors or updates its model with each measurement) rather than
+// changing smoothly: the change of pred_ across each R-test row (from the
+// last row before it to the first at or after it), against the changes
+// between consecutive rows elsewhere, both in units of the R-tests' noise
+// (largest over the seven errors). Re-anchoring: the median jump at the
+// R-tests exceeds half the R-test noise and five times the median change
+// between other rows.
+bool PredictionReanchorsAtRTests(const TalcLog& log,
+                                 const std::vector<double>& pred_t,
+                                 const std::vector<CAxisErrors>& pred,
+                                 const std::array<double, 7>& noise) {
+  if (pred_t.size() < 3 || log.rtests.size() < 3) return false;
+  auto step = [&](size_t a, size_t b) {
+    const auto pa = pred[a].ToMicro(), pb = pred[b].ToMicro();
+    double m = 0;
+    for (int e = 0; e < 7; ++e)
+      m = std::max(m, std::abs(pb[e] - pa[e]) / std::max(noise[e], 1e-9));
+    return m;
+  };
+  std::vector<double> jumps, steps;
+  std::vector<bool> at_rtest(pred_t.size(), false);
+  for (size_t k = 1; k < log.rtests.size(); ++k) {
+    const double t = log.rtests[k].t_end_s;
+    const size_t after = static_cast<size_t>(
+        std::lower_bound(pred_t.begin(), pred_t.end(), t) - pred_t.begin());
+    if (after == 0 || after >= pred_t.size()) continue;
+    jumps.push_back(step(after - 1, after));
+    at_rtest[after] = true;
+  }
+  for (size_t i = 1; i < pred_t.size(); ++i)
+    if (!at_rtest[i]) steps.push_back(step(i - 1, i));
+  if (jumps.size() < 2 || steps.empty()) return false;
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double jump = median(jumps), typical = median(steps);
+  if (std::getenv("TTP_DEBUG_REANCHOR"))
+    std::fprintf(stderr, "reanchor: jump %.3f typical %.3f\n", jump, typical);
+  return jump > 0.5 && jump > 5 * typical;
+}
+
 }  // namespace
 
 bool EstimatorOptions::IsValid(std::string* error) const {
@@ -196,6 +239,20 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     est.rtest_y_.push_back(y);
   }
 
+  switch (options.compensation_fit) {
+    case EstimatorOptions::CompensationFit::kResidual:
+      est.fit_machine_ = !log.compensation;
+      break;
+    case EstimatorOptions::CompensationFit::kMachine:
+      est.fit_machine_ = true;
+      break;
+    case EstimatorOptions::CompensationFit::kAuto:
+      est.fit_machine_ = !log.compensation ||
+                         PredictionReanchorsAtRTests(log, est.pred_t_, est.pred_,
+                                                  options.rtest_noise_um_or_urad);
+      break;
+  }
+
   // Input signals, lag-filtered for every tau on a uniform grid.
   const double t0 = std::min(log.FirstTimeS(), est.rtest_t_.front());
   const double t1 = std::max(log.LastTimeS(), est.rtest_t_.back());
@@ -253,7 +310,7 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     // stops for every R-test and cut), so what is left is smoother.
     Eigen::VectorXd y(n);
     for (int k = 0; k < n; ++k) {
-      y[k] = (est.rtest_y_[k] - est.PredictedAt(est.rtest_t_[k])).ToMicro()[e];
+      y[k] = (est.rtest_y_[k] - est.FitBaseAt(est.rtest_t_[k])).ToMicro()[e];
     }
     est.SelectModel(e, y, all);
     {
@@ -442,7 +499,7 @@ void MachineErrorEstimator::CrossValidate() {
   for (int e = 0; e < 7; ++e) {
     std::vector<double> y(n);
     for (int k = 0; k < n; ++k)
-      y[k] = (rtest_y_[k] - PredictedAt(rtest_t_[k])).ToMicro()[e];
+      y[k] = (rtest_y_[k] - FitBaseAt(rtest_t_[k])).ToMicro()[e];
     double ss = 0;
     int count = 0;
     for (int b0 = 0; b0 < n; b0 += block) {
@@ -593,11 +650,15 @@ CAxisErrors MachineErrorEstimator::MachineErrorsAt(double t_s) const {
   for (int e = 0; e < 7; ++e) {
     micro[e] = ModelAt(e, t_s) + ResidualAt(e, t_s, -1);
   }
-  return PredictedAt(t_s) + CAxisErrors::FromMicro(micro);
+  return FitBaseAt(t_s) + CAxisErrors::FromMicro(micro);
 }
 
 CAxisErrors MachineErrorEstimator::LinearErrorsAt(double t_s) const {
   return Interpolate(rtest_t_, rtest_y_, t_s);
+}
+
+CAxisErrors MachineErrorEstimator::FitBaseAt(double t_s) const {
+  return fit_machine_ ? CAxisErrors{} : PredictedAt(t_s);
 }
 
 CAxisErrors MachineErrorEstimator::PredictedAt(double t_s) const {

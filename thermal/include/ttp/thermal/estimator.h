@@ -66,6 +66,18 @@ struct EstimatorOptions {
   // load change falls inside a gap, zero next to an R-test; calibrated on
   // the estimator's actual errors at the cut times (docs/DIAGNOSIS.md).
   double model_shape_error_fraction = 0.5;
+  // With compensation on, what the model is fitted to. The machine's own
+  // error (R-test residual + pred_) is a smooth thermal response; the
+  // residual (machine - pred_) is smooth only while pred_ is: a controller
+  // that re-anchors its model at every R-test (TALC's recursive update,
+  // thesis chapter 6) makes pred_ jump there, and the residual between two
+  // R-tests then follows the change since the last one, which a fit
+  // through the R-tests' residuals cannot see. kAuto fits the machine's
+  // error when pred_ jumps at the R-tests (PredictionReanchorsAtRTests)
+  // and the residual when pred_ is continuous there (a model of the
+  // inputs that follows their fast dynamics, leaving less to fit).
+  enum class CompensationFit { kAuto, kResidual, kMachine };
+  CompensationFit compensation_fit = CompensationFit::kAuto;
   // Residual smoothing bandwidths tried (s); 0 = linear interpolation
   // through the R-tests, infinity = model only (plus mean residual). The
   // one with the least leave-one-out error is used, per error.
@@ -135,6 +147,10 @@ class MachineErrorEstimator {
   double LastRTestS() const { return rtest_t_.back(); }
   const std::vector<ErrorModel>& models() const { return models_; }
   bool compensation() const { return compensation_; }
+  // With compensation on: whether the model is fitted to the machine's own
+  // error (true) or to the R-test residual (EstimatorOptions::
+  // compensation_fit); true with compensation off.
+  bool fits_machine_error() const { return fit_machine_; }
 
   std::string Describe() const;  // one line for reports
   nlohmann::json ToJson() const;
@@ -163,7 +179,12 @@ class MachineErrorEstimator {
                    const std::vector<int>& rows);
   void CrossValidate();
 
+  // What the model's fit takes away from the machine error at t: pred_
+  // when it fits the residual, zero when it fits the machine's own error.
+  CAxisErrors FitBaseAt(double t_s) const;
+
   bool compensation_ = false;
+  bool fit_machine_ = true;
   EstimatorOptions options_;
   double grid_t0_ = 0;
   std::vector<Signal> signals_;
