@@ -90,11 +90,11 @@ def scenarios(spacing, comp, rng, reps, clouds=False):
 def diagnose(ttp, meas, log, out_json):
     p = subprocess.run([ttp, "diagnose", "--log", log, meas, "--json", out_json],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    status, cause, detail = None, None, ""
+    status, cause, detail, decision = None, None, "", None
     if os.path.exists(out_json):
         try:
             d = json.load(open(out_json))
-            status, cause = d.get("status"), d.get("cause")
+            status, cause, decision = d.get("status"), d.get("cause"), d.get("decision")
         except ValueError:
             pass
     if status is None:
@@ -102,7 +102,7 @@ def diagnose(ttp, meas, log, out_json):
         detail = (p.stderr or p.stdout).strip().splitlines()[-1:] or [""]
         detail = detail[0]
     outcome = cause if status == "named" else status
-    return outcome, p.returncode, detail
+    return outcome, p.returncode, detail, decision
 
 
 def inspection_check(ttp, meas, truth_path, out_json):
@@ -129,14 +129,14 @@ def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0)
     d = os.path.join(work, "run")
     shutil.rmtree(d, ignore_errors=True)
     meas, log = generate.generate(d, effect, size, seed, spacing, comp, kind, wall_top_mm=wall_top_mm)
-    outcome, rc, detail = diagnose(ttp, meas, log, os.path.join(d, "diag.json"))
+    outcome, rc, detail, decision = diagnose(ttp, meas, log, os.path.join(d, "diag.json"))
     if kind == "cloud" and outcome != expected(effect):
         detail = (detail + "; " if detail else "") + inspection_check(
             ttp, meas, os.path.join(d, "truth.json"), os.path.join(d, "inspect.json"))
     return {"spacing_s": spacing, "compensation": "on" if comp else "off", "effect": effect,
             "size": size, "measurement": kind, "file": os.path.basename(meas), "seed": seed,
             "expected": expected(effect), "outcome": outcome, "exit": rc, "detail": detail,
-            "wall_top_mm": wall_top_mm}
+            "wall_top_mm": wall_top_mm, "decision": decision}
 
 
 def fmt(size):

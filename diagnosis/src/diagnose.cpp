@@ -163,22 +163,44 @@ class ColumnCache {
   std::vector<Column> clamping_, c_axis_;
 };
 
+// Whether figure kind g carries a free offset: its reference cycle's
+// variance is not known (Observations::figure_reference_var_um2).
+bool FreeOffset(const Observations& obs, int g) {
+  return g == kAngleGroup ||
+         g >= static_cast<int>(obs.figure_reference_var_um2.size()) ||
+         !std::isfinite(obs.figure_reference_var_um2[g]);
+}
+
+// The figures' covariance with the reference cycle's common part of each
+// anchored kind added to every pair of its observations.
+Eigen::MatrixXd AnchoredFigureCovariance(const Observations& obs) {
+  Eigen::MatrixXd cov = obs.figure_covariance_um2;
+  for (size_t i = 0; i < obs.figures(); ++i)
+    for (size_t j = 0; j < obs.figures(); ++j) {
+      const int g = obs.figure_kind[i];
+      if (obs.figure_kind[j] == g && !FreeOffset(obs, g))
+        cov(i, j) += obs.figure_reference_var_um2[g];
+    }
+  return cov;
+}
+
 // The generalised least-squares problem on a subset of the observations:
-// rows whitened with the Cholesky factor of their covariance, nuisance
-// offsets per figure kind and for the angles.
+// rows whitened with the Cholesky factor of their covariance (with the
+// reference cycle's common part), nuisance offsets for the angles and for
+// figure kinds whose reference part is not known.
 class Problem {
  public:
   Problem(const Observations& obs, const std::vector<bool>& use) : obs_(obs) {
     const int nf = static_cast<int>(obs.figures());
     for (int i = 0; i < static_cast<int>(obs.size()); ++i)
       if (use[i]) (i < nf ? fig_ : ang_).push_back(i);
-    lf_ = Factor(obs.figure_covariance_um2, fig_, 0);
+    lf_ = Factor(AnchoredFigureCovariance(obs), fig_, 0);
     la_ = Factor(obs.angle_covariance_urad2, ang_, nf);
     bool kind_used[kGroups] = {};
     for (int i : fig_) kind_used[obs.figure_kind[i]] = true;
     if (!ang_.empty()) kind_used[kAngleGroup] = true;
     for (int g = 0; g < kGroups; ++g)
-      if (kind_used[g]) {
+      if (kind_used[g] && FreeOffset(obs, g)) {
         Column c = Column::Zero(obs.size());
         for (int i = 0; i < static_cast<int>(obs.size()); ++i)
           c[i] = (i < nf ? obs.figure_kind[i] : kAngleGroup) == g ? 1.0 : 0.0;
@@ -220,6 +242,7 @@ class Problem {
     Eigen::VectorXd b;        // cause coefficients
     Eigen::MatrixXd cov;      // of b
     std::vector<double> offsets = std::vector<double>(kGroups, 0.0);
+    Eigen::VectorXd residual;  // whitened
   };
   // y - base ~ sum_k b_k columns_k + offsets, all whitened.
   Solution Solve(const std::vector<Eigen::VectorXd>& columns,
@@ -236,7 +259,8 @@ class Problem {
     const Eigen::VectorXd beta = ldlt.solve(x.transpose() * y);
     if (!beta.allFinite()) return s;
     s.ok = true;
-    s.chi2 = (y - x * beta).squaredNorm();
+    s.residual = y - x * beta;
+    s.chi2 = s.residual.squaredNorm();
     s.b = beta.head(nc);
     s.cov = ldlt.solve(Eigen::MatrixXd::Identity(nc + nn, nc + nn))
                 .topLeftCorner(nc, nc);
@@ -478,6 +502,21 @@ double Bic(const Fit& f, int n) {
   return f.chi2 + f.parameters * std::log(static_cast<double>(std::max(n, 2)));
 }
 
+// E_X, E_Y and E_Z pooled: their whitened chi2 as one standard normal
+// deviate (Wilson-Hilferty); -inf with fewer than three observations.
+double MachinePooledZ(const Eigen::VectorXd& whitened_residual,
+                      const std::vector<int>& row_kinds) {
+  double chi2 = 0;
+  int k = 0;
+  for (size_t r = 0; r < row_kinds.size(); ++r)
+    if (row_kinds[r] <= 2) {
+      chi2 += whitened_residual[r] * whitened_residual[r];
+      ++k;
+    }
+  if (k < 3) return -kInf;
+  return (std::cbrt(chi2 / k) - (1 - 2 / (9.0 * k))) / std::sqrt(2 / (9.0 * k));
+}
+
 // Every candidate fitted on one problem, and the decision on it.
 struct Selection {
   std::vector<Fit> fits;  // [0] = none
@@ -492,6 +531,10 @@ struct Selection {
   double machine_z = -kInf;  // the same over E_X, E_Y, E_Z
   // E_X, E_Y and E_Z pooled: one deviate over their whitened chi2.
   double machine_pooled_z = -kInf;
+  // The same with the best drift or step of one figure kind fitted along
+  // (what an effect on one feature type leaves, not another machine).
+  double machine_pooled_z_one_kind = -kInf;
+  std::vector<double> machine_kind_z = std::vector<double>(3, -kInf);
   double step_chi2 = 0;  // largest chi2 drop by a step in one figure kind
   int step_group = -1, step_from_cycle = 0;
   // BIC of the chosen cause minus the best step alternative's.
@@ -510,6 +553,7 @@ struct TrendTest {
   double chi2_drop = 0;
   int group = -1;
   double drift_um = 0;  // over the cycles measured
+  double machine_pooled_z = kInf;  // E_X, E_Y, E_Z pooled after the drift
 };
 TrendTest FigureTrend(const Fitter& fitter, const Fit& fit,
                       const Problem& problem) {
@@ -527,16 +571,24 @@ TrendTest FigureTrend(const Fitter& fitter, const Fit& fit,
   const std::vector<int> kinds = problem.RowKinds();
   for (int g = 0; g < kFigureKinds; ++g) {
     if (std::count(kinds.begin(), kinds.end(), g) < 4) continue;
-    Column trend = Column::Zero(obs.size());
+    Column trend = Column::Zero(obs.size()), level = Column::Zero(obs.size());
     for (size_t i = 0; i < obs.figures(); ++i)
-      if (obs.figure_kind[i] == g) trend[i] = obs.figure_cycle[i];
+      if (obs.figure_kind[i] == g) {
+        trend[i] = obs.figure_cycle[i];
+        level[i] = 1;
+      }
     std::vector<Eigen::VectorXd> with_trend = columns;
+    // A kind without a free offset gets the drift's own level: a drift
+    // over the facets' positions (a pattern along the segment) passes
+    // through zero at the reference facet, not at cycle 0.
+    if (!FreeOffset(obs, g)) with_trend.push_back(problem.Whiten(level));
     with_trend.push_back(problem.Whiten(trend));
     const Problem::Solution with = problem.Solve(with_trend, base);
     if (with.ok && fit.chi2 - with.chi2 > out.chi2_drop) {
       out.chi2_drop = fit.chi2 - with.chi2;
       out.group = g;
       out.drift_um = with.b[with.b.size() - 1] * (part_cycles(obs) - 1);
+      out.machine_pooled_z = MachinePooledZ(with.residual, kinds);
     }
   }
   return out;
@@ -669,7 +721,10 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
         sel.local_z = z;
         sel.local_group = g;
       }
-      if (g <= 2) sel.machine_z = std::max(sel.machine_z, z);
+      if (g <= 2) {
+        sel.machine_z = std::max(sel.machine_z, z);
+        sel.machine_kind_z[g] = z;
+      }
       if (z > options.local_z && local.empty())
         local = fmt::format(
             "{} keeps chi2 {:.1f} over {} observations ({:.1f} "
@@ -681,6 +736,7 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   // chosen model: a cause that explains the data leaves nothing a step
   // explains better than chance (an effect that starts at one cycle, a
   // changed set-up, is no catalogue cause).
+  double step_pooled_z = kInf;
   {
     double tau = 0;
     for (size_t c = 0; c < f.spec.causes.size(); ++c)
@@ -714,6 +770,7 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
           sel.step_chi2 = drop;
           sel.step_group = g;
           sel.step_from_cycle = from;
+          step_pooled_z = MachinePooledZ(with.residual, kinds);
         }
       }
     }
@@ -763,6 +820,8 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   {
     const TrendTest t = FigureTrend(fitter, f, problem);
     sel.trend_chi2 = t.chi2_drop;
+    sel.machine_pooled_z_one_kind =
+        std::min({sel.machine_pooled_z, t.machine_pooled_z, step_pooled_z});
     if (t.chi2_drop > options.trend_chi2 &&
         std::abs(t.drift_um) > options.trend_min_um)
       trend = fmt::format(
@@ -868,6 +927,8 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
   if (!(named_machine_z > 0)) return fail("named_machine_z: must be > 0");
   if (!(refuse_machine_pooled_z > 0))
     return fail("refuse_machine_pooled_z: must be > 0");
+  if (!std::isfinite(refuse_after_one_kind_z))
+    return fail("refuse_after_one_kind_z: must be finite");
   if (!(min_heldout_gain_pct < 100))
     return fail("min_heldout_gain_pct: must be < 100");
   if (!(trend_chi2 > 0)) return fail("trend_chi2: must be > 0");
@@ -1112,6 +1173,8 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.structure_z = sel.local_z;
   report.machine_z = sel.machine_z;
   report.machine_pooled_z = sel.machine_pooled_z;
+  report.machine_kind_z = sel.machine_kind_z;
+  report.machine_pooled_z_one_kind = sel.machine_pooled_z_one_kind;
   report.step_chi2 = sel.step_chi2;
   report.evidence_threshold = sel.threshold;
   report.baseline_rms_um = report.candidates[0].rms_um;
@@ -1236,6 +1299,68 @@ void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
     r->var_d_mm2 += form.d_mm * form.d_mm;
   }
 }
+// The reference cycle's part of each figure kind's error (the common
+// variance of Observations::figure_reference_var_um2): the reference
+// features' measurement, weighted as in the figure, plus the estimator's
+// error at the reference cut (`estimator_var_um2`; what the R-tests leave
+// there). A reference feature read as the zero of an instrument (a dial
+// gauge's setting on facet 5 and strip 5, stated variance 0) counts as
+// one reading of its family. Without feature results (figures only), half
+// the figure's variance: the figure is the difference of two cycles'
+// measurements.
+template <typename EstimatorVar>
+std::vector<double> ReferenceCycleVarianceUm2(const PartSpec& part,
+                                              const MeasuredPiece& measured,
+                                              const Observations& obs,
+                                              EstimatorVar estimator_var_um2) {
+  std::vector<double> out(kFigureKinds,
+                          std::numeric_limits<double>::infinity());
+  const int ref = part.reference_index;
+  // Variance of a reference feature, um^2 (NaN when it was not measured).
+  auto reference_var = [&](const FeatureId& id) {
+    auto it = measured.features.find(id);
+    if (it == measured.features.end() || !it->second.present)
+      return std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> family;
+    for (const auto& [other, r] : measured.features)
+      if (other.kind == id.kind && other.segment == id.segment &&
+          other.index != ref && other.IsTestFeature() && r.present &&
+          std::isfinite(r.var_d_mm2))
+        family.push_back(r.var_d_mm2);
+    double v = std::isfinite(it->second.var_d_mm2) ? it->second.var_d_mm2 : 0;
+    if (!family.empty()) {
+      std::nth_element(family.begin(), family.begin() + family.size() / 2,
+                       family.end());
+      v = std::max(v, family[family.size() / 2]);
+    }
+    return v * 1e6;
+  };
+  if (!measured.features.empty()) {
+    const double x1 = reference_var(FeatureId::Facet(Segment::kX1, ref)),
+                 x2 = reference_var(FeatureId::Facet(Segment::kX2, ref)),
+                 y1 = reference_var(FeatureId::Facet(Segment::kY1, ref)),
+                 y2 = reference_var(FeatureId::Facet(Segment::kY2, ref)),
+                 z = reference_var(FeatureId::Strip(ref));
+    out[0] = 0.25 * (x1 + x2);
+    out[1] = 0.25 * (y1 + y2);
+    out[2] = z;
+    out[3] = 0.0625 * (x1 + x2 + y1 + y2);
+    out[4] = out[3];
+  } else {
+    for (int g = 0; g < 4; ++g) {
+      std::vector<double> v;
+      for (size_t i = 0; i < obs.figures(); ++i)
+        if (obs.figure_kind[i] == g) v.push_back(obs.figure_sigma_um[i]);
+      if (v.empty()) continue;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      out[g] = 0.5 * v[v.size() / 2] * v[v.size() / 2];
+    }
+  }
+  for (int g = 0; g < kFigureKinds; ++g)
+    if (std::isfinite(out[g])) out[g] += estimator_var_um2(g);
+  return out;
+}
+
 }  // namespace
 
 MeasuredPiece MeasuredPieceFromFeatures(const PartSpec& part,
@@ -1460,6 +1585,11 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
           est_angle[i] * est_angle[j] * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
     obs.angle_covariance_urad2(i, i) += std::pow(obs.angle_sigma_urad[i], 2);
   }
+  if (options.anchor_reference_cycle)
+    obs.figure_reference_var_um2 = ReferenceCycleVarianceUm2(
+        part, measured, obs, [&](int kind) {
+          return std::pow(est_sigma_um(kind, time_of(0)), 2);
+        });
   // The total standard uncertainty of each observation (for displays).
   for (size_t i = 0; i < nf; ++i)
     obs.figure_sigma_um[i] = std::sqrt(obs.figure_covariance_um2(i, i));
@@ -1537,13 +1667,20 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
     refused.observations = report.observations;
     refused.estimator = report.estimator;
     refused.machine_z = report.machine_z;
+    refused.machine_pooled_z = report.machine_pooled_z;
+    refused.machine_kind_z = report.machine_kind_z;
+    refused.machine_pooled_z_one_kind = report.machine_pooled_z_one_kind;
     refused.structure_z = report.structure_z;
+    refused.best_evidence = report.best_evidence;
+    refused.step_chi2 = report.step_chi2;
     return refused;
   };
   // The log of another run: the measured piece's E_X and E_Y (which no
   // known cause changes much) do not follow the simulated ones.
+  const bool beyond_one_kind =
+      report.machine_pooled_z_one_kind > options.refuse_after_one_kind_z;
   if (report.status == DiagnosisStatus::kUnexplained &&
-      report.machine_z > options.refuse_z) {
+      report.machine_z > options.refuse_z && beyond_one_kind) {
     // E_X, E_Y and E_Z follow the machine's location errors, which the
     // log's R-tests measure and which no catalogue cause changes much
     // (after the best model): far beyond the error budget there, the log
@@ -1567,7 +1704,8 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   // few touches keep each kind alone within its budget).
   if ((report.status == DiagnosisStatus::kNamed &&
        report.machine_pooled_z > options.named_machine_z) ||
-      report.machine_pooled_z > options.refuse_machine_pooled_z) {
+      (report.machine_pooled_z > options.refuse_machine_pooled_z &&
+       beyond_one_kind)) {
     DiagnosisReport refused = refuse_keeping_evidence(fmt::format(
         "{} does not follow the machine errors of {}: {} fits, but E_X, E_Y "
         "and E_Z, which no catalogue cause changes much, keep a chi2 "
@@ -1677,6 +1815,22 @@ nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
     j["unexplained"] = where.empty() ? structure : where;
   }
   j["residual_by_location"] = structure;
+  // The statistics the decision was taken on (docs/DIAGNOSIS.md: the
+  // thresholds and their calibration); null where not computed.
+  auto finite_or_null = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
+  nlohmann::json kind_z = nlohmann::json::object();
+  for (size_t g = 0; g < r.machine_kind_z.size() && g < 3; ++g)
+    kind_z[kFigureNames[g]] = finite_or_null(r.machine_kind_z[g]);
+  j["decision"] = {{"best_evidence", finite_or_null(r.best_evidence)},
+                   {"evidence_threshold", r.evidence_threshold},
+                   {"largest_kind_deviate", finite_or_null(r.structure_z)},
+                   {"machine_kind_deviate", kind_z},
+                   {"machine_pooled_deviate", finite_or_null(r.machine_pooled_z)},
+                   {"machine_pooled_deviate_after_one_kind",
+                    finite_or_null(r.machine_pooled_z_one_kind)},
+                   {"step_chi2", r.step_chi2}};
   if (std::isfinite(r.simulation_slope))
     j["simulation_slope"] = {{"value", r.simulation_slope},
                              {"uncertainty", r.simulation_slope_sd}};

@@ -63,6 +63,14 @@ struct Observations {
   std::vector<double> figure_t_s;  // the cycle's cut time
   std::vector<double> figure_value_um, figure_sigma_um;
   Eigen::MatrixXd figure_covariance_um2;
+  // Per figure kind (0..4): the variance of the reference cycle's part of
+  // its figures (the reference features' measurement and the estimator's
+  // error at the reference cut), um^2. Every figure is a difference to
+  // cycle 0, so this part is common to all cycles of the kind: the fits
+  // add it to every pair of the kind's observations instead of fitting a
+  // free offset. Infinite: not known, and the kind gets a free offset.
+  std::vector<double> figure_reference_var_um2 =
+      std::vector<double>(5, std::numeric_limits<double>::infinity());
   // Facet normal angles (rotation about Z).
   std::vector<FeatureId> angle_feature;  // the facet (X1-3)
   std::vector<int> angle_cycle;
@@ -121,6 +129,15 @@ struct DiagnosisOptions {
   // cause gives).
   double min_heldout_gain_pct = 0.0;
   double implausible_rival_margin = 2.0;
+  // The figures are differences to the reference cycle: its error is
+  // common to every cycle of a figure kind, with a variance the budget
+  // knows (the reference features' measurement, the estimator at the
+  // reference cut). True: that common part enters the covariance and the
+  // figures carry no free offset, so a drift that starts at the reference
+  // cycle (an effect's mean, another machine's errors) counts in full.
+  // False: a free offset per figure kind absorbs it (the facet angles
+  // always get one: their datum was cut in pre-machining, before the log).
+  bool anchor_reference_cycle = true;
   // Lower bounds of the residual uncertainties (um, urad).
   double min_sigma_um = 0.02, min_sigma_urad = 0.3;
   // Scale on the estimator's blocked cross-validation error (which holds
@@ -149,6 +166,14 @@ struct DiagnosisOptions {
   // chi2 deviate beyond this after the best model: above every run with
   // its own log in the calibration and the batteries (docs/DIAGNOSIS.md).
   double refuse_machine_pooled_z = 3.5;
+  // The two rules above refuse only when E_X, E_Y and E_Z pooled stay
+  // beyond this with the best drift or step of one figure kind fitted
+  // along: another run's log misplaces the machine errors in every kind
+  // the R-tests measure, while an effect on one feature type (the strips
+  // drifting: E_Z alone) is explained by that one term and is
+  // `unexplained`, not a mismatch. One standard deviation: a residual
+  // the budget describes after that term.
+  double refuse_after_one_kind_z = 1.0;
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
 
@@ -213,6 +238,13 @@ struct DiagnosisReport {
   double machine_z = 0;
   // The same over E_X, E_Y and E_Z pooled (one chi2 deviate).
   double machine_pooled_z = 0;
+  // Each of E_X, E_Y, E_Z alone (-inf where fewer than three observations).
+  std::vector<double> machine_kind_z;
+  // The pooled deviate with the best drift or step of one figure kind
+  // fitted along with the best model: an effect on one feature type (the
+  // strips drifting, one set of facets moved) leaves little here, another
+  // run's machine errors (in every kind the R-tests measure) stay.
+  double machine_pooled_z_one_kind = 0;
   // Held-out cycles (the whole selection repeated without each cycle):
   // RMS of the held-out residuals, nominal vs the fold's chosen model.
   double heldout_baseline_rms_um = 0, heldout_extended_rms_um = 0;
