@@ -95,6 +95,8 @@ def diagnose(ttp, meas, log, out_json):
         try:
             d = json.load(open(out_json))
             status, cause, decision = d.get("status"), d.get("cause"), d.get("decision")
+            if decision is not None:
+                decision["gain_pct"] = d.get("gain_pct")
         except ValueError:
             pass
     if status is None:

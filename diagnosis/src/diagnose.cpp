@@ -84,6 +84,28 @@ double Rms(const std::vector<double>& v) {
   return std::sqrt(s / v.size());
 }
 
+// A radial spring-back with `lobes` lobes, u(phi) = a cos(lobes phi) + b
+// sin(lobes phi) (um), on the facets: each moves by u at its centre and
+// turns about Z by -u'(phi)/R. The clamping distortion of the catalogue
+// is the three-lobed one of the three bolts; other lobe counts (an oval
+// from uneven clamping, four lobes) are effects outside the catalogue,
+// used only as rivals of a name.
+EffectDeltas LobeDeltas(int lobes, double a_um, double b_um,
+                        const EffectContext& context) {
+  EffectDeltas out;
+  for (const CutState& s : context.cuts) {
+    FeatureDelta d;
+    if (s.is_facet) {
+      const double c = std::cos(lobes * s.phi_w_rad),
+                   sn = std::sin(lobes * s.phi_w_rad);
+      d.d_mm = 1e-3 * (a_um * c + b_um * sn);
+      d.angle_rad = -1e-3 * lobes * (-a_um * sn + b_um * c) / s.radius_mm;
+    }
+    out[s.id] = d;
+  }
+  return out;
+}
+
 // One column or base of a model over all observations (figures, then
 // angles), in the observations' units.
 using Column = Eigen::VectorXd;
@@ -147,6 +169,14 @@ class ColumnCache {
                                c_axis_.begin() + 2 * harmonics);
   }
   const Column& WorkpieceBase() const { return wp_base_; }
+  // A spring-back of another lobe count than the bolts' three (a rival of
+  // a name, never a cause): its cos and sin columns.
+  std::vector<Column> Lobes(int lobes) const {
+    return {Stack(DeltasOnObservations(LobeDeltas(lobes, 1.0, 0.0, context_),
+                                       obs_, part_)),
+            Stack(DeltasOnObservations(LobeDeltas(lobes, 0.0, 1.0, context_),
+                                       obs_, part_))};
+  }
   const Column& Observed() const { return observed_; }
   // Effect of gain 1 minus the base at tau.
   Column Workpiece(double tau_s) const {
@@ -809,6 +839,28 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
           "a step of {} from cycle {} on explains the data as well as {} "
           "(delta BIC {:.1f})",
           kFigureNames[best_g], best_from, f.spec.Name(), sel.step_rival);
+    // A spring-back of another lobe count than the three bolts' (two: an
+    // oval; four) turns the facets much as a C stop error does (facets cut
+    // at one table angle alike) and moves their distances much as the
+    // three lobes do: when it explains the data as well as the cause, the
+    // data cannot tell the cause from it (two parameters, like the step).
+    for (int lobes : {2, 4}) {
+      if (!rival.empty()) break;
+      std::vector<Eigen::VectorXd> cols;
+      for (const Column& c : cache.Lobes(lobes))
+        cols.push_back(problem.Whiten(c));
+      const Fit with = fitter.Linear(ModelSpec{}, 0.0, cols);
+      if (!with.ok) continue;
+      const double lobe_bic =
+          with.chi2 +
+          (none.parameters + 2) * std::log(static_cast<double>(std::max(n, 2)));
+      const double delta = Bic(f, n) - lobe_bic;
+      if (delta > -options.step_rival_margin)
+        rival = fmt::format(
+            "a {}-lobed spring-back explains the data as well as {} (delta "
+            "BIC {:.1f})",
+            lobes, f.spec.Name(), delta);
+    }
   }
   std::string step;
   if (sel.step_chi2 > options.step_chi2)
@@ -966,11 +1018,23 @@ ObservationEffect EffectOnObservations(Cause cause,
                                        const Observations& obs,
                                        const EffectContext& context,
                                        const PartSpec& part) {
+  if (cause == Cause::kNone) {
+    ObservationEffect out;
+    out.figure_um.assign(obs.figures(), 0.0);
+    out.angle_urad.assign(obs.angles(), 0.0);
+    return out;
+  }
+  return DeltasOnObservations(PredictEffect(cause, params, context), obs,
+                              part);
+}
+
+
+ObservationEffect DeltasOnObservations(const EffectDeltas& deltas,
+                                       const Observations& obs,
+                                       const PartSpec& part) {
   ObservationEffect out;
   out.figure_um.assign(obs.figures(), 0.0);
   out.angle_urad.assign(obs.angles(), 0.0);
-  if (cause == Cause::kNone) return out;
-  const EffectDeltas deltas = PredictEffect(cause, params, context);
   FeatureResults results;
   for (const auto& [id, d] : deltas) {
     FeatureResult r;
@@ -1108,6 +1172,8 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     throw InputError("measurement", 0, "",
                      "no residual observations (no figures or angles)");
   report.raw_rms_um = Rms(obs.figure_value_um);
+  for (int g = 0; g < kFigureKinds; ++g)
+    report.figures_anchored = report.figures_anchored || !FreeOffset(obs, g);
   report.raw_rms_urad = Rms(obs.angle_value_urad);
 
   const ColumnCache cache(obs, context, part, options.max_c_harmonics);
@@ -1798,11 +1864,14 @@ nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
       {"evidence",
        "BIC = chi2 + k ln n, chi2 of the residuals whitened with their "
        "covariance (measurement, form, the estimator's cross-validated "
-       "error common to a cycle and correlated across cycles; figures E_X, "
-       "E_Y, E_Z, E_TTP and facet angles; nuisance offset per figure); a "
-       "cause is named when its BIC is lower than the nominal model's by "
-       "the threshold and it leaves chi2 per degree of freedom within the "
-       "limit"},
+       "error common to a cycle and correlated across cycles, and the "
+       "reference cycle's error common to every cycle of a figure kind; "
+       "figures E_X, E_Y, E_Z, E_TTP, the ovality E_OV and facet angles, "
+       "the angles with a fitted offset for their datum); a cause is named "
+       "when its BIC is lower than the nominal model's by the threshold and "
+       "it passes the tests of docs/DIAGNOSIS.md (goodness of fit, no step, "
+       "drift or other lobe count explaining the data as well, held-out "
+       "cycles)"},
       {"chi2_per_dof", r.chi2_per_dof},
       {"observations", r.observations},
       {"estimator", r.estimator},
@@ -1860,12 +1929,15 @@ std::string DiagnosisText(const DiagnosisReport& r) {
       "nominal model {:.3f}, extended {:.3f}\n"
       "held-out cycles: figures {:.3f} -> {:.3f} um, angles {:.3f} -> {:.3f} "
       "urad; gain {:.1f} %\n"
-      "(models: nominal simulation + a fitted offset per figure; "
-      "{} observations)\n\n",
+      "(models: nominal simulation, {}; {} observations)\n\n",
       r.raw_rms_um, r.baseline_rms_um, r.extended_rms_um, r.raw_rms_urad,
       r.baseline_rms_urad, r.extended_rms_urad, r.heldout_baseline_rms_um,
       r.heldout_extended_rms_um, r.heldout_baseline_rms_urad,
-      r.heldout_extended_rms_urad, r.gain_pct, r.observations);
+      r.heldout_extended_rms_urad, r.gain_pct,
+      r.figures_anchored ? "figures anchored on the reference cycle, facet "
+                           "angles with a fitted offset"
+                         : "a fitted offset per figure",
+      r.observations);
   s += "candidate                                  k      chi2    delta BIC  "
        " rms_um  rms_urad\n";
   for (const auto& c : r.candidates)

@@ -231,13 +231,15 @@ void CheckDiagnosis(const Checker& c, const json& d) {
              {"status", "reason", "cause", "summary", "baseline", "extended",
               "gain_pct", "gain", "evidence", "threshold", "chi2_per_dof",
               "observations", "estimator", "candidates", "residuals",
-              "unexplained", "residual_by_location", "simulation_slope"});
+              "unexplained", "residual_by_location", "simulation_slope",
+              "decision"});
   c.String(c.Required(d, "diagnosis", "status"), "diagnosis.status");
   // No cause when refused (diagnosis.md section 3).
   if (d["status"] != "refused")
     c.String(c.Required(d, "diagnosis", "cause"), "diagnosis.cause");
   if (d.contains("unexplained"))
     c.Array(d["unexplained"], "diagnosis.unexplained");
+  if (d.contains("decision")) c.Object(d["decision"], "diagnosis.decision");
   for (const char* key : {"summary", "evidence", "estimator", "reason"}) {
     if (d.contains(key)) c.String(d[key], Checker::Join("diagnosis", key));
   }

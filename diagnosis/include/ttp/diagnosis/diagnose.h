@@ -224,6 +224,10 @@ struct DiagnosisReport {
   double baseline_rms_um = 0, extended_rms_um = 0;
   double baseline_rms_urad = 0, extended_rms_urad = 0;
   double chi2_per_dof = 0;  // of the chosen model
+  // The figures carry the reference cycle's common error in their
+  // covariance (Observations::figure_reference_var_um2) instead of a free
+  // offset per kind.
+  bool figures_anchored = false;
   // The decision's statistics: the strongest evidence for any cause (BIC of
   // the nominal model minus the cause's), the largest per-kind chi2 deviate
   // and the largest chi2 a step in one figure kind explains after the
@@ -313,6 +317,11 @@ DiagnosisReport DiagnoseRun(const thermal::TalcLog& log, const Config& config,
 struct ObservationEffect {
   std::vector<double> figure_um, angle_urad;
 };
+// The figures (and the ovality) and facet angles that per-feature deltas
+// give on the observations.
+ObservationEffect DeltasOnObservations(const EffectDeltas& deltas,
+                                       const Observations& obs,
+                                       const PartSpec& part);
 ObservationEffect EffectOnObservations(Cause cause,
                                        const std::vector<double>& params,
                                        const Observations& observations,
