@@ -1,7 +1,8 @@
 // Stage 1 of the cloud inspection: the workpiece frame W from the datums
 // (test-piece.md section 5), in any pose of the cloud:
 //   1. the top face (Z and z = 0): the end of the disc's axis that is a
-//      plane;
+//      plane (the largest plane across the axis there, by RANSAC: the
+//      walls that meet it outnumber its points near the edge);
 //   2. a rough centre from the reference cylinders (else the facets);
 //   3. the big-notch flanks: their symmetry plane gives X, Y;
 //   4. the origin: the centre of the datum circle (the 199 cylinder between
@@ -9,9 +10,10 @@
 //   5. the engraved mark decides the 180 degree ambiguity (which end is
 //      X1) and shows a mirror image (a mark where only a mirrored piece has
 //      it).
-// A datum that is missing is not replaced by a guess: the cloud is refused
-// naming it (a rough origin moves E_Y by micrometres; a wrong end swaps
-// the segments and reverses the cycles).
+// A datum that is missing (or a top face that is not a plane) is not
+// replaced by a guess: the cloud is refused naming it (a rough origin moves
+// E_Y by micrometres; a wrong end swaps the segments and reverses the
+// cycles; a tilted Z moves every figure).
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
