@@ -14,6 +14,10 @@
 // replaced by a guess: the cloud is refused naming it (a rough origin moves
 // E_Y by micrometres; a wrong end swaps the segments and reverses the
 // cycles; a tilted Z moves every figure).
+//
+// PCL's RANSAC templates are compiled here from their impl headers (below,
+// header-only use): linking libpcl_sample_consensus would cost every ttp
+// process ~7 ms of symbol relocation at start-up for two small classes.
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
@@ -25,6 +29,9 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <pcl/sample_consensus/impl/ransac.hpp>
+#include <pcl/sample_consensus/impl/sac_model_perpendicular_plane.hpp>
+#include <pcl/sample_consensus/impl/sac_model_plane.hpp>
 
 #include "cloud_util.h"
 #include "quiet_pcl.h"
