@@ -1,7 +1,8 @@
 // Stage 1 of the cloud inspection: the workpiece frame W from the datums
 // (test-piece.md section 5), in any pose of the cloud:
 //   1. the top face (Z and z = 0): the end of the disc's axis that is a
-//      plane;
+//      plane (the largest plane across the axis there, by RANSAC: the
+//      walls that meet it outnumber its points near the edge);
 //   2. a rough centre from the reference cylinders (else the facets);
 //   3. the big-notch flanks: their symmetry plane gives X, Y;
 //   4. the origin: the centre of the datum circle (the 199 cylinder between
@@ -9,15 +10,31 @@
 //   5. the engraved mark decides the 180 degree ambiguity (which end is
 //      X1) and shows a mirror image (a mark where only a mirrored piece has
 //      it).
-// A datum that is missing is not replaced by a guess: the cloud is refused
-// naming it (a rough origin moves E_Y by micrometres; a wrong end swaps
-// the segments and reverses the cycles).
+// A datum that is missing (or a top face that is not a plane) is not
+// replaced by a guess: the cloud is refused naming it (a rough origin moves
+// E_Y by micrometres; a wrong end swaps the segments and reverses the
+// cycles; a tilted Z moves every figure).
+//
+// PCL's RANSAC templates are compiled here from their impl headers (below,
+// header-only use): linking libpcl_sample_consensus would cost every ttp
+// process ~7 ms of symbol relocation at start-up for two small classes.
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
+#include <pcl/sample_consensus/impl/ransac.hpp>
+#include <pcl/sample_consensus/impl/sac_model_perpendicular_plane.hpp>
+#include <pcl/sample_consensus/impl/sac_model_plane.hpp>
 
 #include "cloud_util.h"
+#include "quiet_pcl.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/fit.h"
@@ -90,10 +107,70 @@ fit::RejectionOptions Rejection(const InspectOptions& o, double floor_mm) {
   return ro;
 }
 
+// The largest plane among the points idx whose normal lies within
+// max_tilt_rad of `axis` (PCL's RANSAC with the perpendicular-plane model:
+// points within threshold_mm count), when it holds at least min_share of
+// them: the search stops once a plane of that share would have been drawn
+// with probability 0.9999. It runs on at most 5,000 of the points (plenty
+// to tell the largest plane), moved to their centroid in double before
+// PCL's float copy (the cloud's coordinates may be metres from its
+// origin). Returns false when no plane was found.
+bool LargestPlaneAcross(const Eigen::Matrix3Xd& p, const Indices& idx,
+                        const Eigen::Vector3d& axis, double max_tilt_rad,
+                        double threshold_mm, double min_share,
+                        Eigen::Vector3d* point, Eigen::Vector3d* normal) {
+  if (idx.size() < 3) return false;
+  const Indices pick = Subsample(static_cast<Index>(idx.size()), 5000);
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (Index k : pick) c += p.col(idx[k]);
+  c /= static_cast<double>(pick.size());
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->reserve(pick.size());
+  for (Index k : pick) {
+    const Eigen::Vector3f d = (p.col(idx[k]) - c).cast<float>();
+    cloud->push_back(pcl::PointXYZ(d.x(), d.y(), d.z()));
+  }
+  // PCL's fixed seed (random = false): the same cloud gives the same plane.
+  auto model = std::make_shared<
+      pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>>(cloud);
+  model->setAxis(axis.cast<float>());
+  model->setEpsAngle(max_tilt_rad);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, threshold_mm);
+  constexpr double kProbability = 0.9999;
+  ransac.setProbability(kProbability);
+  const double w3 = std::pow(std::clamp(min_share, 0.01, 1.0), 3);
+  const double draws =
+      w3 < 1 ? std::log(1 - kProbability) / std::log1p(-w3) : 1.0;
+  ransac.setMaxIterations(static_cast<int>(std::clamp(draws, 100.0, 10000.0)));
+  const internal::QuietPcl quiet;
+  if (!ransac.computeModel()) return false;
+  Eigen::VectorXf coeff;
+  ransac.getModelCoefficients(coeff);
+  if (coeff.size() != 4 || !coeff.allFinite()) return false;
+  const double norm = coeff.head<3>().cast<double>().norm();
+  if (!(norm > 0)) return false;
+  *normal = coeff.head<3>().cast<double>() / norm;
+  *point = c - (static_cast<double>(coeff[3]) / norm) * *normal;
+  return true;
+}
+
 // 1. The top face datum: the end of the axis whose cross-section is a plane.
-fit::PlaneFit FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
-                          const std::string& source,
-                          std::vector<std::string>* warnings) {
+struct TopFace {
+  fit::PlaneFit plane;
+  // Points of the searched sample within kTopConsensusMm of the face's
+  // first plane (the RANSAC consensus, refined): what the final fit was
+  // expected to keep.
+  int consensus = 0;
+};
+
+// Points within this distance of a candidate plane are on it (RANSAC
+// threshold and first band of the refinement): far above the instrument's
+// noise, far below the 0.3 mm groove and the walls' height.
+constexpr double kTopConsensusMm = 0.05;
+
+TopFace FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
+                    const std::string& source,
+                    std::vector<std::string>* warnings) {
   // The search runs on an even subsample of at most 100,000 points (a
   // million-point scan holds far more top-face points than the datum
   // needs); the final robust fit uses the sample's top-face points.
@@ -127,47 +204,110 @@ fit::PlaneFit FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
   const Eigen::Vector3d centre = med + mean;
   std::vector<double> h(n);
   for (Index k = 0; k < n; ++k) h[k] = (p.col(sub[k]) - centre).dot(axis);
-  // Try both ends: fit a plane to the points near the end, tightening the
-  // band; the top face is the end with a plane of many points.
-  fit::PlaneFit best;
-  best.summary.status = fit::FitStatus::kDegenerate;
+  // Try both ends. Near an end lie the top face and the highest
+  // millimetres of every wall that meets it (facets, flanks, notch walls:
+  // a scanner sees them up to the edge, and they may outnumber the face's
+  // points), the groove's floor and strays. A least-squares plane through
+  // all of them is tilted towards the walls, and narrowing bands about it
+  // then keep only a strip of the face. So the face is found as the plane
+  // across the axis that holds the most points (RANSAC, normal within
+  // 10 deg of the axis: walls cannot be it, and a tilted plane holds only
+  // a strip of the face); bands of 0.05 and 0.02 mm about it refine it.
+  // The end whose face holds more points is the top.
+  TopFace best;
+  best.plane.summary.status = fit::FitStatus::kDegenerate;
   Indices best_idx;
-  for (double sign : {+1.0, -1.0}) {
+  // The points near each end; the end with more of them is searched first,
+  // the other only for a larger face than the first end's.
+  Indices near_end[2];
+  for (int e = 0; e < 2; ++e) {
+    const double sign = e == 0 ? 1.0 : -1.0;
     std::vector<double> hs(n);
     for (Index k = 0; k < n; ++k) hs[k] = sign * h[k];
     const double end = Quantile(hs, 0.995);
-    Indices idx;
     for (Index k = 0; k < n; ++k) {
-      if (hs[k] > end - 2.0 && hs[k] < end + 2.0) idx.push_back(sub[k]);
+      if (hs[k] > end - 3.0 && hs[k] < end + 2.0) near_end[e].push_back(sub[k]);
     }
-    fit::PlaneFit pl = PlaneThrough(p, idx, sign * axis, axis.unitOrthogonal());
-    for (double band : {1.0, 0.3, 0.1, 0.03}) {
-      if (!Usable(pl)) break;
-      Indices next;
+  }
+  const int first = near_end[1].size() > near_end[0].size() ? 1 : 0;
+  for (int e : {first, 1 - first}) {
+    const double sign = e == 0 ? 1.0 : -1.0;
+    const Indices& cand = near_end[e];
+    // A face of at least 10 % of the points near its end is found.
+    const double min_share =
+        std::max(0.1, static_cast<double>(best.plane.summary.points) /
+                          std::max<size_t>(1, cand.size()));
+    if (min_share > 1) continue;
+    Eigen::Vector3d point, normal;
+    if (!LargestPlaneAcross(p, cand, sign * axis, 10 * kDeg, kTopConsensusMm,
+                            min_share, &point, &normal)) {
+      continue;
+    }
+    fit::PlaneFit pl;
+    Indices idx;
+    int consensus = 0;
+    for (double band : {kTopConsensusMm, 0.02}) {
+      idx.clear();
       for (Index i : sub) {
-        if (std::abs((p.col(i) - pl.point).dot(pl.normal)) < band)
-          next.push_back(i);
+        if (std::abs((p.col(i) - point).dot(normal)) < band) idx.push_back(i);
       }
-      idx = std::move(next);
+      if (band == kTopConsensusMm) consensus = static_cast<int>(idx.size());
       pl = PlaneThrough(p, idx, sign * axis, axis.unitOrthogonal());
+      if (!Usable(pl)) break;
+      point = pl.point;
+      normal = pl.normal;
     }
-    if (Usable(pl) && pl.summary.points > best.summary.points) {
-      best = pl;
+    if (Usable(pl) && pl.summary.points > best.plane.summary.points) {
+      best.plane = pl;
+      best.consensus = consensus;
       best_idx = idx;
     }
   }
-  if (!Usable(best) || best.summary.points < 20)
+  if (!Usable(best.plane) || best.plane.summary.points < 20)
     NoPiece(source, "no flat top face at either end of the disc's axis");
   // The bulk of the piece lies below the top face.
   double below = 0;
-  for (Index i : sub) below += (p.col(i) - best.point).dot(best.normal) < 0;
+  for (Index i : sub)
+    below += (p.col(i) - best.plane.point).dot(best.plane.normal) < 0;
   if (below < 0.5 * n) {
     warnings->push_back(
         "most points lie above the plane taken as the top face");
   }
-  return fit::FitPlaneTrimmed(p, best_idx, best.normal, best.u,
-                              Rejection(o, o.stray_floor_mm))
-      .plane;
+  best.plane =
+      fit::FitPlaneTrimmed(p, best_idx, best.plane.normal, best.plane.u,
+                           Rejection(o, o.stray_floor_mm))
+          .plane;
+  return best;
+}
+
+// The top face datum is refused when it is not a plane at the instrument's
+// noise: its RMS is more than kTopRmsFactor times the flanks' (the same
+// instrument on the same cloud; a face-milled top is as flat as a milled
+// flank) and more than the stray floor, or the robust fit kept less than
+// kTopMinShare of the points on its first plane. Either way the points
+// taken for it are not the face (or the face is not flat), and Z, z = 0
+// and every figure after them would be off with nothing to show it.
+constexpr double kTopRmsFactor = 4.0;
+constexpr double kTopMinShare = 0.8;
+
+void CheckTopFace(const TopFace& top, const double flank_rms_mm[2],
+                  const InspectOptions& o, const std::string& source) {
+  const double noise_mm = std::max(flank_rms_mm[0], flank_rms_mm[1]);
+  const double limit_mm = std::max(kTopRmsFactor * noise_mm, o.stray_floor_mm);
+  const int kept = top.plane.summary.points;
+  const double share =
+      top.consensus > 0 ? static_cast<double>(kept) / top.consensus : 0.0;
+  if (top.plane.summary.rms_mm <= limit_mm && share >= kTopMinShare) return;
+  char why[600];
+  std::snprintf(
+      why, sizeof why,
+      "the top face (datum for Z and z = 0) is not read as a plane: its fit "
+      "keeps %d of the %d points within %g mm of it (%.0f %%, at least "
+      "%.0f %% needed) with an RMS of %.2f um (the flanks' %.2f um; at most "
+      "%.2f um allowed); W's Z and every figure would be off",
+      kept, top.consensus, kTopConsensusMm, 100 * share, 100 * kTopMinShare,
+      top.plane.summary.rms_mm * 1e3, noise_mm * 1e3, limit_mm * 1e3);
+  Refuse(source, why);
 }
 
 }  // namespace
@@ -189,7 +329,8 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
   if (n == 0) throw InputError(source, 0, "", "the cloud has no points");
 
   // 1. Top face -> Z and z = 0, in a temporary frame q.
-  const fit::PlaneFit top = FindTopFace(p, o, source, &out.warnings);
+  const TopFace top_face = FindTopFace(p, o, source, &out.warnings);
+  const fit::PlaneFit& top = top_face.plane;
   out.alignment.top_points = top.summary.points;
   out.alignment.top_rms_mm = top.summary.rms_mm;
   Eigen::Matrix3d f_rot;  // rows e1 e2 n
@@ -307,6 +448,7 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
       NoPiece(source, "no pair of parallel flanks 2 x 53 mm apart");
   }
   Eigen::Vector3d y_dir;
+  double flank_rms_mm[2] = {0, 0};
   {
     Eigen::Vector3d fn[2];
     for (int side = 0; side < 2; ++side) {
@@ -339,12 +481,14 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
       if (!Usable(pl) || pl.summary.points < o.min_points)
         NoPiece(source, "a big-notch flank has too few points");
       out.alignment.flank_points[side] = pl.summary.points;
+      flank_rms_mm[side] = pl.summary.rms_mm;
       fn[side] = pl.normal;  // outward from the notch centre
     }
     y_dir = fn[0] - fn[1];
     y_dir.z() = 0;  // in the top face plane
     y_dir.normalize();
   }
+  CheckTopFace(top_face, flank_rms_mm, o, source);
   Eigen::Vector3d x_dir = y_dir.cross(Eigen::Vector3d::UnitZ());
   // Frame rotation (temporary frame -> W up to the 180 deg flip).
   Eigen::Matrix3d rz;

@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <pcl/PCLPointCloud2.h>
-#include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -15,6 +14,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "quiet_pcl.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -564,18 +564,7 @@ class MemoryBuffer : public std::streambuf {
   }
 };
 
-// PCL reports its errors on the console; ttp reports its own (InputError),
-// so PCL is kept quiet while it reads.
-class QuietPcl {
- public:
-  QuietPcl() : level_(pcl::console::getVerbosityLevel()) {
-    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  }
-  ~QuietPcl() { pcl::console::setVerbosityLevel(level_); }
-
- private:
-  pcl::console::VERBOSITY_LEVEL level_;
-};
+using internal::QuietPcl;  // PCL is kept quiet while it reads
 
 // The header checks; returns the body offset.
 struct PcdHeader {

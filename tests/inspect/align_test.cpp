@@ -1,9 +1,13 @@
 // AlignCloud alone: the frame W from the datums of synthetic clouds (the
-// project's generator, synth.cpp, in a random pose), and the clouds whose
-// orientation cannot be determined: refused, naming what is missing.
+// project's generator, synth.cpp, in a random pose, and a small one written
+// here from test-piece.md whose walls reach the top edge), and the clouds
+// whose orientation cannot be determined: refused, naming what is missing.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "synth_piece.h"
 #include "ttp/geometry/error.h"
@@ -117,6 +121,184 @@ TEST(AlignCloud, MissingX1FacetsKeepTheOrientation) {
     EXPECT_EQ(d.status == "missing", d.id.rfind("X1-", 0) == 0) << d.id;
   for (size_t c = 0; c < r.figures.size(); ++c)
     EXPECT_NEAR(r.figures[c].e_y_mm, s.truth.figures[c].e_y_mm, 0.2e-3) << c;
+}
+
+// A CMM-like cloud of the nominal finished piece written from
+// test-piece.md section 2 alone (no project code): the top face (four
+// segments, with the mark's groove), the facets, the big-notch flanks and
+// the small-notch walls up to `wall_top_mm` below the top edge (a scanner
+// sees them up to the edge), the strips, the reference cylinders and a few
+// strays; Gaussian noise, a uniformly random pose. The walls carry many
+// more points per mm^2 than the top face (as a CMM program measures them):
+// within 2 mm of the top they outnumber the face's points.
+struct EdgeCloud {
+  PointCloud cloud;
+  Eigen::Matrix3d rotation;  // cloud = rotation * W + translation
+  Eigen::Vector3d translation;
+  int top_points = 0;
+};
+
+EdgeCloud MakeEdgeCloud(uint32_t seed, double wall_top_mm,
+                        double noise_um = 0.5, double top_noise_um = 0.5) {
+  constexpr double kPi = M_PI, kDeg = M_PI / 180;
+  const double d_facet = 97.3, r_cyl = 99.5, half_notch = 53, small = 5;
+  const double centres[4] = {60, 120, 240, 300};
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto uni = [&](double a, double b) { return a + (b - a) * u(rng); };
+  std::normal_distribution<double> gauss(0, 1);
+  // Inside the top face's outline: on a segment (|y| > 53, |x| > 5) and
+  // inside its nearest facet's plane.
+  auto inside = [&](double x, double y) {
+    if (std::abs(y) < half_notch || std::abs(x) < small) return false;
+    const double phi = std::atan2(y, x) / kDeg;
+    for (double c : centres) {
+      const double rel = std::remainder(phi - c, 360.0);
+      if (std::abs(rel) > 30) continue;
+      const int j = std::clamp(static_cast<int>(std::lround(rel / 6)), -4, 4);
+      const double a = (c + 6 * j) * kDeg;
+      return x * std::cos(a) + y * std::sin(a) <= d_facet;
+    }
+    return false;
+  };
+  // The mark's groove: along phi = 60 deg, r 70..90, 0.6 mm wide.
+  auto in_groove = [&](double x, double y) {
+    const double a = 60 * kDeg;
+    const double along = x * std::cos(a) + y * std::sin(a);
+    const double across = -x * std::sin(a) + y * std::cos(a);
+    return along > 70 && along < 90 && std::abs(across) < 0.3;
+  };
+  std::vector<Eigen::Vector3d> w;
+  std::vector<double> sigma_um;
+  auto add = [&](double x, double y, double z, double s = -1) {
+    w.emplace_back(x, y, z);
+    sigma_um.push_back(s < 0 ? noise_um : s);
+  };
+  EdgeCloud out;
+  while (out.top_points < 1700) {
+    const double x = uni(-d_facet - 1, d_facet + 1);
+    const double y = uni(-d_facet - 1, d_facet + 1);
+    if (!inside(x, y) || in_groove(x, y)) continue;
+    add(x, y, 0, top_noise_um);
+    ++out.top_points;
+  }
+  for (int k = 0; k < 100; ++k) {
+    const double a = 60 * kDeg, along = uni(70, 90), across = uni(-0.3, 0.3);
+    add(along * std::cos(a) - across * std::sin(a),
+        along * std::sin(a) + across * std::cos(a), -0.3);
+  }
+  const double half_facet = d_facet * std::tan(3 * kDeg);
+  for (double c : centres) {
+    for (int j = -4; j <= 4; ++j) {
+      const double a = (c + 6 * j) * kDeg;
+      for (int k = 0; k < 250;) {
+        const double t = uni(-half_facet, half_facet);
+        const double x = d_facet * std::cos(a) - t * std::sin(a);
+        const double y = d_facet * std::sin(a) + t * std::cos(a);
+        if (std::abs(y) < half_notch || std::abs(x) < small) continue;
+        add(x, y, uni(-12.1, -wall_top_mm));
+        ++k;
+      }
+    }
+  }
+  for (double side : {-1.0, 1.0}) {
+    for (int k = 0; k < 800;) {
+      const double x = uni(-d_facet, d_facet);
+      if (!inside(x, side * (half_notch + 1e-9))) continue;
+      add(x, side * half_notch, uni(-12, -wall_top_mm));
+      ++k;
+    }
+    for (int k = 0; k < 100;) {
+      const double y = uni(-d_facet, d_facet);
+      if (!inside(side * (small + 1e-9), y)) continue;
+      add(side * small, y, uni(-14, -wall_top_mm));
+      ++k;
+    }
+  }
+  for (int k = 0; k < 3000;) {
+    const double x = uni(-r_cyl, r_cyl), y = uni(-52.75, 52.75);
+    if (std::abs(x) < small + 0.5 || std::hypot(x, y) > r_cyl - 0.5) continue;
+    add(x, y, -12.1);
+    ++k;
+  }
+  for (int k = 0; k < 1800;) {
+    const double a = uni(-kPi, kPi), z = uni(-16, -12);
+    if (z > -14 && std::abs(r_cyl * std::cos(a)) < small) continue;
+    add(r_cyl * std::cos(a), r_cyl * std::sin(a), z);
+    ++k;
+  }
+  for (int k = 0; k < 600; ++k) {
+    const double r = k % 2 ? 100 : 100.5, a = uni(-kPi, kPi);
+    add(r * std::cos(a), r * std::sin(a),
+        k % 2 ? uni(-20, -16) : uni(-24, -20));
+  }
+  for (int k = 0; k < 30; ++k)
+    add(uni(-100, 100), uni(-100, 100), uni(-24, 2), 0);
+  // A uniformly random rotation (a normalised Gaussian quaternion).
+  Eigen::Quaterniond q(gauss(rng), gauss(rng), gauss(rng), gauss(rng));
+  out.rotation = q.normalized().toRotationMatrix();
+  out.translation =
+      Eigen::Vector3d(uni(-400, 400), uni(-400, 400), uni(-400, 400));
+  out.cloud.source = "edge-cloud";
+  out.cloud.xyz_mm.resize(3, static_cast<Eigen::Index>(w.size()));
+  for (size_t i = 0; i < w.size(); ++i) {
+    const Eigen::Vector3d noise(gauss(rng), gauss(rng), gauss(rng));
+    out.cloud.xyz_mm.col(static_cast<Eigen::Index>(i)) =
+        out.rotation * (w[i] + sigma_um[i] * 1e-3 * noise) + out.translation;
+  }
+  return out;
+}
+
+// Facets, flanks and notch walls seen up to the top edge (or 0.3 mm, or
+// 1 mm, below it): within a few mm of the top they outnumber the face's
+// points, and a least-squares plane through all points near the end of the
+// axis leans towards them. The top face must still be the face: all of its
+// points, Z within 2 urad, figures of the nominal piece within 0.3 um.
+TEST(AlignCloud, WallsUpToTheTopEdgeLeaveTheTopFace) {
+  for (double wall_top_mm : {0.0, 0.3, 1.0}) {
+    for (uint32_t seed : {11u, 12u, 13u}) {
+      SCOPED_TRACE(testing::Message()
+                   << "wall top " << wall_top_mm << " mm, seed " << seed);
+      const EdgeCloud c = MakeEdgeCloud(seed, wall_top_mm);
+      const AlignedCloud a = AlignCloud(PartSpec{}, c.cloud, InspectOptions{});
+      const Eigen::Vector3d z_true = c.rotation.col(2);
+      const double tilt =
+          std::acos(std::min(1.0, a.alignment.rotation.row(2).dot(z_true)));
+      EXPECT_LT(tilt, 2e-6);
+      EXPECT_LT(
+          (a.alignment.rotation * c.rotation - Eigen::Matrix3d::Identity())
+              .norm(),
+          1e-5);
+      EXPECT_LT((a.alignment.rotation * c.translation + a.alignment.translation)
+                    .norm(),
+                1e-4);
+      EXPECT_LT(a.alignment.top_rms_mm, 1e-3);
+      EXPECT_GT(a.alignment.top_points, 0.95 * c.top_points);
+      EXPECT_LE(a.alignment.top_points, c.top_points + 30);
+      EXPECT_TRUE(a.alignment.mark_found);
+      EXPECT_TRUE(a.warnings.empty());
+      const InspectionResult r = InspectCloud(PartSpec{}, c.cloud);
+      ASSERT_FALSE(r.figures.empty());
+      for (const CycleFigures& f : r.figures) {
+        EXPECT_NEAR(f.e_x_mm, 0, 0.3e-3) << f.cycle;
+        EXPECT_NEAR(f.e_y_mm, 0, 0.3e-3) << f.cycle;
+        EXPECT_NEAR(f.e_z_mm, 0, 0.3e-3) << f.cycle;
+        EXPECT_NEAR(f.e_ttp_mm, 0, 0.3e-3) << f.cycle;
+        EXPECT_NEAR(f.e_b_rad, 0, 3e-6) << f.cycle;
+      }
+    }
+  }
+}
+
+// A top face that is not a plane at the instrument's noise (here 20 um of
+// scatter on it against 0.5 um on the flanks) is refused naming the top
+// face, not read into a tilted W nor blamed on another datum.
+TEST(AlignCloud, TopFaceNotAPlaneIsRefused) {
+  const EdgeCloud c = MakeEdgeCloud(14, 0.0, 0.5, 20.0);
+  const std::string e = RefusalOf(c.cloud);
+  EXPECT_NE(e.find("top face"), std::string::npos) << e;
+  EXPECT_NE(e.find("RMS"), std::string::npos) << e;
+  EXPECT_EQ(e.find("engraved mark"), std::string::npos) << e;
 }
 
 }  // namespace

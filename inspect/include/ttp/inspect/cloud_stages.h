@@ -42,8 +42,10 @@ struct AlignedCloud {
 };
 // Throws InputError(source, 0, "alignment", ...) when the cloud holds no
 // test piece, when a datum needed for W is missing (top face, flanks, the
-// datum circle CYL199, the engraved mark) or when the cloud is a mirror
-// image of the piece (the mark where only a mirrored piece has it).
+// datum circle CYL199, the engraved mark), when the top face is not read as
+// a plane (its RMS far above the flanks', or its robust fit keeping too few
+// of the points on it) or when the cloud is a mirror image of the piece
+// (the mark where only a mirrored piece has it).
 AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
                         const InspectOptions& options);
 
