@@ -1024,10 +1024,8 @@ ObservationEffect EffectOnObservations(Cause cause,
     out.angle_urad.assign(obs.angles(), 0.0);
     return out;
   }
-  return DeltasOnObservations(PredictEffect(cause, params, context), obs,
-                              part);
+  return DeltasOnObservations(PredictEffect(cause, params, context), obs, part);
 }
-
 
 ObservationEffect DeltasOnObservations(const EffectDeltas& deltas,
                                        const Observations& obs,
@@ -1653,9 +1651,8 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
   }
   if (options.anchor_reference_cycle)
     obs.figure_reference_var_um2 = ReferenceCycleVarianceUm2(
-        part, measured, obs, [&](int kind) {
-          return std::pow(est_sigma_um(kind, time_of(0)), 2);
-        });
+        part, measured, obs,
+        [&](int kind) { return std::pow(est_sigma_um(kind, time_of(0)), 2); });
   // The total standard uncertainty of each observation (for displays).
   for (size_t i = 0; i < nf; ++i)
     obs.figure_sigma_um[i] = std::sqrt(obs.figure_covariance_um2(i, i));
@@ -1892,14 +1889,15 @@ nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
   nlohmann::json kind_z = nlohmann::json::object();
   for (size_t g = 0; g < r.machine_kind_z.size() && g < 3; ++g)
     kind_z[kFigureNames[g]] = finite_or_null(r.machine_kind_z[g]);
-  j["decision"] = {{"best_evidence", finite_or_null(r.best_evidence)},
-                   {"evidence_threshold", r.evidence_threshold},
-                   {"largest_kind_deviate", finite_or_null(r.structure_z)},
-                   {"machine_kind_deviate", kind_z},
-                   {"machine_pooled_deviate", finite_or_null(r.machine_pooled_z)},
-                   {"machine_pooled_deviate_after_one_kind",
-                    finite_or_null(r.machine_pooled_z_one_kind)},
-                   {"step_chi2", r.step_chi2}};
+  j["decision"] = {
+      {"best_evidence", finite_or_null(r.best_evidence)},
+      {"evidence_threshold", r.evidence_threshold},
+      {"largest_kind_deviate", finite_or_null(r.structure_z)},
+      {"machine_kind_deviate", kind_z},
+      {"machine_pooled_deviate", finite_or_null(r.machine_pooled_z)},
+      {"machine_pooled_deviate_after_one_kind",
+       finite_or_null(r.machine_pooled_z_one_kind)},
+      {"step_chi2", r.step_chi2}};
   if (std::isfinite(r.simulation_slope))
     j["simulation_slope"] = {{"value", r.simulation_slope},
                              {"uncertainty", r.simulation_slope_sd}};

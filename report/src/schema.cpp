@@ -227,12 +227,12 @@ void CheckResiduals(const Checker& c, const json& r, const std::string& path) {
 // "threshold" and "residuals" added by AssembleReportData.
 void CheckDiagnosis(const Checker& c, const json& d) {
   c.Object(d, "diagnosis");
-  c.OnlyKeys(d, "diagnosis",
-             {"status", "reason", "cause", "summary", "baseline", "extended",
-              "gain_pct", "gain", "evidence", "threshold", "chi2_per_dof",
-              "observations", "estimator", "candidates", "residuals",
-              "unexplained", "residual_by_location", "simulation_slope",
-              "decision"});
+  c.OnlyKeys(
+      d, "diagnosis",
+      {"status", "reason", "cause", "summary", "baseline", "extended",
+       "gain_pct", "gain", "evidence", "threshold", "chi2_per_dof",
+       "observations", "estimator", "candidates", "residuals", "unexplained",
+       "residual_by_location", "simulation_slope", "decision"});
   c.String(c.Required(d, "diagnosis", "status"), "diagnosis.status");
   // No cause when refused (diagnosis.md section 3).
   if (d["status"] != "refused")

@@ -580,16 +580,14 @@ TEST(DiagnoseAnchored, AShiftOfEveryCycleAgainstTheReferenceIsNotNoise) {
   for (std::uint64_t seed : {31u, 33u}) {
     TwinWithoutCause twin(seed, 300);
     EXPECT_EQ(twin.Diagnosed().status, DiagnosisStatus::kNone);
-    AddToFigureKind(&twin.run.observations, 3,
-                    [](int, int) { return 0.8; });
+    AddToFigureKind(&twin.run.observations, 3, [](int, int) { return 0.8; });
     const DiagnosisReport anchored = twin.Diagnosed();
     EXPECT_EQ(anchored.status, DiagnosisStatus::kUnexplained)
         << anchored.reason;
     DiagnosisOptions free;
     free.anchor_reference_cycle = false;
     TwinWithoutCause loose(seed, 300, free);
-    AddToFigureKind(&loose.run.observations, 3,
-                    [](int, int) { return 0.8; });
+    AddToFigureKind(&loose.run.observations, 3, [](int, int) { return 0.8; });
     EXPECT_EQ(loose.Diagnosed(free).status, DiagnosisStatus::kNone)
         << "a free offset absorbs the shift";
   }
@@ -625,8 +623,7 @@ TEST(DiagnoseRefusal, AnotherMachinesErrorsInEveryKindAreRefused) {
       auto rise = [&](double dt) { return 1 - std::exp(-dt / tau_s); };
       if (t <= warmup_s) return 0.0;
       if (t <= cooldown_s) return rise(t - warmup_s);
-      return rise(cooldown_s - warmup_s) *
-             std::exp(-(t - cooldown_s) / tau_s);
+      return rise(cooldown_s - warmup_s) * std::exp(-(t - cooldown_s) / tau_s);
     };
     const double gain_um[3] = {1.5, -2.5, 5.0};  // E_X, E_Y, E_Z
     for (size_t i = 0; i < obs.figures(); ++i)

@@ -72,8 +72,9 @@ TEST(Battery, NoCauseNamedWithoutOneAtProductionSpacing) {
     Print(result);
     EXPECT_EQ(result.false_names, 0) << spacing;
     for (const BatteryRun& r : result.runs)
-      if (r.c.scenario != Scenario::kMismatched)
+      if (r.c.scenario != Scenario::kMismatched) {
         EXPECT_NE(r.outcome, "refused") << r.reason;
+      }
     right += result.correct;
   }
   EXPECT_GE(right, kNoCauseRightAtLeast);
@@ -148,16 +149,22 @@ TEST(Battery, DrawsDependOnlyOnOptionsAndIndexAndCoverEveryScenario) {
     EXPECT_EQ(a.expected, b.expected);
     ++seen[a.scenario];
     ++instruments[a.instrument];
-    if (a.scenario == Scenario::kMismatched) EXPECT_EQ(a.expected, "refused");
-    if (a.scenario == Scenario::kOutside) EXPECT_EQ(a.expected, "unexplained");
+    if (a.scenario == Scenario::kMismatched) {
+      EXPECT_EQ(a.expected, "refused");
+    }
+    if (a.scenario == Scenario::kOutside) {
+      EXPECT_EQ(a.expected, "unexplained");
+    }
     // A dial gauge reads no facet angles: a C stop error is never expected
     // to be named from it.
     const bool c_unseen = a.instrument == Instrument::kDial &&
                           a.twin.c_indexing_amplitude_urad > 0;
-    if (c_unseen)
+    if (c_unseen) {
       EXPECT_EQ(a.expected.find("c_axis_indexing"), std::string::npos);
-    if (a.scenario == Scenario::kPair && !c_unseen)
+    }
+    if (a.scenario == Scenario::kPair && !c_unseen) {
       EXPECT_NE(a.expected.find('+'), std::string::npos);
+    }
   }
   EXPECT_EQ(seen.size(), 5u);
   EXPECT_EQ(instruments.size(), 4u);

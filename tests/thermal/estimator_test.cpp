@@ -193,18 +193,20 @@ std::string CompensatedLogText(const test::SyntheticRun& run, bool reanchor,
   std::vector<std::pair<double, std::string>> rows;
   for (double t = 0; t <= run.end_s; t += 60) {
     const int rpm = t > run.warmup_s && t <= run.cooldown_s ? 1200 : 0;
-    rows.push_back({t, fmt::format("{},sample,{},,,,,,,,{}", t, rpm,
-                                   pred_cells(t))});
+    rows.push_back(
+        {t, fmt::format("{},sample,{},,,,,,,,{}", t, rpm, pred_cells(t))});
   }
   for (size_t k = 0; k < rtests.size(); ++k) {
     const double t = rtests[k];
     const auto p = pred(t - 47.5);
     std::string r = fmt::format("{},rtest,", t);
-    for (int i = 0; i < 7; ++i) r += fmt::format(",{:.5f}", measured[k][i] - p[i]);
+    for (int i = 0; i < 7; ++i)
+      r += fmt::format(",{:.5f}", measured[k][i] - p[i]);
     rows.push_back({t, r + ",95" + pred_cells(t)});
   }
-  std::stable_sort(rows.begin(), rows.end(),
-                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::stable_sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) {
+    return a.first < b.first;
+  });
   std::string text =
       "# talc-log: 1\n# start: 2026-03-02T06:00:00Z\n# compensation: on\n"
       "t_s,event,c_rpm,EX0C,EY0C,EZ0T,ER0T,EA0C,EB0C,EC0C,dur_s,pred_EX0C,"
@@ -221,7 +223,8 @@ std::string CompensatedLogText(const test::SyntheticRun& run, bool reanchor,
 TEST(Estimator, PredictionReanchoredAtRTestsFitsTheMachineError) {
   test::SyntheticRun run;
   run.rtest_interval_s = 1800;
-  const TalcLog log = ParseTalcLog(CompensatedLogText(run, true, 0.75), "c.csv");
+  const TalcLog log =
+      ParseTalcLog(CompensatedLogText(run, true, 0.75), "c.csv");
   const auto est = MachineErrorEstimator::Fit(log);
   EXPECT_TRUE(est.fits_machine_error());
   EstimatorOptions residual_options;
@@ -249,8 +252,8 @@ TEST(Estimator, ContinuousPredictionFitsTheResidual) {
   const auto est = MachineErrorEstimator::Fit(log);
   EXPECT_FALSE(est.fits_machine_error());
   const double rms = RmsAgainstTruth(
-      run, [&](double t) { return est.MachineErrorsAt(t); },
-      est.FirstRTestS(), est.LastRTestS());
+      run, [&](double t) { return est.MachineErrorsAt(t); }, est.FirstRTestS(),
+      est.LastRTestS());
   EXPECT_LT(rms, 0.2);
 }
 

@@ -247,9 +247,10 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
       est.fit_machine_ = true;
       break;
     case EstimatorOptions::CompensationFit::kAuto:
-      est.fit_machine_ = !log.compensation ||
-                         PredictionReanchorsAtRTests(log, est.pred_t_, est.pred_,
-                                                  options.rtest_noise_um_or_urad);
+      est.fit_machine_ =
+          !log.compensation ||
+          PredictionReanchorsAtRTests(log, est.pred_t_, est.pred_,
+                                      options.rtest_noise_um_or_urad);
       break;
   }
 
