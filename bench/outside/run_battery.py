@@ -97,6 +97,9 @@ def diagnose(ttp, meas, log, out_json):
             status, cause, decision = d.get("status"), d.get("cause"), d.get("decision")
             if decision is not None:
                 decision["gain_pct"] = d.get("gain_pct")
+                ext = d.get("extended") or {}
+                decision["params"] = {k: [v, (ext.get("uncertainty") or {}).get(k)]
+                                      for k, v in (ext.get("params") or {}).items()}
         except ValueError:
             pass
     if status is None:
@@ -251,9 +254,11 @@ CHECK_MARGIN = 3
 # (effect, size, seed, spacing_s, compensation on, measurement, expected):
 # a two-lobe distortion named c_axis_indexing; strips drifting refused as
 # another run's log; a cloud without an effect refused (the estimator fitted
-# the residual of a prediction re-anchored at every R-test)
+# the residual of a prediction re-anchored at every R-test); another run's
+# log named workpiece_expansion with its lag undetermined (561 +- 497 s)
 CHECK_CASES = [
     ("two_lobe", 1.5, 526025, 300, True, "json", "unexplained"),
+    ("other_log", 0.0, 514711, 3600, False, "json", "unexplained"),
     ("strip_drift", 4.0, 654812, 300, False, "json", "unexplained"),
     ("none", 0.0, 27776, 3600, True, "cloud", "none"),
 ]

@@ -333,7 +333,15 @@ struct Fit {
   std::vector<std::vector<double>> params;  // per cause
   std::vector<Eigen::MatrixXd> covariance;  // per cause
   std::vector<double> offsets = std::vector<double>(kGroups, 0.0);
+  // Why the fit is no result (empty: it is one); `implausible` when its
+  // parameters are physically impossible (a rival of another shape then
+  // says the residual has a shape no cause gives), not merely undetermined.
   std::string note;
+  bool implausible = false;
+  void SetImplausible(const std::string& why) {
+    note = why;
+    implausible = true;
+  }
 };
 
 class Fitter {
@@ -401,10 +409,23 @@ class Fitter {
         if (spec.causes[c] == Cause::kWorkpieceExpansion &&
             (best_fit.params[c][0] <= grid.front() * 1.2 ||
              best_fit.params[c][0] >= grid.back() / 1.2))
-          best_fit.note = fmt::format(
+          best_fit.SetImplausible(fmt::format(
               "tau_wp_s at the end of the range searched ({:.0f} s)",
-              best_fit.params[c][0]);
+              best_fit.params[c][0]));
     }
+    // The piece's lag behind the machine is what the cause is (diagnosis.md
+    // section 1): a time constant the data leave undetermined (its standard
+    // uncertainty more than `max_tau_relative_uncertainty` of it: a lag
+    // not told from none, or from one far longer) is no result either.
+    for (size_t c = 0; c < spec.causes.size() && best_fit.note.empty(); ++c)
+      if (spec.causes[c] == Cause::kWorkpieceExpansion && best_fit.ok) {
+        const double tau = best_fit.params[c][0],
+                     sd = std::sqrt(std::max(0.0, best_fit.covariance[c](0, 0)));
+        if (sd > options_.max_tau_relative_uncertainty * tau)
+          best_fit.note = fmt::format(
+              "tau_wp_s not determined by the data ({:.0f} +- {:.0f} s)", tau,
+              sd);
+      }
     return best_fit;
   }
 
@@ -472,11 +493,11 @@ class Fitter {
         cov = c2;
       }
       if (spec.causes[k] == Cause::kToolWear && p[0] < 0)
-        fit.note = "wear_um_per_m < 0 (a cutter does not grow)";
+        fit.SetImplausible("wear_um_per_m < 0 (a cutter does not grow)");
       if (spec.causes[k] == Cause::kWorkpieceExpansion && p[1] < 0)
-        fit.note =
+        fit.SetImplausible(
             "gain_K_per_K < 0 (the piece does not cool while the machine "
-            "warms)";
+            "warms)");
       fit.params.push_back(p);
       fit.covariance.push_back(cov);
     }
@@ -987,6 +1008,8 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
   if (!(trend_min_um >= 0)) return fail("trend_min_um: must be >= 0");
   if (!(implausible_rival_margin >= 0))
     return fail("implausible_rival_margin: must be >= 0");
+  if (!(max_tau_relative_uncertainty > 0))
+    return fail("max_tau_relative_uncertainty: must be > 0");
   if (!(mismatch_slope_limit > 0))
     return fail("mismatch_slope_limit: must be > 0");
   if (tau_grid_s.empty()) return fail("tau_grid_s: empty");
@@ -1131,7 +1154,7 @@ std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
     return true;
   };
   for (const CandidateResult& c : report.candidates)
-    if (!c.note.empty() && !contains_named(c) &&
+    if (c.implausible && !contains_named(c) &&
         c.bic < named.bic - options.implausible_rival_margin)
       return fmt::format(
           "{} fits better (delta BIC {:.1f} against {:.1f} for {}) but is "
@@ -1199,6 +1222,7 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     c.bic = Bic(f, n);
     c.delta_bic = c.bic - none_bic;
     c.note = f.note;
+    c.implausible = f.implausible;
     if (f.ok) c.report_params = ReportParams(f);
     // What the piece shows of a fitted C stop error: its variation over the
     // facets' cut angles (the constant part is the piece's yaw). Over the

@@ -513,6 +513,14 @@ TEST(DiagnoseUnexplained, OptionsOfTheNameTestsValidate) {
   o.min_heldout_gain_pct = 100;
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("min_heldout_gain_pct"), std::string::npos);
+  o = DiagnosisOptions{};
+  o.max_tau_relative_uncertainty = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("max_tau_relative_uncertainty"), std::string::npos);
+  o = DiagnosisOptions{};
+  o.refuse_after_one_kind_z = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("refuse_after_one_kind_z"), std::string::npos);
 }
 
 // A twin run without a cause, kept whole so that DiagnosePrepared (which

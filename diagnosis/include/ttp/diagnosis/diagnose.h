@@ -129,6 +129,11 @@ struct DiagnosisOptions {
   // cause gives).
   double min_heldout_gain_pct = 0.0;
   double implausible_rival_margin = 2.0;
+  // A workpiece expansion whose time constant's standard uncertainty (from
+  // the profile's curvature in log tau) exceeds this fraction of it is no
+  // result: the lag that defines the cause is not shown by the data (two
+  // standard deviations from no lag at 0.5).
+  double max_tau_relative_uncertainty = 0.5;
   // The figures are differences to the reference cycle: its error is
   // common to every cycle of a figure kind, with a variance the budget
   // knows (the reference features' measurement, the estimator at the
@@ -200,8 +205,11 @@ struct CandidateResult {
   int parameters = 0;                        // incl. nuisance offsets
   double rms_um = 0, rms_urad = 0;  // residual after effect and offsets
   // Why the candidate cannot be named although it fits (e.g. a time
-  // constant at its bound); empty when it can.
+  // constant at its bound); empty when it can. `implausible`: its
+  // parameters are physically impossible (negative wear or gain, a time
+  // constant at its bound), not merely undetermined by the data.
   std::string note;
+  bool implausible = false;
 };
 
 // Where unexplained structure lives: one figure kind, cycle or the facet
