@@ -333,15 +333,7 @@ struct Fit {
   std::vector<std::vector<double>> params;  // per cause
   std::vector<Eigen::MatrixXd> covariance;  // per cause
   std::vector<double> offsets = std::vector<double>(kGroups, 0.0);
-  // Why the fit is no result (empty: it is one); `implausible` when its
-  // parameters are physically impossible (a rival of another shape then
-  // says the residual has a shape no cause gives), not merely undetermined.
-  std::string note;
-  bool implausible = false;
-  void SetImplausible(const std::string& why) {
-    note = why;
-    implausible = true;
-  }
+  std::string note;  // why the fit is no result (empty: it is one)
 };
 
 class Fitter {
@@ -409,9 +401,9 @@ class Fitter {
         if (spec.causes[c] == Cause::kWorkpieceExpansion &&
             (best_fit.params[c][0] <= grid.front() * 1.2 ||
              best_fit.params[c][0] >= grid.back() / 1.2))
-          best_fit.SetImplausible(fmt::format(
+          best_fit.note = fmt::format(
               "tau_wp_s at the end of the range searched ({:.0f} s)",
-              best_fit.params[c][0]));
+              best_fit.params[c][0]);
     }
     // The piece's lag behind the machine is what the cause is (diagnosis.md
     // section 1): a time constant the data leave undetermined (its standard
@@ -493,11 +485,11 @@ class Fitter {
         cov = c2;
       }
       if (spec.causes[k] == Cause::kToolWear && p[0] < 0)
-        fit.SetImplausible("wear_um_per_m < 0 (a cutter does not grow)");
+        fit.note = "wear_um_per_m < 0 (a cutter does not grow)";
       if (spec.causes[k] == Cause::kWorkpieceExpansion && p[1] < 0)
-        fit.SetImplausible(
+        fit.note =
             "gain_K_per_K < 0 (the piece does not cool while the machine "
-            "warms)");
+            "warms)";
       fit.params.push_back(p);
       fit.covariance.push_back(cov);
     }
@@ -1154,12 +1146,12 @@ std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
     return true;
   };
   for (const CandidateResult& c : report.candidates)
-    if (c.implausible && !contains_named(c) &&
+    if (!c.note.empty() && !contains_named(c) &&
         c.bic < named.bic - options.implausible_rival_margin)
       return fmt::format(
           "{} fits better (delta BIC {:.1f} against {:.1f} for {}) but is "
-          "physically implausible ({}): the residual has a shape no known "
-          "cause gives",
+          "no result ({}): the residual has a shape no known cause gives, "
+          "or one the data cannot pin down",
           c.name, c.delta_bic, named.delta_bic, named.name, c.note);
   // The gain as an RMS of normalised residuals (1 - sqrt of the chi2
   // ratio), the same measure as gain_pct on one kind of observation.
@@ -1222,7 +1214,6 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     c.bic = Bic(f, n);
     c.delta_bic = c.bic - none_bic;
     c.note = f.note;
-    c.implausible = f.implausible;
     if (f.ok) c.report_params = ReportParams(f);
     // What the piece shows of a fitted C stop error: its variation over the
     // facets' cut angles (the constant part is the piece's yaw). Over the

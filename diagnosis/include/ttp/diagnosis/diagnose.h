@@ -205,11 +205,8 @@ struct CandidateResult {
   int parameters = 0;                        // incl. nuisance offsets
   double rms_um = 0, rms_urad = 0;  // residual after effect and offsets
   // Why the candidate cannot be named although it fits (e.g. a time
-  // constant at its bound); empty when it can. `implausible`: its
-  // parameters are physically impossible (negative wear or gain, a time
-  // constant at its bound), not merely undetermined by the data.
+  // constant at its bound or undetermined); empty when it can.
   std::string note;
-  bool implausible = false;
 };
 
 // Where unexplained structure lives: one figure kind, cycle or the facet
