@@ -1750,6 +1750,7 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
     refused.machine_pooled_z_one_kind = report.machine_pooled_z_one_kind;
     refused.structure_z = report.structure_z;
     refused.best_evidence = report.best_evidence;
+    refused.evidence_threshold = report.evidence_threshold;
     refused.step_chi2 = report.step_chi2;
     return refused;
   };
