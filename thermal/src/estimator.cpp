@@ -156,8 +156,6 @@ bool PredictionReanchorsAtRTests(const TalcLog& log,
     return v[v.size() / 2];
   };
   const double jump = median(jumps), typical = median(steps);
-  if (std::getenv("TTP_DEBUG_REANCHOR"))
-    std::fprintf(stderr, "reanchor: jump %.3f typical %.3f\n", jump, typical);
   return jump > 0.5 && jump > 5 * typical;
 }
 
@@ -307,8 +305,9 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
   for (int k = 0; k < n; ++k) all[k] = k;
   for (int e = 0; e < 7; ++e) {
     // With compensation on the fit targets the R-test residual (machine minus
-    // pred_): pred_ already follows the fast dynamics of the inputs (C-axis
-    // stops for every R-test and cut), so what is left is smoother.
+    // pred_) while pred_ is continuous (it follows the fast dynamics of the
+    // inputs, so what is left is smoother), the machine's own error when
+    // pred_ jumps at the R-tests (FitBaseAt).
     Eigen::VectorXd y(n);
     for (int k = 0; k < n; ++k) {
       y[k] = (est.rtest_y_[k] - est.FitBaseAt(est.rtest_t_[k])).ToMicro()[e];
@@ -675,7 +674,12 @@ std::string MachineErrorEstimator::Describe() const {
       "smoothed (Gaussian kernel, bandwidth per error by leave-one-out; 0 = "
       "linear interpolation){}",
       rtest_t_.size(),
-      compensation_ ? "; machine error = R-test residual + pred_" : "");
+      !compensation_ ? ""
+      : fit_machine_
+          ? "; machine error = R-test residual + pred_, the model fitted to "
+            "it (pred_ jumps at the R-tests)"
+          : "; machine error = R-test residual + pred_, the model fitted to "
+            "the residual (pred_ continuous)");
   return s;
 }
 
@@ -685,6 +689,7 @@ nlohmann::json MachineErrorEstimator::ToJson() const {
   j["description"] = Describe();
   j["rtests"] = rtest_t_.size();
   j["compensation"] = compensation_;
+  j["fitted_to"] = fit_machine_ ? "machine_error" : "residual";
   nlohmann::json models = nlohmann::json::object();
   for (int e = 0; e < 7; ++e) {
     const ErrorModel& m = models_[e];
