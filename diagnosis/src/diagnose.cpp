@@ -545,8 +545,14 @@ double Bic(const Fit& f, int n) {
   return f.chi2 + f.parameters * std::log(static_cast<double>(std::max(n, 2)));
 }
 
+// A chi2 over k whitened residuals as a standard normal deviate
+// (Wilson-Hilferty).
+double ChiSquareDeviate(double chi2, int k) {
+  return (std::cbrt(chi2 / k) - (1 - 2 / (9.0 * k))) / std::sqrt(2 / (9.0 * k));
+}
+
 // E_X, E_Y and E_Z pooled: their whitened chi2 as one standard normal
-// deviate (Wilson-Hilferty); -inf with fewer than three observations.
+// deviate; -inf with fewer than three observations.
 double MachinePooledZ(const Eigen::VectorXd& whitened_residual,
                       const std::vector<int>& row_kinds) {
   double chi2 = 0;
@@ -556,8 +562,7 @@ double MachinePooledZ(const Eigen::VectorXd& whitened_residual,
       chi2 += whitened_residual[r] * whitened_residual[r];
       ++k;
     }
-  if (k < 3) return -kInf;
-  return (std::cbrt(chi2 / k) - (1 - 2 / (9.0 * k))) / std::sqrt(2 / (9.0 * k));
+  return k < 3 ? -kInf : ChiSquareDeviate(chi2, k);
 }
 
 // Every candidate fitted on one problem, and the decision on it.
@@ -748,18 +753,10 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     }
     const char* names[kGroups] = {"E_X",   "E_Y",  "E_Z",
                                   "E_TTP", "E_OV", "facet angles"};
-    {
-      const double k = count[0] + count[1] + count[2];
-      if (k >= 3)
-        sel.machine_pooled_z =
-            (std::cbrt((chi2[0] + chi2[1] + chi2[2]) / k) - (1 - 2 / (9 * k))) /
-            std::sqrt(2 / (9 * k));
-    }
+    sel.machine_pooled_z = MachinePooledZ(residual, kinds);
     for (int g = 0; g < kGroups; ++g) {
       if (count[g] < 3) continue;
-      const double k = count[g];
-      const double z =
-          (std::cbrt(chi2[g] / k) - (1 - 2 / (9 * k))) / std::sqrt(2 / (9 * k));
+      const double z = ChiSquareDeviate(chi2[g], count[g]);
       if (z > sel.local_z) {
         sel.local_z = z;
         sel.local_group = g;
@@ -843,10 +840,14 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
         }
       }
     }
-    const double step_bic =
-        none.chi2 - best_drop +
-        (none.parameters + 2) * std::log(static_cast<double>(std::max(n, 2)));
-    sel.step_rival = Bic(f, n) - step_bic;
+    // A rival of the name: the nominal model plus a shape of two
+    // parameters (a step's height and first cycle; a spring-back's cos and
+    // sin amplitudes) leaving chi2.
+    const auto rival_bic = [&](double chi2) {
+      return chi2 + (none.parameters + 2) *
+                        std::log(static_cast<double>(std::max(n, 2)));
+    };
+    sel.step_rival = Bic(f, n) - rival_bic(none.chi2 - best_drop);
     if (best_g >= 0 && sel.step_rival > -options.step_rival_margin)
       rival = fmt::format(
           "a step of {} from cycle {} on explains the data as well as {} "
@@ -864,10 +865,7 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
         cols.push_back(problem.Whiten(c));
       const Fit with = fitter.Linear(ModelSpec{}, 0.0, cols);
       if (!with.ok) continue;
-      const double lobe_bic =
-          with.chi2 +
-          (none.parameters + 2) * std::log(static_cast<double>(std::max(n, 2)));
-      const double delta = Bic(f, n) - lobe_bic;
+      const double delta = Bic(f, n) - rival_bic(with.chi2);
       if (delta > -options.step_rival_margin)
         rival = fmt::format(
             "a {}-lobed spring-back explains the data as well as {} (delta "
@@ -1381,17 +1379,15 @@ void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
 // The reference cycle's part of each figure kind's error (the common
 // variance of Observations::figure_reference_var_um2): the reference
 // features' measurement, weighted as in the figure, plus the estimator's
-// error at the reference cut (`estimator_var_um2`; what the R-tests leave
-// there). A reference feature read as the zero of an instrument (a dial
-// gauge's setting on facet 5 and strip 5, stated variance 0) counts as
+// error at the reference cut (`estimator_var_um2`, per kind; what the
+// R-tests leave there). A reference feature read as the zero of an instrument
+// (a dial gauge's setting on facet 5 and strip 5, stated variance 0) counts as
 // one reading of its family. Without feature results (figures only), half
 // the figure's variance: the figure is the difference of two cycles'
 // measurements.
-template <typename EstimatorVar>
-std::vector<double> ReferenceCycleVarianceUm2(const PartSpec& part,
-                                              const MeasuredPiece& measured,
-                                              const Observations& obs,
-                                              EstimatorVar estimator_var_um2) {
+std::vector<double> ReferenceCycleVarianceUm2(
+    const PartSpec& part, const MeasuredPiece& measured,
+    const Observations& obs, const std::vector<double>& estimator_var_um2) {
   std::vector<double> out(kFigureKinds,
                           std::numeric_limits<double>::infinity());
   const int ref = part.reference_index;
@@ -1436,7 +1432,7 @@ std::vector<double> ReferenceCycleVarianceUm2(const PartSpec& part,
     }
   }
   for (int g = 0; g < kFigureKinds; ++g)
-    if (std::isfinite(out[g])) out[g] += estimator_var_um2(g);
+    if (std::isfinite(out[g])) out[g] += estimator_var_um2[g];
   return out;
 }
 
@@ -1664,10 +1660,13 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
           est_angle[i] * est_angle[j] * rho(obs.angle_t_s[i], obs.angle_t_s[j]);
     obs.angle_covariance_urad2(i, i) += std::pow(obs.angle_sigma_urad[i], 2);
   }
-  if (options.anchor_reference_cycle)
-    obs.figure_reference_var_um2 = ReferenceCycleVarianceUm2(
-        part, measured, obs,
-        [&](int kind) { return std::pow(est_sigma_um(kind, time_of(0)), 2); });
+  if (options.anchor_reference_cycle) {
+    std::vector<double> est_reference_var_um2(kFigureKinds);
+    for (int g = 0; g < kFigureKinds; ++g)
+      est_reference_var_um2[g] = std::pow(est_sigma_um(g, time_of(0)), 2);
+    obs.figure_reference_var_um2 =
+        ReferenceCycleVarianceUm2(part, measured, obs, est_reference_var_um2);
+  }
   // The total standard uncertainty of each observation (for displays).
   for (size_t i = 0; i < nf; ++i)
     obs.figure_sigma_um[i] = std::sqrt(obs.figure_covariance_um2(i, i));

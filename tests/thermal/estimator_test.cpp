@@ -215,16 +215,26 @@ std::string CompensatedLogText(const test::SyntheticRun& run, bool reanchor,
   return text;
 }
 
+// The synthetic run with R-tests half an hour apart under such a
+// controller (following 75 % of the machine's change).
+struct CompensatedRun {
+  test::SyntheticRun run;
+  TalcLog log;
+  explicit CompensatedRun(bool reanchor) {
+    run.rtest_interval_s = 1800;
+    log = ParseTalcLog(CompensatedLogText(run, reanchor, 0.75), "c.csv");
+  }
+};
+
 // Re-anchored at every R-test, the residual (machine - pred_) between two
 // R-tests follows the machine's change since the last one, which a fit
 // through the R-tests' residuals cannot see: the estimator fits the
 // machine's own error instead and follows the truth between R-tests half
 // an hour apart; fitting the residual is off by much more there.
 TEST(Estimator, PredictionReanchoredAtRTestsFitsTheMachineError) {
-  test::SyntheticRun run;
-  run.rtest_interval_s = 1800;
-  const TalcLog log =
-      ParseTalcLog(CompensatedLogText(run, true, 0.75), "c.csv");
+  const CompensatedRun c(true);
+  const test::SyntheticRun& run = c.run;
+  const TalcLog& log = c.log;
   const auto est = MachineErrorEstimator::Fit(log);
   EXPECT_TRUE(est.fits_machine_error());
   EstimatorOptions residual_options;
@@ -245,15 +255,12 @@ TEST(Estimator, PredictionReanchoredAtRTestsFitsTheMachineError) {
 // A prediction that follows the inputs continuously (no jump at the
 // R-tests) leaves a smooth residual: that is what the fit takes.
 TEST(Estimator, ContinuousPredictionFitsTheResidual) {
-  test::SyntheticRun run;
-  run.rtest_interval_s = 1800;
-  const TalcLog log =
-      ParseTalcLog(CompensatedLogText(run, false, 0.75), "c.csv");
-  const auto est = MachineErrorEstimator::Fit(log);
+  const CompensatedRun c(false);
+  const auto est = MachineErrorEstimator::Fit(c.log);
   EXPECT_FALSE(est.fits_machine_error());
   const double rms = RmsAgainstTruth(
-      run, [&](double t) { return est.MachineErrorsAt(t); }, est.FirstRTestS(),
-      est.LastRTestS());
+      c.run, [&](double t) { return est.MachineErrorsAt(t); },
+      est.FirstRTestS(), est.LastRTestS());
   EXPECT_LT(rms, 0.2);
 }
 
