@@ -275,7 +275,8 @@ int main(int argc, char** argv) {
       DiagnosisOptions{}.max_chi2_per_dof);
 
   // Detection limit: one catalogue cause, its size scaled down from the
-  // battery's range.
+  // battery's range (not measured with 0 runs per point).
+  if (per_point <= 0) return 0;
   fmt::print("\ndetection (share named right; {} runs per point; R-tests "
              "every 300 s and 3600 s)\n",
              per_point);

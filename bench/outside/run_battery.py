@@ -255,8 +255,13 @@ CHECK_MARGIN = 3
 # a two-lobe distortion named c_axis_indexing; strips drifting refused as
 # another run's log; a cloud without an effect refused (the estimator fitted
 # the residual of a prediction re-anchored at every R-test); another run's
-# log named workpiece_expansion with its lag undetermined (561 +- 497 s)
+# log named workpiece_expansion with its lag undetermined (561 +- 497 s);
+# C-axis harmonics judged on held-out cycles at the edge of the angles cut
+# by their residual alone (the fold's fit extrapolating, its uncertainty
+# ignored); a strong tool wear refused for one figure kind's structure
 CHECK_CASES = [
+    ("c_axis_indexing", 50.0, 999931, 3600, False, "cloud", "c_axis_indexing"),
+    ("tool_wear", 6.0, 856334, 1800, True, "cloud", "tool_wear"),
     ("two_lobe", 1.5, 526025, 300, True, "json", "unexplained"),
     ("other_log", 0.0, 514711, 3600, False, "json", "unexplained"),
     ("strip_drift", 4.0, 654812, 300, False, "json", "unexplained"),

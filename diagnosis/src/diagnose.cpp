@@ -253,6 +253,7 @@ class Problem {
     return out;
   }
   int Nuisance() const { return static_cast<int>(nuisance_.size()); }
+  const std::vector<int>& NuisanceKinds() const { return nuisance_kinds_; }
   bool ok() const { return ok_; }
   const Observations& obs() const { return obs_; }
 
@@ -271,6 +272,7 @@ class Problem {
     double chi2 = kInf;
     Eigen::VectorXd b;        // cause coefficients
     Eigen::MatrixXd cov;      // of b
+    Eigen::MatrixXd cov_all;  // of b and the offsets (in that order)
     std::vector<double> offsets = std::vector<double>(kGroups, 0.0);
     Eigen::VectorXd residual;  // whitened
   };
@@ -292,8 +294,8 @@ class Problem {
     s.residual = y - x * beta;
     s.chi2 = s.residual.squaredNorm();
     s.b = beta.head(nc);
-    s.cov = ldlt.solve(Eigen::MatrixXd::Identity(nc + nn, nc + nn))
-                .topLeftCorner(nc, nc);
+    s.cov_all = ldlt.solve(Eigen::MatrixXd::Identity(nc + nn, nc + nn));
+    s.cov = s.cov_all.topLeftCorner(nc, nc);
     for (int g = 0; g < nn; ++g) s.offsets[nuisance_kinds_[g]] = beta[nc + g];
     return s;
   }
@@ -333,6 +335,11 @@ struct Fit {
   std::vector<std::vector<double>> params;  // per cause
   std::vector<Eigen::MatrixXd> covariance;  // per cause
   std::vector<double> offsets = std::vector<double>(kGroups, 0.0);
+  // The covariance of every coefficient (the causes' in the order of their
+  // columns, a lag's time constant held, then the offsets of
+  // `offset_kinds`): what the prediction's own uncertainty comes from.
+  Eigen::MatrixXd covariance_all;
+  std::vector<int> offset_kinds;
   std::string note;  // why the fit is no result (empty: it is one)
 };
 
@@ -472,6 +479,10 @@ class Fitter {
     fit.ok = true;
     fit.chi2 = s.chi2;
     fit.offsets = s.offsets;
+    if (extra.empty()) {
+      fit.covariance_all = s.cov_all;
+      fit.offset_kinds = problem_.NuisanceKinds();
+    }
     fit.parameters = static_cast<int>(columns.size() - extra.size()) +
                      problem_.Nuisance() + (tau_s > 0 ? 1 : 0);
     for (size_t k = 0; k < spec.causes.size(); ++k) {
@@ -533,6 +544,53 @@ Column Prediction(const Fit& fit, const ColumnCache& cache,
   for (size_t i = 0; i < obs.size(); ++i)
     out[i] += fit.offsets[i < nf ? obs.figure_kind[i] : kAngleGroup];
   return out;
+}
+
+// The variance of a fitted model's prediction on every observation, from
+// the covariance of its coefficients and offsets (a lag's time constant
+// held at its value). Small where the data pin the cause down; large where
+// the prediction extrapolates (a sum of C-axis harmonics beyond the angles
+// it was fitted on, a lag past the cycles it saw).
+Column PredictionVariance(const Fit& fit, const ColumnCache& cache,
+                          const Observations& obs) {
+  const int n = static_cast<int>(obs.size());
+  Column out = Column::Zero(n);
+  if (!fit.ok || fit.covariance_all.rows() == 0) return out;
+  std::vector<Column> cols;  // in the order of the fit's coefficients
+  for (size_t k = 0; k < fit.spec.causes.size(); ++k) {
+    switch (fit.spec.causes[k]) {
+      case Cause::kWorkpieceExpansion:
+        cols.push_back(cache.Workpiece(fit.params[k][0]));
+        break;
+      case Cause::kToolWear:
+        cols.push_back(cache.ToolWear());
+        break;
+      case Cause::kClampingDistortion:
+        for (const Column& c : cache.Clamping()) cols.push_back(c);
+        break;
+      case Cause::kCAxisIndexing:
+        for (const Column& c : cache.CAxis(fit.spec.c_harmonics))
+          cols.push_back(c);
+        break;
+      case Cause::kNone:
+        break;
+    }
+  }
+  const int nf = static_cast<int>(obs.figures());
+  for (int g : fit.offset_kinds) {
+    Column c = Column::Zero(n);
+    for (int i = 0; i < n; ++i)
+      c[i] = (i < nf ? obs.figure_kind[i] : kAngleGroup) == g ? 1.0 : 0.0;
+    cols.push_back(c);
+  }
+  const int p = static_cast<int>(cols.size());
+  if (fit.covariance_all.rows() != p) return out;
+  Eigen::MatrixXd g(n, p);
+  for (int c = 0; c < p; ++c) g.col(c) = cols[c];
+  return ((g * fit.covariance_all).array() * g.array())
+      .rowwise()
+      .sum()
+      .matrix();
 }
 
 int part_cycles(const Observations& obs) {
@@ -1291,14 +1349,31 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
       const Selection fs = Select(cache, fold, options, false);
       const Column pb = Prediction(fs.fits[0], cache, obs);
       const Column pe = Prediction(fs.fits[fs.chosen], cache, obs);
+      const Column vb = PredictionVariance(fs.fits[0], cache, obs);
+      const Column ve = PredictionVariance(fs.fits[fs.chosen], cache, obs);
       for (int i = 0; i < n; ++i) {
         if (use[i]) continue;
         (i < nf ? base_um : base_urad).push_back(y[i] - pb[i]);
         (i < nf ? ext_um : ext_urad).push_back(y[i] - pe[i]);
         const double sigma =
             i < nf ? obs.figure_sigma_um[i] : obs.angle_sigma_urad[i - nf];
-        heldout_base_chi2 += std::pow((y[i] - pb[i]) / sigma, 2);
-        heldout_ext_chi2 += std::pow((y[i] - pe[i]) / sigma, 2);
+        // A facet angle: the deviance of the held-out value under each
+        // fold's prediction (its own uncertainty added to the
+        // observation's). A held-out cycle's facets lie at table angles the
+        // fold has not seen, at the edges of the span beyond them, where a
+        // sum of harmonics extrapolates: it is judged against what it
+        // claims there, and pays for claiming little (the log term). A
+        // figure: its residual over its sigma (every cycle pins the
+        // figures' shapes; their prediction's variance is a small
+        // leverage, and the deviance would only add noise).
+        const auto deviance = [&](double residual, double variance) {
+          const double inflation =
+              i < nf ? 1.0 : 1.0 + variance / (sigma * sigma);
+          return std::pow(residual / sigma, 2) / inflation +
+                 std::log(inflation);
+        };
+        heldout_base_chi2 += deviance(y[i] - pb[i], vb[i]);
+        heldout_ext_chi2 += deviance(y[i] - pe[i], ve[i]);
       }
     }
     report.heldout_baseline_rms_um = Rms(base_um);
@@ -1780,10 +1855,10 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   // after the best model: the R-tests of the log imply machine location
   // errors the piece does not show (another run's log; a probe's or dial's
   // few touches keep each kind alone within its budget).
-  if ((report.status == DiagnosisStatus::kNamed &&
-       report.machine_pooled_z > options.named_machine_z) ||
-      (report.machine_pooled_z > options.refuse_machine_pooled_z &&
-       beyond_one_kind)) {
+  if (beyond_one_kind &&
+      ((report.status == DiagnosisStatus::kNamed &&
+        report.machine_pooled_z > options.named_machine_z) ||
+       report.machine_pooled_z > options.refuse_machine_pooled_z)) {
     DiagnosisReport refused = refuse_keeping_evidence(fmt::format(
         "{} does not follow the machine errors of {}: {} fits, but E_X, E_Y "
         "and E_Z, which no catalogue cause changes much, keep a chi2 "
