@@ -1186,8 +1186,10 @@ std::vector<StructureLocation> LocateStructure(const Observations& obs,
 // outside the physical range) explains the data better than it does.
 // Returns an empty string when the name holds, else why not.
 // `heldout_*_chi2`: the held-out cycles' residuals (nominal model and the
-// fold's chosen one) over their sigma, squared and summed over figures and
-// angles, so that a cause seen in the angles is judged there too.
+// fold's chosen one) summed over figures and angles, so that a cause seen
+// in the angles is judged there too: a figure's squared over its sigma, a
+// facet angle's deviance under the fold's prediction (its variance
+// added).
 std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
                             double heldout_base_chi2, double heldout_ext_chi2,
                             const DiagnosisOptions& options) {
@@ -1218,9 +1220,9 @@ std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
   if (!(gain_pct > options.min_heldout_gain_pct))
     return fmt::format(
         "{} fitted without each cycle does not predict it better than the "
-        "nominal model (held-out residuals over their sigma, figures and "
-        "angles: gain {:.1f} %, needs > {:g} %): its fit follows structure "
-        "of another shape",
+        "nominal model (held-out figures over their sigma and facet angles "
+        "over their predicted spread: gain {:.1f} %, needs > {:g} %): its "
+        "fit follows structure of another shape",
         named.name, gain_pct, options.min_heldout_gain_pct);
   return "";
 }

@@ -171,7 +171,7 @@ struct DiagnosisOptions {
   // chi2 deviate beyond this after the best model: above every run with
   // its own log in the calibration and the batteries (docs/DIAGNOSIS.md).
   double refuse_machine_pooled_z = 3.5;
-  // The two rules above refuse only when E_X, E_Y and E_Z pooled stay
+  // The three rules above refuse only when E_X, E_Y and E_Z pooled stay
   // beyond this with the best drift or step of one figure kind fitted
   // along: another run's log misplaces the machine errors in every kind
   // the R-tests measure, while an effect on one feature type (the strips
