@@ -258,8 +258,12 @@ CHECK_MARGIN = 3
 # log named workpiece_expansion with its lag undetermined (561 +- 497 s);
 # C-axis harmonics judged on held-out cycles at the edge of the angles cut
 # by their residual alone (the fold's fit extrapolating, its uncertainty
-# ignored); a strong tool wear refused for one figure kind's structure
+# ignored); a strong tool wear refused for one figure kind's structure; a
+# piece expanding that was clamped off its equilibrium with the table,
+# named tool_wear+workpiece_expansion while its initial state was not free
 CHECK_CASES = [
+    ("workpiece_expansion", 1.5, 632263, 1800, True, "cloud", "workpiece_expansion"),
+    ("workpiece_expansion", 1.5, 737313, 1800, True, "dial", "workpiece_expansion"),
     ("c_axis_indexing", 50.0, 999931, 3600, False, "cloud", "c_axis_indexing"),
     ("tool_wear", 6.0, 856334, 1800, True, "cloud", "tool_wear"),
     ("two_lobe", 1.5, 526025, 300, True, "json", "unexplained"),

@@ -122,6 +122,10 @@ Column Stack(const ObservationEffect& e) {
 struct ModelSpec {
   std::vector<Cause> causes;
   int c_harmonics = 0;
+  // workpiece_expansion: the piece's temperature at the log's start free
+  // (off the lagged table's by a term decaying with tau) instead of in
+  // equilibrium with it.
+  bool wp_initial_state = false;
   std::string Name() const {
     if (causes.empty()) return "none";
     std::vector<std::string> names;
@@ -178,6 +182,18 @@ class ColumnCache {
                                        obs_, part_))};
   }
   const Column& Observed() const { return observed_; }
+  // The piece 1 K off its equilibrium with the (lagged) table at the
+  // log's start, decaying with tau: a piece clamped warm or cold after
+  // pre-machining, before the table's history the log holds.
+  Column WorkpieceInitial(double tau_s) const {
+    EffectContext c = context_;
+    for (size_t i = 0; i < c.machine_dT_K.size(); ++i)
+      c.machine_dT_K[i] = i == 0 ? 1.0 : 0.0;
+    return Stack(EffectOnObservations(Cause::kWorkpieceExpansion, {tau_s, 1.0},
+                                      obs_, c, part_)) -
+           Stack(EffectOnObservations(Cause::kWorkpieceExpansion, {tau_s, 0.0},
+                                      obs_, c, part_));
+  }
   // Effect of gain 1 minus the base at tau.
   Column Workpiece(double tau_s) const {
     return Stack(EffectOnObservations(Cause::kWorkpieceExpansion,
@@ -446,6 +462,8 @@ class Fitter {
         case Cause::kWorkpieceExpansion:
           base += problem_.Whiten(cache_.WorkpieceBase());
           columns.push_back(problem_.Whiten(cache_.Workpiece(tau_s)));
+          if (spec.wp_initial_state)
+            columns.push_back(problem_.Whiten(cache_.WorkpieceInitial(tau_s)));
           break;
         case Cause::kToolWear:
           columns.push_back(problem_.Whiten(cache_.ToolWear()));
@@ -490,10 +508,12 @@ class Fitter {
       std::vector<double> p(s.b.data() + a, s.b.data() + a + n);
       Eigen::MatrixXd cov = s.cov.block(a, a, n, n);
       if (spec.causes[k] == Cause::kWorkpieceExpansion) {
+        // [tau (its variance from the profile, below), gain, and the
+        // initial state when it is free]
         p.insert(p.begin(), tau_s);
-        Eigen::MatrixXd c2 = Eigen::MatrixXd::Zero(2, 2);
-        c2(1, 1) = cov(0, 0);
-        cov = c2;
+        Eigen::MatrixXd with_tau = Eigen::MatrixXd::Zero(n + 1, n + 1);
+        with_tau.bottomRightCorner(n, n) = cov;
+        cov = with_tau;
       }
       if (spec.causes[k] == Cause::kToolWear && p[0] < 0)
         fit.note = "wear_um_per_m < 0 (a cutter does not grow)";
@@ -524,6 +544,8 @@ Column Prediction(const Fit& fit, const ColumnCache& cache,
     switch (fit.spec.causes[k]) {
       case Cause::kWorkpieceExpansion:
         out += cache.WorkpieceBase() + p[1] * cache.Workpiece(p[0]);
+        if (fit.spec.wp_initial_state)
+          out += p[2] * cache.WorkpieceInitial(p[0]);
         break;
       case Cause::kToolWear:
         out += p[0] * cache.ToolWear();
@@ -561,6 +583,8 @@ Column PredictionVariance(const Fit& fit, const ColumnCache& cache,
     switch (fit.spec.causes[k]) {
       case Cause::kWorkpieceExpansion:
         cols.push_back(cache.Workpiece(fit.params[k][0]));
+        if (fit.spec.wp_initial_state)
+          cols.push_back(cache.WorkpieceInitial(fit.params[k][0]));
         break;
       case Cause::kToolWear:
         cols.push_back(cache.ToolWear());
@@ -719,7 +743,21 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     }
   }
   const int harmonics = c_axis.ok ? c_axis.spec.c_harmonics : 1;
-  sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kWorkpieceExpansion}}));
+  // Workpiece expansion: the piece's initial state free or in equilibrium,
+  // by evidence (the free state costs a parameter) among the fits that are
+  // a result (a free state that leaves the lag undetermined is none).
+  Fit wp = fitter.Run(ModelSpec{{Cause::kWorkpieceExpansion}});
+  {
+    ModelSpec free_start{{Cause::kWorkpieceExpansion}};
+    free_start.wp_initial_state = true;
+    const Fit f = fitter.Run(free_start);
+    const auto usable = [](const Fit& x) { return x.ok && x.note.empty(); };
+    if (f.ok && (!wp.ok || (usable(f) && !usable(wp)) ||
+                 (usable(f) == usable(wp) && Bic(f, n) < Bic(wp, n))))
+      wp = f;
+  }
+  const bool wp_initial_state = wp.ok && wp.spec.wp_initial_state;
+  sel.fits.push_back(wp);
   sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kToolWear}}));
   sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kClampingDistortion}}));
   sel.fits.push_back(c_axis.ok ? c_axis
@@ -731,7 +769,8 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
                           Cause::kClampingDistortion, Cause::kCAxisIndexing};
     for (int a = 0; a < 4; ++a)
       for (int b = a + 1; b < 4; ++b)
-        sel.fits.push_back(fitter.Run(ModelSpec{{all[a], all[b]}, harmonics}));
+        sel.fits.push_back(fitter.Run(
+            ModelSpec{{all[a], all[b]}, harmonics, wp_initial_state}));
   }
   // C indexing turns the facets and changes no distance: without measured
   // facet angles (a dial gauge) it cannot show, and its candidates are no
@@ -1012,6 +1051,8 @@ std::vector<ParamEstimate> ReportParams(const Fit& fit) {
     }
     for (size_t i = 0; i < names.size() && i < p.size(); ++i)
       out.push_back({names[i], p[i], sd(static_cast<int>(i))});
+    if (cause == Cause::kWorkpieceExpansion && p.size() > 2)
+      out.push_back({"initial_dT_K", p[2], sd(2)});
   }
   return out;
 }
