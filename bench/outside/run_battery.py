@@ -260,8 +260,11 @@ CHECK_MARGIN = 3
 # by their residual alone (the fold's fit extrapolating, its uncertainty
 # ignored); a strong tool wear refused for one figure kind's structure; a
 # piece expanding that was clamped off its equilibrium with the table,
-# named tool_wear+workpiece_expansion while its initial state was not free
+# named tool_wear+workpiece_expansion while its initial state was not free;
+# a strong tool wear named with an expansion beside it while the estimator
+# fitted a one-minute lag to R-tests an hour apart
 CHECK_CASES = [
+    ("tool_wear", 20.0, 599260, 3600, True, "cloud", "tool_wear"),
     ("workpiece_expansion", 1.5, 632263, 1800, True, "cloud", "workpiece_expansion"),
     ("workpiece_expansion", 1.5, 737313, 1800, True, "dial", "workpiece_expansion"),
     ("c_axis_indexing", 50.0, 999931, 3600, False, "cloud", "c_axis_indexing"),

@@ -412,6 +412,25 @@ TEST(Estimator, SecondOrderPlantWithAnUnloggedInput) {
             << sparse.rms_z << " max " << sparse.largest_z << "\n";
 }
 
+// R-tests an hour apart resolve no lag of a minute: such a lag's gain
+// would rest on the few phases of the cycle the R-tests are taken at.
+TEST(Estimator, LagsFasterThanTheRTestsResolveAreNotTried) {
+  test::SyntheticRun run;
+  run.rtest_interval_s = 3600;
+  const auto est = MachineErrorEstimator::Fit(Parse(run));
+  const double min_tau_s = 0.1 * est.MeanRTestSpacingS();
+  EXPECT_GT(min_tau_s, 300);
+  for (const ErrorModel& m : est.models())
+    for (double tau : m.tau_s) EXPECT_GE(tau, min_tau_s);
+  EstimatorOptions o;
+  std::string error;
+  EXPECT_TRUE(o.IsValid(&error)) << error;
+  o.min_tau_fraction_of_rtest_spacing = -0.1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("min_tau_fraction_of_rtest_spacing"), std::string::npos)
+      << error;
+}
+
 TEST(Estimator, RefusesLogsItCannotUse) {
   const std::string head =
       "# talc-log: 1\n# start: 2026-03-02T06:00:00Z\n# compensation: off\n"

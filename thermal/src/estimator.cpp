@@ -167,6 +167,9 @@ bool EstimatorOptions::IsValid(std::string* error) const {
     return false;
   };
   if (tau_grid_s.empty()) return fail("tau_grid_s: empty");
+  if (!(min_tau_fraction_of_rtest_spacing >= 0) ||
+      !std::isfinite(min_tau_fraction_of_rtest_spacing))
+    return fail("min_tau_fraction_of_rtest_spacing: must be >= 0 and finite");
   for (double t : tau_grid_s)
     if (!(t > 0) || !std::isfinite(t))
       return fail("tau_grid_s: every time constant must be > 0 and finite");
@@ -356,6 +359,11 @@ MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
   const int n = static_cast<int>(rows.size());
   const int n_inputs = static_cast<int>(signals_.size());
   const int n_tau = static_cast<int>(options_.tau_grid_s.size());
+  // (the longest time constant of the grid is always tried)
+  const double min_tau_s =
+      std::min(options_.min_tau_fraction_of_rtest_spacing * MeanRTestSpacingS(),
+               *std::max_element(options_.tau_grid_s.begin(),
+                                 options_.tau_grid_s.end()));
   std::vector<std::vector<int>> subsets;
   std::vector<int> current;
   Subsets(n_inputs, options_.max_inputs, 0, current, subsets);
@@ -386,7 +394,8 @@ MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
         bool observable = true;
         for (int k = 0; k < m; ++k)
           observable &= !(signals_[subset[k]].pulsed &&
-                          options_.tau_grid_s[taus[k]] < kPulsedMinTauS);
+                          options_.tau_grid_s[taus[k]] < kPulsedMinTauS) &&
+                        options_.tau_grid_s[taus[k]] >= min_tau_s;
         Choice c;
         c.subset = subset;
         c.taus = taus;

@@ -35,6 +35,13 @@ struct EstimatorOptions {
   std::vector<double> tau_grid_s = {60,   300,  600,  1200,
                                     2400, 4800, 9600, 19200};
   int max_inputs = 2;       // inputs per error model
+  // Lags faster than this fraction of the mean R-test spacing are not
+  // tried (the grid's longest always is): R-tests taken at the same few
+  // phases of every test cycle see such a lag at two or three levels (C
+  // running or stopped before them), so its gain rests on those levels
+  // alone, and its value at a cut (another phase) is a guess that gain
+  // multiplies. 0 tries every time constant.
+  double min_tau_fraction_of_rtest_spacing = 0.1;
   double grid_step_s = 10;  // integration step of the lag filters
   // Fit the lags' initial state (one exp(-(t - t0)/tau) term per input)
   // instead of assuming the log starts in steady state.
