@@ -143,7 +143,11 @@ class ColumnCache {
  public:
   ColumnCache(const Observations& obs, const EffectContext& context,
               const PartSpec& part, int max_harmonics)
-      : obs_(obs), context_(context), part_(part) {
+      : obs_(obs), context_(context), part_(part), initial_context_(context) {
+    // The table's history of a piece 1 K off its equilibrium at the log's
+    // start: a unit step down at the first grid point.
+    for (size_t i = 0; i < initial_context_.machine_dT_K.size(); ++i)
+      initial_context_.machine_dT_K[i] = i == 0 ? 1.0 : 0.0;
     tool_wear_ = Stack(EffectOnObservations(Cause::kToolWear, {1.0}, obs,
                                             context, part));
     for (int k = 0; k < 2; ++k) {
@@ -186,13 +190,10 @@ class ColumnCache {
   // log's start, decaying with tau: a piece clamped warm or cold after
   // pre-machining, before the table's history the log holds.
   Column WorkpieceInitial(double tau_s) const {
-    EffectContext c = context_;
-    for (size_t i = 0; i < c.machine_dT_K.size(); ++i)
-      c.machine_dT_K[i] = i == 0 ? 1.0 : 0.0;
     return Stack(EffectOnObservations(Cause::kWorkpieceExpansion, {tau_s, 1.0},
-                                      obs_, c, part_)) -
+                                      obs_, initial_context_, part_)) -
            Stack(EffectOnObservations(Cause::kWorkpieceExpansion, {tau_s, 0.0},
-                                      obs_, c, part_));
+                                      obs_, initial_context_, part_));
   }
   // Effect of gain 1 minus the base at tau.
   Column Workpiece(double tau_s) const {
@@ -205,9 +206,53 @@ class ColumnCache {
   const Observations& obs_;
   const EffectContext& context_;
   const PartSpec& part_;
+  EffectContext initial_context_;
   Column tool_wear_, wp_base_, observed_;
   std::vector<Column> clamping_, c_axis_;
 };
+
+// The indicator of offset group g (a figure kind, or kAngleGroup) on
+// every observation.
+Column OffsetColumn(const Observations& obs, int g) {
+  const size_t nf = obs.figures();
+  Column c(obs.size());
+  for (size_t i = 0; i < obs.size(); ++i)
+    c[i] = (i < nf ? obs.figure_kind[i] : kAngleGroup) == g ? 1.0 : 0.0;
+  return c;
+}
+
+// The columns of a model's causes on every observation (not whitened), in
+// the order of its coefficients; `first` (when given) gets where each
+// cause's columns start, and their count last.
+std::vector<Column> CauseColumns(const ModelSpec& spec, double tau_s,
+                                 const ColumnCache& cache,
+                                 std::vector<int>* first = nullptr) {
+  std::vector<Column> cols;
+  for (Cause c : spec.causes) {
+    if (first) first->push_back(static_cast<int>(cols.size()));
+    switch (c) {
+      case Cause::kWorkpieceExpansion:
+        cols.push_back(cache.Workpiece(tau_s));
+        if (spec.wp_initial_state)
+          cols.push_back(cache.WorkpieceInitial(tau_s));
+        break;
+      case Cause::kToolWear:
+        cols.push_back(cache.ToolWear());
+        break;
+      case Cause::kClampingDistortion:
+        for (const Column& col : cache.Clamping()) cols.push_back(col);
+        break;
+      case Cause::kCAxisIndexing:
+        for (const Column& col : cache.CAxis(spec.c_harmonics))
+          cols.push_back(col);
+        break;
+      case Cause::kNone:
+        break;
+    }
+  }
+  if (first) first->push_back(static_cast<int>(cols.size()));
+  return cols;
+}
 
 // Whether figure kind g carries a free offset: its reference cycle's
 // variance is not known (Observations::figure_reference_var_um2).
@@ -247,10 +292,7 @@ class Problem {
     if (!ang_.empty()) kind_used[kAngleGroup] = true;
     for (int g = 0; g < kGroups; ++g)
       if (kind_used[g] && FreeOffset(obs, g)) {
-        Column c = Column::Zero(obs.size());
-        for (int i = 0; i < static_cast<int>(obs.size()); ++i)
-          c[i] = (i < nf ? obs.figure_kind[i] : kAngleGroup) == g ? 1.0 : 0.0;
-        nuisance_.push_back(Whiten(c));
+        nuisance_.push_back(Whiten(OffsetColumn(obs, g)));
         nuisance_kinds_.push_back(g);
       }
     Column y(obs.size());
@@ -456,31 +498,11 @@ class Fitter {
     std::vector<int>& first = *first_out;
     Eigen::VectorXd& base = *base_out;
     base = Eigen::VectorXd::Zero(problem_.Rows());
-    for (Cause c : spec.causes) {
-      first.push_back(static_cast<int>(columns.size()));
-      switch (c) {
-        case Cause::kWorkpieceExpansion:
-          base += problem_.Whiten(cache_.WorkpieceBase());
-          columns.push_back(problem_.Whiten(cache_.Workpiece(tau_s)));
-          if (spec.wp_initial_state)
-            columns.push_back(problem_.Whiten(cache_.WorkpieceInitial(tau_s)));
-          break;
-        case Cause::kToolWear:
-          columns.push_back(problem_.Whiten(cache_.ToolWear()));
-          break;
-        case Cause::kClampingDistortion:
-          for (const Column& col : cache_.Clamping())
-            columns.push_back(problem_.Whiten(col));
-          break;
-        case Cause::kCAxisIndexing:
-          for (const Column& col : cache_.CAxis(spec.c_harmonics))
-            columns.push_back(problem_.Whiten(col));
-          break;
-        case Cause::kNone:
-          break;
-      }
-    }
-    first.push_back(static_cast<int>(columns.size()));
+    for (Cause c : spec.causes)
+      if (c == Cause::kWorkpieceExpansion)
+        base += problem_.Whiten(cache_.WorkpieceBase());
+    for (const Column& col : CauseColumns(spec, tau_s, cache_, &first))
+      columns.push_back(problem_.Whiten(col));
   }
 
   Fit Linear(const ModelSpec& spec, double tau_s,
@@ -576,39 +598,15 @@ Column Prediction(const Fit& fit, const ColumnCache& cache,
 Column PredictionVariance(const Fit& fit, const ColumnCache& cache,
                           const Observations& obs) {
   const int n = static_cast<int>(obs.size());
-  Column out = Column::Zero(n);
-  if (!fit.ok || fit.covariance_all.rows() == 0) return out;
-  std::vector<Column> cols;  // in the order of the fit's coefficients
-  for (size_t k = 0; k < fit.spec.causes.size(); ++k) {
-    switch (fit.spec.causes[k]) {
-      case Cause::kWorkpieceExpansion:
-        cols.push_back(cache.Workpiece(fit.params[k][0]));
-        if (fit.spec.wp_initial_state)
-          cols.push_back(cache.WorkpieceInitial(fit.params[k][0]));
-        break;
-      case Cause::kToolWear:
-        cols.push_back(cache.ToolWear());
-        break;
-      case Cause::kClampingDistortion:
-        for (const Column& c : cache.Clamping()) cols.push_back(c);
-        break;
-      case Cause::kCAxisIndexing:
-        for (const Column& c : cache.CAxis(fit.spec.c_harmonics))
-          cols.push_back(c);
-        break;
-      case Cause::kNone:
-        break;
-    }
-  }
-  const int nf = static_cast<int>(obs.figures());
-  for (int g : fit.offset_kinds) {
-    Column c = Column::Zero(n);
-    for (int i = 0; i < n; ++i)
-      c[i] = (i < nf ? obs.figure_kind[i] : kAngleGroup) == g ? 1.0 : 0.0;
-    cols.push_back(c);
-  }
+  if (!fit.ok || fit.covariance_all.rows() == 0) return Column::Zero(n);
+  // (a workpiece expansion's columns at its fitted tau)
+  double tau_s = 0;
+  for (size_t k = 0; k < fit.spec.causes.size(); ++k)
+    if (fit.spec.causes[k] == Cause::kWorkpieceExpansion)
+      tau_s = fit.params[k][0];
+  std::vector<Column> cols = CauseColumns(fit.spec, tau_s, cache);
+  for (int g : fit.offset_kinds) cols.push_back(OffsetColumn(obs, g));
   const int p = static_cast<int>(cols.size());
-  if (fit.covariance_all.rows() != p) return out;
   Eigen::MatrixXd g(n, p);
   for (int c = 0; c < p; ++c) g.col(c) = cols[c];
   return ((g * fit.covariance_all).array() * g.array())
@@ -751,10 +749,11 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     ModelSpec free_start{{Cause::kWorkpieceExpansion}};
     free_start.wp_initial_state = true;
     const Fit f = fitter.Run(free_start);
-    const auto usable = [](const Fit& x) { return x.ok && x.note.empty(); };
-    if (f.ok && (!wp.ok || (usable(f) && !usable(wp)) ||
-                 (usable(f) == usable(wp) && Bic(f, n) < Bic(wp, n))))
-      wp = f;
+    // A result before no result, then the lower BIC.
+    const auto rank = [n](const Fit& x) {
+      return std::make_pair(!(x.ok && x.note.empty()), Bic(x, n));
+    };
+    if (f.ok && (!wp.ok || rank(f) < rank(wp))) wp = f;
   }
   const bool wp_initial_state = wp.ok && wp.spec.wp_initial_state;
   sel.fits.push_back(wp);
@@ -1051,7 +1050,7 @@ std::vector<ParamEstimate> ReportParams(const Fit& fit) {
     }
     for (size_t i = 0; i < names.size() && i < p.size(); ++i)
       out.push_back({names[i], p[i], sd(static_cast<int>(i))});
-    if (cause == Cause::kWorkpieceExpansion && p.size() > 2)
+    if (cause == Cause::kWorkpieceExpansion && fit.spec.wp_initial_state)
       out.push_back({"initial_dT_K", p[2], sd(2)});
   }
   return out;
