@@ -128,12 +128,16 @@ int Calibrate(const Config& config, int runs, double scale) {
           name, Quantile(v, 0.5), Quantile(v, 0.95), Quantile(v, 0.99),
           Quantile(v, 1.0));
     };
+    const auto count = [&r](const char* outcome) {
+      return std::count_if(
+          r.runs.begin(), r.runs.end(),
+          [outcome](const BatteryRun& x) { return x.outcome == outcome; });
+    };
     fmt::print(
-        "{:>5.0f} s: {} runs without a cause, {} named, {} unexplained\n",
-        spacing, bic.size(), r.false_names,
-        std::count_if(r.runs.begin(), r.runs.end(), [](const BatteryRun& x) {
-          return x.outcome == "unexplained";
-        }));
+        "{:>5.0f} s: {} runs without a cause, {} named, {} unexplained, {} "
+        "refused\n",
+        spacing, bic.size(), r.false_names, count("unexplained"),
+        count("refused"));
     line("evidence (-delta BIC, best cause)", bic);
     line("chi2 per degree of freedom", chi2);
     line("largest per-kind chi2 deviate", z);

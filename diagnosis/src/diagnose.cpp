@@ -1502,12 +1502,32 @@ void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
 // one reading of its family. Without feature results (figures only), half
 // the figure's variance: the figure is the difference of two cycles'
 // measurements.
-std::vector<double> ReferenceCycleVarianceUm2(
+struct ReferenceCycleVariance {
+  // Per figure kind: the common variance (infinite: not known).
+  std::vector<double> common_um2 = std::vector<double>(
+      kFigureKinds, std::numeric_limits<double>::infinity());
+  // Per figure kind: the part of it that each figure's own uncertainty
+  // already holds (a figure's uncertainty combines the reference features'
+  // stated variances with its cycle's: counted once, not twice).
+  std::vector<double> in_figure_sigma_um2 =
+      std::vector<double>(kFigureKinds, 0.0);
+};
+ReferenceCycleVariance ReferenceCycleVarianceUm2(
     const PartSpec& part, const MeasuredPiece& measured,
     const Observations& obs, const std::vector<double>& estimator_var_um2) {
-  std::vector<double> out(kFigureKinds,
-                          std::numeric_limits<double>::infinity());
+  ReferenceCycleVariance result;
+  std::vector<double>& out = result.common_um2;
+  std::vector<double>& own = result.in_figure_sigma_um2;
   const int ref = part.reference_index;
+  // A reference feature's own stated variance, um^2 (what the figures'
+  // uncertainties hold of it; 0 when not measured).
+  auto own_var = [&](const FeatureId& id) {
+    auto it = measured.features.find(id);
+    if (it == measured.features.end() || !it->second.present ||
+        !std::isfinite(it->second.var_d_mm2))
+      return 0.0;
+    return it->second.var_d_mm2 * 1e6;
+  };
   // Variance of a reference feature, um^2 (NaN when it was not measured).
   auto reference_var = [&](const FeatureId& id) {
     auto it = measured.features.find(id);
@@ -1538,6 +1558,16 @@ std::vector<double> ReferenceCycleVarianceUm2(
     out[2] = z;
     out[3] = 0.0625 * (x1 + x2 + y1 + y2);
     out[4] = out[3];
+    const double ox1 = own_var(FeatureId::Facet(Segment::kX1, ref)),
+                 ox2 = own_var(FeatureId::Facet(Segment::kX2, ref)),
+                 oy1 = own_var(FeatureId::Facet(Segment::kY1, ref)),
+                 oy2 = own_var(FeatureId::Facet(Segment::kY2, ref)),
+                 oz = own_var(FeatureId::Strip(ref));
+    own[0] = 0.25 * (ox1 + ox2);
+    own[1] = 0.25 * (oy1 + oy2);
+    own[2] = oz;
+    own[3] = 0.0625 * (ox1 + ox2 + oy1 + oy2);
+    own[4] = own[3];
   } else {
     for (int g = 0; g < 4; ++g) {
       std::vector<double> v;
@@ -1546,11 +1576,12 @@ std::vector<double> ReferenceCycleVarianceUm2(
       if (v.empty()) continue;
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       out[g] = 0.5 * v[v.size() / 2] * v[v.size() / 2];
+      own[g] = out[g];
     }
   }
   for (int g = 0; g < kFigureKinds; ++g)
     if (std::isfinite(out[g])) out[g] += estimator_var_um2[g];
-  return out;
+  return result;
 }
 
 }  // namespace
@@ -1781,12 +1812,29 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
     std::vector<double> est_reference_var_um2(kFigureKinds);
     for (int g = 0; g < kFigureKinds; ++g)
       est_reference_var_um2[g] = std::pow(est_sigma_um(g, time_of(0)), 2);
-    obs.figure_reference_var_um2 =
+    const ReferenceCycleVariance reference =
         ReferenceCycleVarianceUm2(part, measured, obs, est_reference_var_um2);
+    obs.figure_reference_var_um2 = reference.common_um2;
+    // The common part enters every pair of a kind's observations, the
+    // diagonal included; the part of it a figure's own uncertainty already
+    // holds comes off that figure's own variance (never below the floor
+    // of an observation's sigma).
+    for (size_t i = 0; i < nf; ++i) {
+      const int g = obs.figure_kind[i];
+      if (!std::isfinite(reference.common_um2[g])) continue;
+      const double own = std::pow(obs.figure_sigma_um[i], 2);
+      const double floor = std::pow(options.min_sigma_um, 2);
+      obs.figure_covariance_um2(i, i) -= std::clamp(
+          reference.in_figure_sigma_um2[g], 0.0, std::max(own - floor, 0.0));
+    }
   }
   // The total standard uncertainty of each observation (for displays).
-  for (size_t i = 0; i < nf; ++i)
-    obs.figure_sigma_um[i] = std::sqrt(obs.figure_covariance_um2(i, i));
+  for (size_t i = 0; i < nf; ++i) {
+    const int g = obs.figure_kind[i];
+    obs.figure_sigma_um[i] =
+        std::sqrt(obs.figure_covariance_um2(i, i) +
+                  (FreeOffset(obs, g) ? 0.0 : obs.figure_reference_var_um2[g]));
+  }
   for (size_t i = 0; i < na; ++i)
     obs.angle_sigma_urad[i] = std::sqrt(obs.angle_covariance_urad2(i, i));
   return run;

@@ -122,13 +122,18 @@ TEST(Diagnose, UnmeasuredAnglesAndMissingFeaturesAreLeftOut) {
     EXPECT_TRUE(std::isfinite(run.observations.angle_value_urad[i]))
         << run.observations.AngleLabel(i);
   EXPECT_EQ(run.observations.angles(), 34u);
-  // The covariances are positive definite, their diagonal the sigmas.
+  // The covariances are positive definite, their diagonal (with the
+  // reference cycle's common part of the figure's kind) the sigmas.
   const auto& obs = run.observations;
   EXPECT_EQ(obs.figure_covariance_um2.llt().info(), Eigen::Success);
   EXPECT_EQ(obs.angle_covariance_urad2.llt().info(), Eigen::Success);
   for (size_t i = 0; i < obs.figures(); ++i)
-    EXPECT_NEAR(std::sqrt(obs.figure_covariance_um2(i, i)),
+    EXPECT_NEAR(std::sqrt(obs.figure_covariance_um2(i, i) +
+                          obs.figure_reference_var_um2[obs.figure_kind[i]]),
                 obs.figure_sigma_um[i], 1e-12);
+  for (size_t i = 0; i < obs.angles(); ++i)
+    EXPECT_NEAR(std::sqrt(obs.angle_covariance_urad2(i, i)),
+                obs.angle_sigma_urad[i], 1e-12);
 }
 
 // The samples' truth.json: figures and facet angles, no features.
@@ -565,18 +570,58 @@ TEST(DiagnoseAnchored, ReferenceCycleVarianceIsTheReferenceFeatures) {
     EXPECT_GT(obs.figure_reference_var_um2[g], 0) << g;
   }
   // At least the reference features' measurement (the estimator's error at
-  // the reference cut adds to it), and not more than the whole figure's.
+  // the reference cut adds to it).
   EXPECT_GE(obs.figure_reference_var_um2[0], x * (1 - 1e-9));
   EXPECT_GE(obs.figure_reference_var_um2[2], z * (1 - 1e-9));
-  for (size_t i = 0; i < obs.figures(); ++i)
-    EXPECT_LT(obs.figure_reference_var_um2[obs.figure_kind[i]],
-              obs.figure_covariance_um2(i, i) + 1e-12)
-        << obs.FigureLabel(i);
   DiagnosisOptions free;
   free.anchor_reference_cycle = false;
   const TwinWithoutCause loose(31, 300, free);
   for (double v : loose.run.observations.figure_reference_var_um2)
     EXPECT_TRUE(std::isinf(v));
+}
+
+// A figure is the difference of two independent measurements, a cycle's
+// features and the reference cycle's: its variance is the sum of the two,
+// and two cycles' figures of one kind share the reference's part only.
+// The budget's measurement part (the estimator's switched off) against
+// the features' stated variances, E_X and E_Z of every cycle: the
+// reference counted once, not once in the figure's own uncertainty and
+// again as the common part.
+TEST(DiagnoseAnchored, TheReferenceFeaturesCountOnceInAFiguresVariance) {
+  DiagnosisOptions no_estimator;
+  no_estimator.estimator_sigma_scale = 0;
+  const TwinWithoutCause twin(31, 300, no_estimator);
+  const Observations& obs = twin.run.observations;
+  const PartSpec& part = twin.config.part;
+  const int ref = part.reference_index;
+  auto var_um2 = [&](const FeatureId& id) {
+    return twin.measured.features.at(id).var_d_mm2 * 1e6;
+  };
+  const double x_ref = 0.25 * (var_um2(FeatureId::Facet(Segment::kX1, ref)) +
+                               var_um2(FeatureId::Facet(Segment::kX2, ref)));
+  const double z_ref = var_um2(FeatureId::Strip(ref));
+  int checked = 0;
+  for (size_t i = 0; i < obs.figures(); ++i) {
+    const int g = obs.figure_kind[i];
+    if (g != 0 && g != 2) continue;
+    const int j = IndexForCycle(part, obs.figure_cycle[i]);
+    const double own =
+        g == 0 ? 0.25 * (var_um2(FeatureId::Facet(Segment::kX1, j)) +
+                         var_um2(FeatureId::Facet(Segment::kX2, j)))
+               : var_um2(FeatureId::Strip(j));
+    const double reference = g == 0 ? x_ref : z_ref;
+    // The common part is the reference's variance (or its family's median
+    // when larger): never below it, and the figure's own part is the
+    // cycle's features alone.
+    EXPECT_NEAR(obs.figure_covariance_um2(i, i), own, 1e-9 + 1e-6 * own)
+        << obs.FigureLabel(i);
+    EXPECT_GE(obs.figure_reference_var_um2[g], reference * (1 - 1e-9));
+    EXPECT_NEAR(obs.figure_sigma_um[i] * obs.figure_sigma_um[i],
+                own + obs.figure_reference_var_um2[g], 1e-9 + 1e-6 * own)
+        << obs.FigureLabel(i);
+    ++checked;
+  }
+  EXPECT_GE(checked, 16);
 }
 
 // The reference cycle's four facets cut 0.8 um further out than the rest

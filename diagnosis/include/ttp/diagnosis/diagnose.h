@@ -61,7 +61,11 @@ struct Observations {
   // against the reference facets) where facet distances were measured.
   std::vector<int> figure_cycle, figure_kind;
   std::vector<double> figure_t_s;  // the cycle's cut time
+  // figure_sigma_um: each figure's total standard uncertainty, its
+  // reference cycle's part included.
   std::vector<double> figure_value_um, figure_sigma_um;
+  // Without the reference cycle's common part of an anchored kind (below):
+  // the cycle's own measurement and the estimator's error.
   Eigen::MatrixXd figure_covariance_um2;
   // Per figure kind (0..4): the variance of the reference cycle's part of
   // its figures (the reference features' measurement and the estimator's
