@@ -5,10 +5,10 @@ measurements.md, diagnosis.md rev. 2) and the thesis (R-test noise of table
 5.4). It shares no code and no parameterisation with the project's sim/.
 
 Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300]
-                   [--compensation off|on] [--measurement json|dial|cloud]
+                   [--compensation off|on] [--measurement json|dial|cloud|dmis]
                    [--points 20000] [--cloud-format auto|ply|xyz] [--pose auto|table|any] -o DIR
-Writes DIR/talc.csv, DIR/piece.json, DIR/dial.csv, DIR/piece.ply or
-DIR/piece.xyz, and DIR/truth.json.
+Writes DIR/talc.csv, DIR/piece.json, DIR/dial.csv, DIR/piece.ply,
+DIR/piece.xyz or DIR/piece.dmo, and DIR/truth.json.
 Python 3 standard library only.
 """
 import argparse
@@ -680,6 +680,143 @@ def measure_cloud(sim, rng, n_points, fmt, pose_kind, wall_top_mm=1.0):
     return "piece.xyz", "\n".join(lines) + "\n", info
 
 
+# ------------------------------------------------------- the DMIS output
+# What a CMM writes when it runs a DMIS program for this piece
+# (measurements.md: the CMM at 20 degC, MPE 1.2 um + L/400): every feature
+# probed with a few touches, each off the true surface along its normal by
+# a Gaussian error of a third of the MPE for L its distance from the
+# piece's centre, the feature fitted by least squares and reported as
+# FA(label)=FEAT/PLANE,CART,x,y,z,i,j,k (a circle for the datum cylinder),
+# four decimals of mm, in the CMM's frame (the piece placed on the CMM
+# table: any yaw, a small tilt, an offset). The datums (top face, the
+# big-notch flanks, the 199 cylinder) are reported too, so that the frame
+# W can be found from them (test-piece.md section 5).
+DMIS_TOUCH_SIG_FRACTION_OF_MPE = 1.0 / 3.0
+
+
+def _fit_plane(points):
+    """Least-squares plane: centroid and unit normal (smallest eigenvector
+    of the scatter, by inverse iteration on the 3x3 matrix)."""
+    n = len(points)
+    c = [sum(p[i] for p in points) / n for i in range(3)]
+    m = [[sum((p[i] - c[i]) * (p[j] - c[j]) for p in points) for j in range(3)] for i in range(3)]
+    # inverse iteration with a tiny shift: converges to the smallest eigenvalue
+    a = [[m[i][j] + (1e-12 if i == j else 0.0) for j in range(3)] for i in range(3)]
+    v = _unit([0.3, 0.5, 0.8])
+    for _ in range(60):
+        v = _unit(_solve3(a, v))
+    return c, v
+
+
+def _solve3(a, b):
+    """Solve the 3x3 system a x = b (Cramer's rule)."""
+    def det(m):
+        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    d = det(a)
+    out = []
+    for k in range(3):
+        mk = [[b[i] if j == k else a[i][j] for j in range(3)] for i in range(3)]
+        out.append(det(mk) / d)
+    return out
+
+
+def _fit_circle_xy(points):
+    """Algebraic circle fit (Kasa) in XY: centre and radius."""
+    sx = sy = sxx = syy = sxy = sxz = syz = sz = 0.0
+    n = len(points)
+    for x, y, _ in points:
+        z = x * x + y * y
+        sx += x; sy += y; sxx += x * x; syy += y * y; sxy += x * y
+        sxz += x * z; syz += y * z; sz += z
+    a = [[sxx, sxy, sx], [sxy, syy, sy], [sx, sy, n]]
+    b = [sxz, syz, sz]
+    A, B, C = _solve3(a, b)
+    cx, cy = A / 2.0, B / 2.0
+    return cx, cy, math.sqrt(C + cx * cx + cy * cy)
+
+
+def measure_dmis(sim, rng):
+    f = sim["features"]
+    R = random_rotation(rng, "table")
+    t = [rng.uniform(-300.0, 300.0), rng.uniform(-300.0, 300.0), rng.uniform(-100.0, 100.0)]
+    to_cmm = lambda p: tuple(R[i][0] * p[0] + R[i][1] * p[1] + R[i][2] * p[2] + t[i] for i in range(3))
+    turn = lambda v: tuple(R[i][0] * v[0] + R[i][1] * v[1] + R[i][2] * v[2] for i in range(3))
+
+    def touch(p, n):
+        # MPE for the length the touch is measured over: its distance from
+        # the piece's datum origin (L in mm)
+        L = math.sqrt(sum(c * c for c in p))
+        e = rng.gauss(0.0, DMIS_TOUCH_SIG_FRACTION_OF_MPE * (1.2 + L / 400.0)) * 1e-3
+        return tuple(p[i] + e * n[i] for i in range(3))
+
+    lines = ["$$ outside generator: DMIS output of the thermal test piece (CMM frame)",
+             "DMISMN/'outside generator',05.2", "UNITS/MM,ANGDEC"]
+
+    def plane(label, pts, outward):
+        c, n = _fit_plane([to_cmm(p) for p in pts])
+        o = turn(outward)
+        if sum(n[i] * o[i] for i in range(3)) < 0:
+            n = tuple(-x for x in n)
+        lines.append("FA(%s)=FEAT/PLANE,CART,%.4f,%.4f,%.4f,%.7f,%.7f,%.7f" % ((label,) + tuple(c) + tuple(n)))
+
+    # datums: the top face (12 touches on the four segments' top faces)
+    top = []
+    for a_deg in (20, 45, 70, 110, 135, 160, 200, 225, 250, 290, 315, 340):
+        a = math.radians(a_deg)
+        p = (88.0 * math.cos(a), 88.0 * math.sin(a), 0.0)
+        if abs(p[1]) < FLANK_Y_MM + 1.0:
+            p = (p[0], math.copysign(FLANK_Y_MM + 8.0, p[1]), 0.0)
+        top.append(touch(p, (0.0, 0.0, 1.0)))
+    plane("TOP", top, (0.0, 0.0, 1.0))
+    # the big-notch flanks y = +-53 (normals into the notch)
+    for sg, label in ((1, "FLANK_PY"), (-1, "FLANK_NY")):
+        pts = [touch((x, sg * FLANK_Y_MM, z), (0.0, -sg, 0.0))
+               for x in (-70.0, -40.0, -15.0, 15.0, 40.0, 70.0) for z in (-10.0, -3.0)]
+        plane(label, pts, (0.0, -float(sg), 0.0))
+    # the 199 cylinder in its datum band: a circle of 12 touches at z = -15
+    circ = []
+    for k in range(12):
+        a = 2 * math.pi * (k + 0.5) / 12
+        circ.append(touch((99.5 * math.cos(a), 99.5 * math.sin(a), -15.0), (math.cos(a), math.sin(a), 0.0)))
+    # fitted in the CMM frame on the circle's plane: the touches turned back
+    # to W's XY (the CMM knows the plane from the top face), the centre
+    # turned forward again
+    cx, cy, rad = _fit_circle_xy(circ)
+    c = to_cmm((cx, cy, -15.0))
+    ax = turn((0.0, 0.0, 1.0))
+    lines.append("FA(CYL199)=FEAT/CIRCLE,OUTER,CART,%.4f,%.4f,%.4f,%.7f,%.7f,%.7f,%.4f"
+                 % (c + ax + (2 * rad,)))
+    # facets: 3 x 3 touches over +-4 mm and z -10 .. -2 on the cut plane
+    for s in ("X1", "Y1", "X2", "Y2"):
+        for j in range(1, 10):
+            v = f["%s-%d" % (s, j)]
+            phi = math.radians(CENTRES_DEG[s] + (j - 5) * 6.0) + v["angle_urad"] * 1e-6
+            n = (math.cos(phi), math.sin(phi), 0.0)
+            tv = (-n[1], n[0], 0.0)
+            d = R_FACET_MM + v["dist_um"] * 1e-3
+            pts = [touch((d * n[0] + u * tv[0], d * n[1] + u * tv[1], z), n)
+                   for u in (-4.0, 0.0, 4.0) for z in (-10.0, -6.0, -2.0)]
+            plane("%s_%d" % (s, j), pts, n)
+    # strips: two lines 2.5 mm either side of the strip's centre, four
+    # touches each side of the small notch
+    for k in range(1, 10):
+        v = f["Z%d" % k]
+        yk = (k - 5) * 11.75
+        z0 = Z_FLOOR_W_MM - v["depth_um"] * 1e-3
+        tb = math.tan(v["beta_urad"] * 1e-6)
+        n = _unit((-tb, 0.0, 1.0))
+        pts = []
+        for y in (yk - 2.5, yk + 2.5):
+            xmax = math.sqrt(99.5 ** 2 - y * y) - 4.0
+            for x in (-xmax, -0.5 * (xmax + 8.0), 0.5 * (xmax + 8.0), xmax):
+                pts.append(touch((x, y, z0 + tb * x), n))
+        plane("Z%d" % k, pts, (0.0, 0.0, 1.0))
+    lines.append("ENDFIL")
+    return "piece.dmo", "\n".join(lines) + "\n"
+
+
 def noise_free_figures(features):
     f = {}
     for k, v in features.items():
@@ -707,9 +844,11 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cl
         fmt = cloud_format if cloud_format != "auto" else ("ply" if seed % 2 == 0 else "xyz")
         pk = pose if pose != "auto" else ("table" if (seed // 2) % 2 == 0 else "any")
         fname, text, info = measure_cloud(sim, rng, points, fmt, pk, wall_top_mm)
+    elif kind == "dmis":
+        fname, text = measure_dmis(sim, rng)
     else:
         fname, text = measure(sim, kind, rng)
-    for stale in ("piece.json", "dial.csv", "piece.ply", "piece.xyz"):
+    for stale in ("piece.json", "dial.csv", "piece.ply", "piece.xyz", "piece.dmo"):
         if stale != fname and os.path.exists(os.path.join(out, stale)):
             os.remove(os.path.join(out, stale))
     with open(os.path.join(out, fname), "wb" if isinstance(text, bytes) else "w") as fh:
@@ -740,8 +879,9 @@ def main():
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--spacing-s", type=float, default=300.0)
     ap.add_argument("--compensation", choices=["on", "off"], default="off")
-    ap.add_argument("--measurement", choices=["json", "dial", "cloud"], default="json",
-                    help="json: per-feature CMM report; dial: dial-gauge CSV; cloud: CMM point cloud")
+    ap.add_argument("--measurement", choices=["json", "dial", "cloud", "dmis"], default="json",
+                    help="json: per-feature CMM report; dial: dial-gauge CSV; cloud: CMM point cloud; "
+                         "dmis: a CMM's DMIS output (features fitted from touches, CMM frame)")
     ap.add_argument("--points", type=int, default=20000, help="cloud: points in total (default 20000)")
     ap.add_argument("--cloud-format", choices=["auto", "ply", "xyz"], default="auto",
                     help="cloud: binary PLY or .xyz text (auto: by the seed's parity, even = ply)")

@@ -54,7 +54,9 @@ def expected(effect):
     return "none"
 
 
-KINDS = ["json", "dial", "cloud"]
+# the kinds the scenarios rotate through; dmis replaces json with --json-as dmis
+ROTATION = ["json", "dial", "cloud"]
+KINDS = ROTATION + ["dmis"]
 
 
 def scenarios(spacing, comp, rng, reps, clouds=False):
@@ -66,24 +68,24 @@ def scenarios(spacing, comp, rng, reps, clouds=False):
     for r in range(reps):
         q = r + (1 if comp else 0)   # clouds: the kinds' rotation shifted with compensation on
         for i in range(4):
-            out.append(("none", 0.0, KINDS[(i + q) % 3] if clouds else "json" if i % 2 == 0 else "dial"))
+            out.append(("none", 0.0, ROTATION[(i + q) % 3] if clouds else "json" if i % 2 == 0 else "dial"))
         for e in generate.CATALOGUE:
             for k, s in enumerate(SIZES[e]):
                 if clouds:
-                    kind = ("json", "cloud")[(k + q) % 2] if e == "c_axis_indexing" else KINDS[(k + q) % 3]
+                    kind = ("json", "cloud")[(k + q) % 2] if e == "c_axis_indexing" else ROTATION[(k + q) % 3]
                 else:
                     kind = "json" if (e == "c_axis_indexing" or (k + r) % 2 == 0) else "dial"
                 out.append((e, s, kind))
         for k, e in enumerate(generate.OUTSIDE):
             s = SIZES[e][(k + r) % 2]
-            out.append((e, s, KINDS[(k + q) % 3] if clouds else "json" if (k + r) % 2 == 0 else "dial"))
+            out.append((e, s, ROTATION[(k + q) % 3] if clouds else "json" if (k + r) % 2 == 0 else "dial"))
         # two catalogue causes at once, sizes in the middle of their ranges
         for k, (e1, e2) in enumerate(PAIRS[(r % 2) * 2:(r % 2) * 2 + 2]):
             kind = "json" if k % 2 == 0 or "c_axis_indexing" in (e1, e2) else "dial"
             out.append(("%s+%s" % (e1, e2), "%g+%g" % (SIZES[e1][1], SIZES[e2][1]),
                         "cloud" if clouds and k == 1 else kind))
-        out.append(("other_log", 0.0, KINDS[(q + 2) % 3] if clouds else "json" if r % 2 == 0 else "dial"))
-        out.append(("short_log", 0.0, KINDS[(q + 1) % 3] if clouds else "dial" if r % 2 == 0 else "json"))
+        out.append(("other_log", 0.0, ROTATION[(q + 2) % 3] if clouds else "json" if r % 2 == 0 else "dial"))
+        out.append(("short_log", 0.0, ROTATION[(q + 1) % 3] if clouds else "dial" if r % 2 == 0 else "json"))
     return [(e, s, kind, rng.randrange(1, 10 ** 6)) for e, s, kind in out]
 
 
@@ -262,8 +264,13 @@ CHECK_MARGIN = 3
 # piece expanding that was clamped off its equilibrium with the table,
 # named tool_wear+workpiece_expansion while its initial state was not free;
 # a strong tool wear named with an expansion beside it while the estimator
-# fitted a one-minute lag to R-tests an hour apart
+# fitted a one-minute lag to R-tests an hour apart; a CMM's DMIS output
+# (each plane given one touch's uncertainty, the program's touches not
+# counted) with the clamping of a pair and a clamping alone not seen
 CHECK_CASES = [
+    ("tool_wear+clamping_distortion", "6+1.5", 474525, 300, False, "dmis", "clamping_distortion+tool_wear"),
+    ("clamping_distortion", 1.5, 50552, 1800, True, "dmis", "clamping_distortion"),
+    ("none", 0.0, 20122, 1800, False, "dmis", "none"),
     ("tool_wear", 20.0, 599260, 3600, True, "cloud", "tool_wear"),
     ("workpiece_expansion", 1.5, 632263, 1800, True, "cloud", "workpiece_expansion"),
     ("workpiece_expansion", 1.5, 737313, 1800, True, "dial", "workpiece_expansion"),
@@ -324,6 +331,10 @@ def main():
     ap.add_argument("--workdir", help="scratch folder (default: a temporary one)")
     ap.add_argument("--no-clouds", action="store_true",
                     help="measurements json/dial only (the battery before point clouds)")
+    ap.add_argument("--json-as", choices=["json", "dmis"], default="json",
+                    help="the runs measured by a per-feature CMM report (json) measured instead by a "
+                         "CMM's DMIS output (dmis: features fitted from touches, in the CMM's frame); "
+                         "the same runs and seeds otherwise")
     ap.add_argument("--cloud-wall-top-mm", type=float, default=1.0,
                     help="clouds: highest facet and flank points, mm below the top face (generate.py --wall-top-mm)")
     a = ap.parse_args()
@@ -341,6 +352,8 @@ def main():
                 for e, s, kind, seed in scenarios(sp, comp, rng, a.reps, clouds=not a.no_clouds):
                     if a.only and e not in a.only.split(","):
                         continue
+                    if kind == "json":
+                        kind = a.json_as
                     results.append(run_one(a.ttp, work, sp, comp, e, s, kind, seed, a.cloud_wall_top_mm))
         report(results, spacings)
         print("%d runs in %.0f s" % (len(results), time.time() - t0))

@@ -18,6 +18,7 @@
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/limits.h"
 #include "ttp/inspect/plane_result.h"
+#include "ttp/plan/dmis_writer.h"
 
 namespace ttp::inspect {
 namespace {
@@ -280,6 +281,10 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     }
   }
 
+  // The touches the program of `ttp plan cmm` takes per feature, in W.
+  std::map<FeatureId, std::vector<Eigen::Vector3d>> touches;
+  for (const plan::PlannedPoint& q : plan::CmmPoints(part))
+    touches[q.feature].push_back(q.point_w_mm);
   std::vector<std::string> reversed;
   for (const NominalFeature& nominal : TestFeatures(part)) {
     auto it = by_id.find(nominal.Key());
@@ -309,14 +314,35 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
               std::to_string(limits::kMaxFeatureAngleRad) +
               " rad): the units (UNITS/) or the frame do not fit the "
               "piece's size");
-    // MPE = 1.2 um + L/400 (L in mm) bounds each point; as a uniform bound
-    // its standard uncertainty is MPE/sqrt(3). The angle over the feature's
-    // extent L_f: two independent ends.
+    // MPE = 1.2 um + L/400 (L in mm) bounds each touch; as a uniform bound
+    // its standard uncertainty is MPE/sqrt(3). A DMIS result carries no
+    // touch count: the plane is taken as probed by the program `ttp plan
+    // cmm` writes (CmmPoints), fitted by least squares through independent
+    // touches: the distance at their centroid u^2/n, the angle u^2 over the
+    // touches' squared spread along the direction it tilts (a facet's
+    // horizontal tangent, a strip's X). Without planned touches (n < 3),
+    // one touch for the distance and two at the feature's ends for the
+    // angle.
     const double reach_mm = nominal.point.norm();
     const double u_mm = (1.2 + reach_mm / 400.0) * 1e-3 / std::sqrt(3.0);
     const double extent_mm = std::max(1.0, nominal.t_max_mm - nominal.t_min_mm);
     r.var_d_mm2 = u_mm * u_mm;
     r.var_angle_rad2 = 2.0 * u_mm * u_mm / (extent_mm * extent_mm);
+    auto planned = touches.find(nominal.Key());
+    if (planned != touches.end() && planned->second.size() >= 3) {
+      const std::vector<Eigen::Vector3d>& t = planned->second;
+      const Eigen::Vector3d lever =
+          nominal.kind == FeatureKind::kStrip
+              ? Eigen::Vector3d::UnitX()
+              : Eigen::Vector3d(-nominal.normal.y(), nominal.normal.x(), 0)
+                    .normalized();
+      double mean = 0, spread = 0;
+      for (const Eigen::Vector3d& q : t) mean += lever.dot(q) / t.size();
+      for (const Eigen::Vector3d& q : t)
+        spread += std::pow(lever.dot(q) - mean, 2);
+      r.var_d_mm2 = u_mm * u_mm / static_cast<double>(t.size());
+      if (spread > 1e-6) r.var_angle_rad2 = u_mm * u_mm / spread;
+    }
     r.points = 0;
     out.results[nominal.Key()] = r;
   }
