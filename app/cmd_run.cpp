@@ -281,8 +281,9 @@ void CheckStage(RunContext& ctx) {
             "measured vs simulated (table)");
   ctx.summary.push_back(fmt::format(
       "check: {} cuts on the schedule; {} of {} figures agree with the "
-      "simulation within U",
-      schedule.matched, check.compared - check.disagreements, check.compared));
+      "simulation within U, {} beyond the run's limit: {}",
+      schedule.matched, check.compared - check.disagreements, check.compared,
+      check.beyond_run_limit, check.agree() ? "agree" : "DISAGREE"));
 }
 
 void ReportStage(RunContext& ctx) {

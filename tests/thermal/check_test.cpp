@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "synthetic_log.h"
 #include "ttp/geometry/error.h"
@@ -62,6 +63,62 @@ TEST(Check, FindsAnOffsetOutsideTheCombinedU) {
   EXPECT_NEAR(f.difference, 3.0, 1e-9);
   EXPECT_TRUE(r.cycles[5].figures[1].agree);
   EXPECT_NEAR(r.cycles[5].figures[1].difference, 0.5, 1e-9);
+}
+
+// The run's verdict: a figure a little outside its own U (one in twenty is,
+// by chance) does not fail a run of forty; one beyond the run's limit,
+// z(1 - 0.05 / 80) = 3.227 combined standard uncertainties (normal
+// tables), does.
+TEST(Check, TheRunDisagreesBeyondItsLimitNotAtEveryFigureOutsideU) {
+  Fixture fx;
+  const CheckResult base = CheckPiece(fx.log, fx.config, fx.Measured(0.5));
+  ASSERT_EQ(base.compared, 40);
+  EXPECT_NEAR(base.run_limit_k, 3.227, 2e-3);
+  const double u_comb = base.cycles[2].figures[4].u_combined;  // k = 2
+  for (double factor : {1.2, 1.5, 1.7, 2.0}) {
+    std::vector<CycleFigures> m = fx.Measured(0.5);
+    m[2].e_ttp_mm += factor * u_comb * 1e-3;  // cycle 3, E_TTP
+    const CheckResult r = CheckPiece(fx.log, fx.config, m);
+    const FigureCheck& f = r.cycles[2].figures[4];
+    EXPECT_FALSE(f.agree) << factor;
+    EXPECT_EQ(r.disagreements, 1) << factor;
+    const bool beyond = factor > 3.227 / 2;
+    EXPECT_EQ(f.beyond_run_limit, beyond) << factor;
+    EXPECT_EQ(r.agree(), !beyond) << factor;
+    EXPECT_EQ(CheckTable(r).find("measured and simulated DISAGREE") !=
+                  std::string::npos,
+              beyond)
+        << factor;
+  }
+}
+
+// Pieces whose figures scatter about the simulation by their combined
+// standard uncertainty (normal, fixed seed): per figure about 5 % lie
+// outside U, so with forty figures most runs have one; the run's verdict
+// fails about 5 % of them.
+TEST(Check, RunsFollowingTheSimulationFailAtTheStatedRate) {
+  Fixture fx;
+  const CheckResult base = CheckPiece(fx.log, fx.config, fx.Measured(0.5));
+  std::mt19937 rng(20261126);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int runs_with_a_figure_outside_u = 0, runs_failed = 0;
+  const int runs = 400;
+  for (int k = 0; k < runs; ++k) {
+    CheckResult r = base;
+    int outside_u = 0;
+    for (CycleCheck& c : r.cycles)
+      for (FigureCheck& f : c.figures) {
+        f.difference = 0.5 * f.u_combined * normal(rng);
+        if (std::abs(f.difference) > f.u_combined) ++outside_u;
+      }
+    // The verdict from the differences, as CheckPiece decides it.
+    JudgeRun(0.05, &r);
+    if (outside_u > 0) ++runs_with_a_figure_outside_u;
+    if (!r.agree()) ++runs_failed;
+  }
+  EXPECT_GT(runs_with_a_figure_outside_u, runs / 2);
+  EXPECT_LE(runs_failed, 0.08 * runs);
+  EXPECT_GE(runs_failed, 0.01 * runs);
 }
 
 TEST(Check, MissingFiguresAreNotCounted) {

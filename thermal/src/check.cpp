@@ -49,6 +49,20 @@ double MeanColumn(const TalcLog& log, NumericColumn c, double t0, double t1) {
   return n ? sum / n : kNaN;
 }
 
+// z with P(Z > z) = p for a standard normal Z (0 < p < 0.5), by bisection
+// on the complementary error function.
+double NormalUpperQuantile(double p) {
+  double lo = 0, hi = 40;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (0.5 * std::erfc(mid / std::sqrt(2.0)) > p)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 }  // namespace
 
 std::vector<CycleFigures> SimulatedFigureUncertainty(
@@ -183,11 +197,6 @@ CheckResult CheckPiece(const TalcLog& log, const Config& config,
       fc.difference = mv[f] - sv[f];
       const double um = std::isfinite(mu[f]) ? mu[f] : 0.0;
       fc.u_combined = 2 * std::sqrt(um * um + su[f] * su[f]);
-      fc.agree = !fc.available || std::abs(fc.difference) <= fc.u_combined;
-      if (fc.available) {
-        ++out.compared;
-        if (!fc.agree) ++out.disagreements;
-      }
     }
     // Temperature comparison (thesis 7.10), against the reference cycle.
     TemperatureCheck& tc = cc.temperature;
@@ -208,7 +217,29 @@ CheckResult CheckPiece(const TalcLog& log, const Config& config,
     }
     out.cycles.push_back(cc);
   }
+  JudgeRun(options.run_false_alarm, &out);
   return out;
+}
+
+void JudgeRun(double run_false_alarm, CheckResult* r) {
+  r->compared = r->disagreements = r->beyond_run_limit = 0;
+  for (const CycleCheck& cc : r->cycles)
+    for (const FigureCheck& fc : cc.figures)
+      if (fc.available) ++r->compared;
+  // Bonferroni over the figures compared, never below k = 2.
+  r->run_false_alarm = run_false_alarm;
+  r->run_limit_k = std::max(
+      2.0,
+      NormalUpperQuantile(run_false_alarm / (2.0 * std::max(r->compared, 1))));
+  for (CycleCheck& cc : r->cycles)
+    for (FigureCheck& fc : cc.figures) {
+      const double d = std::abs(fc.difference);
+      fc.agree = !fc.available || d <= fc.u_combined;
+      fc.beyond_run_limit =
+          fc.available && d > 0.5 * r->run_limit_k * fc.u_combined;
+      if (!fc.agree) ++r->disagreements;
+      if (fc.beyond_run_limit) ++r->beyond_run_limit;
+    }
 }
 
 nlohmann::json CheckToJson(const CheckResult& r) {
@@ -219,6 +250,8 @@ nlohmann::json CheckToJson(const CheckResult& r) {
       r.simulated_uncertainty ? "estimator leave-one-out error, k = 2" : "none";
   j["compared"] = r.compared;
   j["disagreements"] = r.disagreements;
+  j["run_limit_k"] = r.run_limit_k;
+  j["beyond_run_limit"] = r.beyond_run_limit;
   j["agree"] = r.agree();
   j["units"] = {{"E_X", "um"},   {"E_Y", "um"},   {"E_Z", "um"},
                 {"E_B", "um/m"}, {"E_TTP", "um"}, {"dT", "K"}};
@@ -241,7 +274,10 @@ nlohmann::json CheckToJson(const CheckResult& r) {
                              {"difference", NumberOrNull(fc.difference)},
                              {"U_combined", NumberOrNull(fc.u_combined)},
                              {"agree", fc.available ? nlohmann::json(fc.agree)
-                                                    : nlohmann::json(nullptr)}};
+                                                    : nlohmann::json(nullptr)},
+                             {"beyond_run_limit",
+                              fc.available ? nlohmann::json(fc.beyond_run_limit)
+                                           : nlohmann::json(nullptr)}};
     }
     const TemperatureCheck& t = c.temperature;
     cj["temperature"] = {
@@ -260,8 +296,11 @@ nlohmann::json CheckToJson(const CheckResult& r) {
 std::string CheckTable(const CheckResult& r) {
   std::string s =
       fmt::format("log        {}\nestimator  {}\n", r.log_source, r.estimator);
-  s += "measured vs simulated per cycle (um, E_B in um/m); U expanded (k = 2); "
-       "ok = |diff| <= U combined\n";
+  s += fmt::format(
+      "measured vs simulated per cycle (um, E_B in um/m); U expanded (k = 2); "
+      "ok = |diff| <= U combined; DISAGREE = |diff| > {:.2f} / 2 x U "
+      "combined\n",
+      r.run_limit_k);
   s += fmt::format("{:>5} {:>6} {:>15} {:>15} {:>8} {:>7}  {}\n", "cycle",
                    "figure", "measured +- U", "simulated +- U", "diff",
                    "U comb", "");
@@ -271,8 +310,10 @@ std::string CheckTable(const CheckResult& r) {
   for (const CycleCheck& c : r.cycles) {
     for (int f = 0; f < kFigureCount; ++f) {
       const FigureCheck& fc = c.figures[f];
-      const std::string verdict =
-          !fc.available ? "missing" : (fc.agree ? "ok" : "DISAGREE");
+      const std::string verdict = !fc.available         ? "missing"
+                                  : fc.beyond_run_limit ? "DISAGREE"
+                                  : fc.agree            ? "ok"
+                                                        : "outside U";
       s += fmt::format("{:>5} {:>6} {} +-{} {} +-{} {} {}  {}\n",
                        f == 0 ? std::to_string(c.cycle) : "", kFigureNames[f],
                        num(fc.measured, 7), num(fc.u_measured, 5),
@@ -297,10 +338,14 @@ std::string CheckTable(const CheckResult& r) {
                      num(t.piece_simulated_k, 15), num(t.table_rtest_k, 13),
                      num(t.ws_log_k, 8), num(t.env_log_k, 8));
   }
-  s += fmt::format("\n{} of {} figures agree within U{}\n",
-                   r.compared - r.disagreements, r.compared,
-                   r.agree() ? ": measured and simulated agree"
-                             : ": measured and simulated DISAGREE");
+  s += fmt::format(
+      "\n{} of {} figures agree within U; {} beyond the run's limit ({:.2f} "
+      "standard uncertainties: a chance of {:g} % that a piece following "
+      "the simulation has one){}\n",
+      r.compared - r.disagreements, r.compared, r.beyond_run_limit,
+      r.run_limit_k, 100 * r.run_false_alarm,
+      r.agree() ? ": measured and simulated agree"
+                : ": measured and simulated DISAGREE");
   return s;
 }
 

@@ -31,6 +31,13 @@ struct CheckOptions {
   double temperature_window_s = 300;
   // Propagate the estimator's leave-one-out error to the simulated figures.
   bool simulated_uncertainty = true;
+  // The run's verdict: the chance that a piece whose figures all follow
+  // the simulation within their uncertainties is judged to disagree (one
+  // figure in twenty is outside its own k = 2 U by chance, so with forty
+  // figures most such runs would have one). A figure disagrees for the run
+  // beyond z(1 - p/(2m)) combined standard uncertainties, m the figures
+  // compared (Bonferroni; at least k = 2).
+  double run_false_alarm = 0.05;
 };
 
 constexpr int kFigureCount = 5;
@@ -45,6 +52,9 @@ struct FigureCheck {
   double difference = 0;                  // measured - simulated
   double u_combined = 0;                  // 2 sqrt(u_m^2 + u_s^2), k = 2
   bool agree = true;                      // |difference| <= u_combined
+  // |difference| > CheckResult::run_limit_k / 2 * u_combined: the run
+  // disagrees.
+  bool beyond_run_limit = false;
 };
 
 // Temperature changes (K) against the reference cycle, thesis 7.10.
@@ -70,7 +80,12 @@ struct CheckResult {
   std::vector<CycleCheck> cycles;
   int compared = 0;       // figures with both values
   int disagreements = 0;  // of them outside the combined U
-  bool agree() const { return compared > 0 && disagreements == 0; }
+  // The coverage factor a figure's difference must exceed for the run to
+  // disagree (CheckOptions::run_false_alarm), and how many do.
+  double run_false_alarm = 0.05;
+  double run_limit_k = 2;
+  int beyond_run_limit = 0;
+  bool agree() const { return compared > 0 && beyond_run_limit == 0; }
   double piece_alpha_per_k = 0, piece_radius_mm = 0;
   double table_alpha_per_k = 0, table_radius_mm = 0;
 };
@@ -93,6 +108,11 @@ CheckResult CheckPiece(const TalcLog& log, const Config& config,
                        const Simulation& simulation,
                        const std::vector<CycleFigures>& measured,
                        const CheckOptions& options = {});
+
+// Judges every figure of `r` from its difference and combined U (agree:
+// within U; beyond_run_limit: beyond the run's Bonferroni limit for
+// `run_false_alarm`) and counts them; CheckPiece ends with it.
+void JudgeRun(double run_false_alarm, CheckResult* r);
 
 nlohmann::json CheckToJson(const CheckResult& result);
 std::string CheckTable(const CheckResult& result);
