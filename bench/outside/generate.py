@@ -5,10 +5,11 @@ measurements.md, diagnosis.md rev. 2) and the thesis (R-test noise of table
 5.4). It shares no code and no parameterisation with the project's sim/.
 
 Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300]
-                   [--compensation off|on] [--measurement json|dial|cloud|dmis]
+                   [--compensation off|on] [--measurement json|dial|cloud|dmis|probe]
+                   [--probe-points FILE]
                    [--points 20000] [--cloud-format auto|ply|xyz] [--pose auto|table|any] -o DIR
 Writes DIR/talc.csv, DIR/piece.json, DIR/dial.csv, DIR/piece.ply,
-DIR/piece.xyz or DIR/piece.dmo, and DIR/truth.json.
+DIR/piece.xyz, DIR/piece.dmo or DIR/probe.csv, and DIR/truth.json.
 Python 3 standard library only.
 """
 import argparse
@@ -817,6 +818,96 @@ def measure_dmis(sim, rng):
     return "piece.dmo", "\n".join(lines) + "\n"
 
 
+# ------------------------------------------------------- on-machine probing
+# measurements.md section 2: the machine probes the finished piece with a
+# touch-trigger probe at the points of the plan the toolkit wrote (`ttp
+# plan probe --points-csv`: id, feature, the nominal point in W and the
+# approach direction) and writes point_id,x,y,z,c_deg: the stylus centre at
+# trigger in the machine frame M, the table at c_deg. Written from
+# test-piece.md section 1 alone: with C = c a direction at angle phi in W
+# points along phi - c in M, W's origin at M = (0, 0, 54). The table is
+# indexed so that only one linear axis moves per point (measurements.md):
+# a horizontal approach turned onto M's -X (the surface's outward normal,
+# at angle phi in W, along M's +X: c = phi), a vertical one at C = 0. The ball (radius 1.5 mm) travels along
+# the approach direction and triggers where it meets the true surface;
+# each touch is off by the probe's repeatability (Gaussian, 0.4 um), and
+# the machine's own error at probing time adds a translation in M common
+# to every touch (up to 3 um per axis) and a drift along the probing order
+# (up to 0.5 um over the run).
+PROBE_BALL_R_MM = 1.5
+PROBE_SIG_UM = 0.4
+
+
+def read_probe_points(path):
+    out = []
+    with open(path) as fh:
+        head = fh.readline().strip().split(",")
+        for line in fh:
+            v = dict(zip(head, line.strip().split(",")))
+            if not v.get("point_id"):
+                continue
+            out.append((int(v["point_id"]), v["feature"],
+                        tuple(float(v[k]) for k in ("x_mm", "y_mm", "z_mm")),
+                        tuple(float(v[k]) for k in ("approach_i", "approach_j", "approach_k"))))
+    return out
+
+
+def measure_probe(sim, rng, points_path):
+    f = sim["features"]
+    pts = read_probe_points(points_path)
+    offset_um = [rng.uniform(-3.0, 3.0) for _ in range(3)]
+    drift_um = [rng.uniform(-0.5, 0.5) for _ in range(3)]
+    dot = lambda a, b: sum(x * y for x, y in zip(a, b))
+    lines = ["point_id,x,y,z,c_deg"]
+    for k, (pid, feat, p0, a) in enumerate(pts):
+        c_deg = 0.0
+        if math.hypot(a[0], a[1]) > 0.5:
+            c_deg = round(math.degrees(math.atan2(-a[1], -a[0])), 6)
+        # the true surface: outward normal n, n . p = h in W
+        if feat in f and not feat.startswith("Z"):
+            s, j = feat.split("-")
+            v = f[feat]
+            phi_deg = CENTRES_DEG[s] + (int(j) - 5) * 6.0
+            phi = math.radians(phi_deg) + v["angle_urad"] * 1e-6
+            n = (math.cos(phi), math.sin(phi), 0.0)
+            h = R_FACET_MM + v["dist_um"] * 1e-3
+        elif feat in f:
+            v = f[feat]
+            tb = math.tan(v["beta_urad"] * 1e-6)
+            n = _unit((-tb, 0.0, 1.0))
+            h = (Z_FLOOR_W_MM - v["depth_um"] * 1e-3) * n[2]
+        elif feat == "TOP":
+            n, h = (0.0, 0.0, 1.0), 0.0
+        elif feat in ("FLANK+Y", "FLANK-Y"):
+            sg = 1.0 if feat == "FLANK+Y" else -1.0
+            n, h = (0.0, -sg, 0.0), -FLANK_Y_MM
+        elif feat == "CYL199":
+            n, h = None, 99.5
+        else:
+            raise ValueError("probe plan: unknown feature %s" % feat)
+        # the ball's centre moves along a from 4 mm before the surface
+        c0 = tuple(p0[i] - (PROBE_BALL_R_MM + 4.0) * a[i] for i in range(3))
+        if n is None:   # the cylinder: centre at radius 99.5 + r from the axis
+            # |c0_xy + s a_xy| = 99.5 + r, the smaller root
+            A = a[0] ** 2 + a[1] ** 2
+            B = 2 * (c0[0] * a[0] + c0[1] * a[1])
+            C = c0[0] ** 2 + c0[1] ** 2 - (h + PROBE_BALL_R_MM) ** 2
+            sv = (-B - math.sqrt(B * B - 4 * A * C)) / (2 * A)
+            nn = _unit((c0[0] + sv * a[0], c0[1] + sv * a[1], 0.0))
+        else:
+            sv = (h + PROBE_BALL_R_MM - dot(n, c0)) / dot(n, a)
+            nn = n
+        e = rng.gauss(0.0, PROBE_SIG_UM) * 1e-3
+        cw = tuple(c0[i] + sv * a[i] + e * nn[i] for i in range(3))
+        # to M: turn by -c about Z, lift by 54 mm; the machine's error
+        cr, sr = math.cos(math.radians(-c_deg)), math.sin(math.radians(-c_deg))
+        frac = k / max(1, len(pts) - 1)
+        m = (cr * cw[0] - sr * cw[1], sr * cw[0] + cr * cw[1], cw[2] + Z_TOP_MM)
+        m = tuple(m[i] + (offset_um[i] + frac * drift_um[i]) * 1e-3 for i in range(3))
+        lines.append("%d,%.4f,%.4f,%.4f,%.4f" % (pid, m[0], m[1], m[2], c_deg))
+    return "probe.csv", "\n".join(lines) + "\n"
+
+
 def noise_free_figures(features):
     f = {}
     for k, v in features.items():
@@ -825,7 +916,7 @@ def noise_free_figures(features):
 
 
 def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cloud_format="auto",
-             pose="auto", wall_top_mm=1.0):
+             pose="auto", wall_top_mm=1.0, probe_points=None):
     os.makedirs(out, exist_ok=True)
     eff_name = effect
     if effect in MISMATCH:
@@ -846,9 +937,13 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cl
         fname, text, info = measure_cloud(sim, rng, points, fmt, pk, wall_top_mm)
     elif kind == "dmis":
         fname, text = measure_dmis(sim, rng)
+    elif kind == "probe":
+        if not probe_points:
+            raise ValueError("--measurement probe needs --probe-points (ttp plan probe --points-csv)")
+        fname, text = measure_probe(sim, rng, probe_points)
     else:
         fname, text = measure(sim, kind, rng)
-    for stale in ("piece.json", "dial.csv", "piece.ply", "piece.xyz", "piece.dmo"):
+    for stale in ("piece.json", "dial.csv", "piece.ply", "piece.xyz", "piece.dmo", "probe.csv"):
         if stale != fname and os.path.exists(os.path.join(out, stale)):
             os.remove(os.path.join(out, stale))
     with open(os.path.join(out, fname), "wb" if isinstance(text, bytes) else "w") as fh:
@@ -879,9 +974,11 @@ def main():
     ap.add_argument("--seed", type=int, required=True)
     ap.add_argument("--spacing-s", type=float, default=300.0)
     ap.add_argument("--compensation", choices=["on", "off"], default="off")
-    ap.add_argument("--measurement", choices=["json", "dial", "cloud", "dmis"], default="json",
+    ap.add_argument("--measurement", choices=["json", "dial", "cloud", "dmis", "probe"], default="json",
                     help="json: per-feature CMM report; dial: dial-gauge CSV; cloud: CMM point cloud; "
-                         "dmis: a CMM's DMIS output (features fitted from touches, CMM frame)")
+                         "dmis: a CMM's DMIS output (features fitted from touches, CMM frame); "
+                         "probe: on-machine probing results (needs --probe-points)")
+    ap.add_argument("--probe-points", help="probe: the plan's point list (ttp plan probe --points-csv FILE)")
     ap.add_argument("--points", type=int, default=20000, help="cloud: points in total (default 20000)")
     ap.add_argument("--cloud-format", choices=["auto", "ply", "xyz"], default="auto",
                     help="cloud: binary PLY or .xyz text (auto: by the seed's parity, even = ply)")
@@ -898,7 +995,7 @@ def main():
     if "+" not in a.size:
         a.size = float(a.size)
     m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement,
-                    a.points, a.cloud_format, a.pose, a.wall_top_mm)
+                    a.points, a.cloud_format, a.pose, a.wall_top_mm, a.probe_points)
     print(m, l)
 
 

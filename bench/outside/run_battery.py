@@ -54,9 +54,9 @@ def expected(effect):
     return "none"
 
 
-# the kinds the scenarios rotate through; dmis replaces json with --json-as dmis
+# the kinds the scenarios rotate through; dmis or probe replace json with --json-as
 ROTATION = ["json", "dial", "cloud"]
-KINDS = ROTATION + ["dmis"]
+KINDS = ROTATION + ["dmis", "probe"]
 
 
 def scenarios(spacing, comp, rng, reps, clouds=False):
@@ -132,10 +132,20 @@ def inspection_check(ttp, meas, truth_path, out_json):
         dev, a.get("top_face_rms_um", float("nan")), a.get("top_face_points"))
 
 
+def probe_points(ttp, work):
+    """The plan's probing points, as a user gets them (ttp plan probe)."""
+    path = os.path.join(work, "probe_points.csv")
+    if not os.path.exists(path):
+        subprocess.run([ttp, "plan", "probe", "-o", os.path.join(work, "probe.nc"), "--points-csv", path],
+                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return path
+
+
 def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0):
     d = os.path.join(work, "run")
     shutil.rmtree(d, ignore_errors=True)
-    meas, log = generate.generate(d, effect, size, seed, spacing, comp, kind, wall_top_mm=wall_top_mm)
+    meas, log = generate.generate(d, effect, size, seed, spacing, comp, kind, wall_top_mm=wall_top_mm,
+                                  probe_points=probe_points(ttp, work) if kind == "probe" else None)
     outcome, rc, detail, decision = diagnose(ttp, meas, log, os.path.join(d, "diag.json"))
     if kind == "cloud" and outcome != expected(effect):
         detail = (detail + "; " if detail else "") + inspection_check(
@@ -152,7 +162,10 @@ def fmt(size):
 
 def command_for(r):
     extra = " --wall-top-mm %g" % r["wall_top_mm"] if r.get("wall_top_mm", 1.0) != 1.0 else ""
-    return ("python3 bench/outside/generate.py --effect %s --size %s --seed %d --spacing-s %d "
+    if r["measurement"] == "probe":
+        extra += " --probe-points out/points.csv"
+    return (("ttp plan probe -o out/probe.nc --points-csv out/points.csv && "
+             if r["measurement"] == "probe" else "") + "python3 bench/outside/generate.py --effect %s --size %s --seed %d --spacing-s %d "
             "--compensation %s --measurement %s%s -o out/r && ttp diagnose --log out/r/talc.csv out/r/%s" %
             (r["effect"], fmt(r["size"]), r["seed"], r["spacing_s"], r["compensation"], r["measurement"], extra,
              r.get("file") or ("dial.csv" if r["measurement"] == "dial" else "piece.json")))
@@ -266,11 +279,14 @@ CHECK_MARGIN = 3
 # a strong tool wear named with an expansion beside it while the estimator
 # fitted a one-minute lag to R-tests an hour apart; a CMM's DMIS output
 # (each plane given one touch's uncertainty, the program's touches not
-# counted) with the clamping of a pair and a clamping alone not seen
+# counted) with the clamping of a pair and a clamping alone not seen; and
+# on-machine probing results at the points of `ttp plan probe`
 CHECK_CASES = [
     ("tool_wear+clamping_distortion", "6+1.5", 474525, 300, False, "dmis", "clamping_distortion+tool_wear"),
     ("clamping_distortion", 1.5, 50552, 1800, True, "dmis", "clamping_distortion"),
     ("none", 0.0, 20122, 1800, False, "dmis", "none"),
+    ("workpiece_expansion", 1.0, 251034, 1800, True, "probe", "workpiece_expansion"),
+    ("none", 0.0, 505738, 1800, True, "probe", "none"),
     ("tool_wear", 20.0, 599260, 3600, True, "cloud", "tool_wear"),
     ("workpiece_expansion", 1.5, 632263, 1800, True, "cloud", "workpiece_expansion"),
     ("workpiece_expansion", 1.5, 737313, 1800, True, "dial", "workpiece_expansion"),
@@ -331,9 +347,10 @@ def main():
     ap.add_argument("--workdir", help="scratch folder (default: a temporary one)")
     ap.add_argument("--no-clouds", action="store_true",
                     help="measurements json/dial only (the battery before point clouds)")
-    ap.add_argument("--json-as", choices=["json", "dmis"], default="json",
+    ap.add_argument("--json-as", choices=["json", "dmis", "probe"], default="json",
                     help="the runs measured by a per-feature CMM report (json) measured instead by a "
-                         "CMM's DMIS output (dmis: features fitted from touches, in the CMM's frame); "
+                         "CMM's DMIS output (dmis: features fitted from touches, in the CMM's frame) or "
+                         "by on-machine probing (probe: the points of ttp plan probe, machine frame); "
                          "the same runs and seeds otherwise")
     ap.add_argument("--cloud-wall-top-mm", type=float, default=1.0,
                     help="clouds: highest facet and flank points, mm below the top face (generate.py --wall-top-mm)")
