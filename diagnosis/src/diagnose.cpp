@@ -1548,26 +1548,21 @@ ReferenceCycleVariance ReferenceCycleVarianceUm2(
     return v * 1e6;
   };
   if (!measured.features.empty()) {
-    const double x1 = reference_var(FeatureId::Facet(Segment::kX1, ref)),
-                 x2 = reference_var(FeatureId::Facet(Segment::kX2, ref)),
-                 y1 = reference_var(FeatureId::Facet(Segment::kY1, ref)),
-                 y2 = reference_var(FeatureId::Facet(Segment::kY2, ref)),
-                 z = reference_var(FeatureId::Strip(ref));
-    out[0] = 0.25 * (x1 + x2);
-    out[1] = 0.25 * (y1 + y2);
-    out[2] = z;
-    out[3] = 0.0625 * (x1 + x2 + y1 + y2);
-    out[4] = out[3];
-    const double ox1 = own_var(FeatureId::Facet(Segment::kX1, ref)),
-                 ox2 = own_var(FeatureId::Facet(Segment::kX2, ref)),
-                 oy1 = own_var(FeatureId::Facet(Segment::kY1, ref)),
-                 oy2 = own_var(FeatureId::Facet(Segment::kY2, ref)),
-                 oz = own_var(FeatureId::Strip(ref));
-    own[0] = 0.25 * (ox1 + ox2);
-    own[1] = 0.25 * (oy1 + oy2);
-    own[2] = oz;
-    own[3] = 0.0625 * (ox1 + ox2 + oy1 + oy2);
-    own[4] = own[3];
+    // The reference features' variances weighted as in each figure.
+    const auto by_kind = [&](const auto& variance, std::vector<double>* kind) {
+      const double x1 = variance(FeatureId::Facet(Segment::kX1, ref)),
+                   x2 = variance(FeatureId::Facet(Segment::kX2, ref)),
+                   y1 = variance(FeatureId::Facet(Segment::kY1, ref)),
+                   y2 = variance(FeatureId::Facet(Segment::kY2, ref)),
+                   z = variance(FeatureId::Strip(ref));
+      (*kind)[0] = 0.25 * (x1 + x2);
+      (*kind)[1] = 0.25 * (y1 + y2);
+      (*kind)[2] = z;
+      (*kind)[3] = 0.0625 * (x1 + x2 + y1 + y2);
+      (*kind)[4] = (*kind)[3];
+    };
+    by_kind(reference_var, &out);
+    by_kind(own_var, &own);
   } else {
     for (int g = 0; g < 4; ++g) {
       std::vector<double> v;
