@@ -14,6 +14,7 @@
 #include "ttp/diagnosis/diagnose.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/inspect/grade.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
@@ -185,11 +186,7 @@ void RegisterReportHtml(CLI::App& root, GlobalOptions& global) {
     if (*out != "-") CheckOutputPath(*out, {*data_path}, "--output");
     const std::string text = ReadTextFile(*data_path);
     nlohmann::json data;
-    try {
-      data = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::parse_error& e) {
-      throw InputError(*data_path, 0, "", std::string("not JSON: ") + e.what());
-    }
+    data = ParseJsonText(text, *data_path);
     try {
       WriteText(*out, RenderReportHtml(data));
     } catch (const InputError& e) {

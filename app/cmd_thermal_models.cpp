@@ -10,6 +10,7 @@
 #include "command.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/models/compare.h"
 #include "ttp/models/identify.h"
 #include "ttp/models/time_series.h"
@@ -166,13 +167,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                   "step (default: shift it; either way it is warned about)");
     cmd->callback([&global, model_path, log, out, json_out, po] {
       const std::string text = ReadTextFile(*model_path);
-      nlohmann::json j;
-      try {
-        j = nlohmann::json::parse(text);
-      } catch (const nlohmann::json::exception& e) {
-        throw InputError(*model_path, 0, "",
-                         std::string("not JSON: ") + e.what());
-      }
+      const nlohmann::json j = ParseJsonText(text, *model_path);
       const models::ThermalModel model = models::ModelFromJson(j, *model_path);
       const models::TimeSeries ts = ReadLog(*log);
       const models::Prediction p = models::Predict(model, ts, *po);

@@ -10,6 +10,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp {
 namespace {
@@ -478,16 +479,7 @@ Config LoadConfig(const std::filesystem::path& path) {
        text[text.find_first_not_of(" \t\r\n")] == '{');
   json doc;
   if (looks_json) {
-    try {
-      doc = json::parse(text);
-    } catch (const json::parse_error& e) {
-      // nlohmann reports a byte offset; turn it into a line number.
-      const size_t at = std::min<size_t>(e.byte, text.size());
-      const int line =
-          1 + static_cast<int>(std::count(
-                  text.begin(), text.begin() + static_cast<long>(at), '\n'));
-      throw InputError(source, line, "", "not valid JSON");
-    }
+    doc = ParseJsonText(text, source);
   } else {
     try {
       doc = TomlToJson(toml::parse(text, source));

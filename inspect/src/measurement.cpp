@@ -13,6 +13,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/geometry/limits.h"
 #include "ttp/inspect/dial.h"
 #include "ttp/inspect/dmis.h"
@@ -288,13 +289,7 @@ std::map<FeatureId, double> FacetAnglesFromJson(const nlohmann::json& doc,
 InspectionResult FromInspectionJson(const PartSpec& part,
                                     const std::string& text,
                                     const std::string& source) {
-  nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    // parse_error, and out_of_range.406 for a number beyond double.
-    throw InputError(source, 0, "", std::string("not valid JSON: ") + e.what());
-  }
+  const nlohmann::json doc = ParseJsonText(text, source);
   if (!doc.is_object())
     throw InputError(source, 0, "", "the JSON document is not an object");
   // The answer of a simulated run (`ttp twin`, samples/*/truth.json) holds

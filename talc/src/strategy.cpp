@@ -8,6 +8,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp::talc {
 
@@ -199,15 +200,7 @@ nlohmann::json ReadTomlOrJson(const std::filesystem::path& path) {
   const std::string text = ReadTextFile(path);
   const auto first = text.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && text[first] == '{') {
-    try {
-      return nlohmann::json::parse(text);
-    } catch (const nlohmann::json::parse_error& e) {
-      // e.byte is the offset; the line is what a user needs.
-      int line = 1;
-      for (size_t i = 0; i < e.byte && i < text.size(); ++i)
-        if (text[i] == '\n') ++line;
-      throw InputError(path.string(), line, "", "JSON syntax error");
-    }
+    return ParseJsonText(text, path.string());
   }
   return TomlToJson(text, path.string());
 }

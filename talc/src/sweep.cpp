@@ -13,6 +13,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/talc/regressors.h"
 #include "ttp/talc/replay.h"
 
@@ -450,11 +451,7 @@ ShardPlan PlanShards(const Grid& grid, const fs::path& log, int shards,
 namespace {
 nlohmann::json ReadJsonFile(const fs::path& path) {
   const std::string text = ReadTextFile(path);
-  try {
-    return nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path.string(), 0, "", "not valid JSON");
-  }
+  return ParseJsonText(text, path.string());
 }
 }  // namespace
 

@@ -1,0 +1,65 @@
+// JSON text with the project's input errors: syntax errors and numbers
+// beyond a double named by file and line (a number overflow was found by
+// the config fuzzer escaping as nlohmann's own exception).
+#include "ttp/geometry/json_text.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "test_dir.h"
+#include "ttp/geometry/config.h"
+#include "ttp/geometry/error.h"
+
+namespace ttp {
+namespace {
+
+InputError ErrorOf(const std::string& text) {
+  try {
+    ParseJsonText(text, "doc.json");
+  } catch (const InputError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "accepted: " << text;
+  return InputError("", 0, "", "");
+}
+
+TEST(JsonText, ParsesJson) {
+  const nlohmann::json j = ParseJsonText("{\"a\": [1, 2.5e3]}", "doc.json");
+  EXPECT_DOUBLE_EQ(j["a"][1].get<double>(), 2500.0);
+}
+
+TEST(JsonText, ASyntaxErrorNamesItsLine) {
+  const InputError e = ErrorOf("{\n  \"a\": 1,\n  \"b\": ]\n}");
+  EXPECT_EQ(e.line(), 3);
+  EXPECT_NE(std::string(e.what()).find("doc.json"), std::string::npos);
+  EXPECT_NE(std::string(e.what()).find("not valid JSON"), std::string::npos);
+}
+
+TEST(JsonText, ANumberBeyondADoubleNamesItsLine) {
+  const InputError e = ErrorOf("{\n  \"a\": 1,\n\n  \"b\": 1e400\n}");
+  EXPECT_EQ(e.line(), 4);
+  EXPECT_NE(std::string(e.what()).find("range of a double"), std::string::npos);
+}
+
+// The fuzzer's input: a config whose number overflows a double ended the
+// process with an uncaught nlohmann exception instead of an input error.
+TEST(JsonText, AConfigWithAnOverflowingNumberIsAnInputError) {
+  const std::filesystem::path path =
+      test::TestDir("json_text") / "overflow.json";
+  std::ofstream(path)
+      << "{\n  \"machine\": {\n    \"c_max_rpm\": 1200.0,\n"
+         "    \"h_mm\": 8888888888888888888888888888888888E88888.88888\n"
+         "  }\n}\n";
+  try {
+    LoadConfig(path);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 4);
+    EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace ttp
