@@ -69,15 +69,22 @@ std::vector<CycleFigures> SimulatedFigureUncertainty(
     const TalcLog& log, const Config& config,
     const MachineErrorEstimator& estimator, const SimulationOptions& options) {
   const Simulation base = SimulatePiece(log, config, estimator, options);
-  std::set<int> groups;
-  for (const CutRecord& c : log.cuts) groups.insert(c.feature.index);
+  // Each cycle's cuts (a feature index: the group) at their mean time.
+  std::map<int, std::pair<double, int>> group_time;
+  for (const CutRecord& c : log.cuts) {
+    auto& g = group_time[c.feature.index];
+    g.first += c.t_s;
+    ++g.second;
+  }
   const int cycles = static_cast<int>(base.figures.size());
   std::vector<std::array<double, kFigureCount>> var(cycles);
   for (auto& v : var) v.fill(0.0);
   const double d_half = log.sphere_distance_mm;
-  for (int group : groups) {
+  for (const auto& [group, time] : group_time) {
+    const double t_s = time.first / time.second;
     for (int e = 0; e < 7; ++e) {
-      const double sigma = estimator.models()[e].cv_rms_um_or_urad;
+      // The diagnosis's budget of the estimator at the group's time.
+      const double sigma = estimator.ErrorSigmaAt(e, t_s);
       if (!(sigma > 0)) continue;
       std::array<double, 7> micro{};
       micro[e] = sigma;
@@ -246,8 +253,10 @@ nlohmann::json CheckToJson(const CheckResult& r) {
   nlohmann::json j;
   j["log"] = r.log_source;
   j["estimator"] = r.estimator;
-  j["simulated_uncertainty"] =
-      r.simulated_uncertainty ? "estimator leave-one-out error, k = 2" : "none";
+  j["simulated_uncertainty"] = r.simulated_uncertainty
+                                   ? "the estimator's error at each cycle's "
+                                     "cut time (ErrorSigmaAt), k = 2"
+                                   : "none";
   j["compared"] = r.compared;
   j["disagreements"] = r.disagreements;
   j["run_limit_k"] = r.run_limit_k;

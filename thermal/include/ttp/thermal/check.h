@@ -29,7 +29,7 @@ struct CheckOptions {
   // The log's temperatures are averaged over the cuts of a cycle widened by
   // this much on each side.
   double temperature_window_s = 300;
-  // Propagate the estimator's leave-one-out error to the simulated figures.
+  // Propagate the estimator's error to the simulated figures.
   bool simulated_uncertainty = true;
   // The run's verdict: the chance that a piece whose figures all follow
   // the simulation within their uncertainties is judged to disagree (one
@@ -91,9 +91,10 @@ struct CheckResult {
 };
 
 // Standard uncertainties (k = 1, in the u_* fields, values zero) of the
-// simulated figures from the estimator's leave-one-out error per machine
-// error: the estimation error is taken as common to the cuts of one cycle
-// (they lie within a minute) and independent between cycles.
+// simulated figures from the estimator's error per machine error at each
+// cycle's cut time (ErrorSigmaAt: the budget the diagnosis uses): taken as
+// common to the cuts of one cycle (they lie within a minute) and
+// independent between cycles, the reference cycle's included.
 std::vector<CycleFigures> SimulatedFigureUncertainty(
     const TalcLog& log, const Config& config,
     const MachineErrorEstimator& estimator, const SimulationOptions& options);
