@@ -281,10 +281,20 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     }
   }
 
-  // The touches the program of `ttp plan cmm` takes per feature, in W.
+  // The touches the program of `ttp plan cmm` takes per feature, in W
+  // (none when that program cannot be planned for this part: each plane
+  // then counts as one touch).
   std::map<FeatureId, std::vector<Eigen::Vector3d>> touches;
-  for (const plan::PlannedPoint& q : plan::CmmPoints(part))
-    touches[q.feature].push_back(q.point_w_mm);
+  try {
+    for (const plan::PlannedPoint& q : plan::CmmPoints(part))
+      touches[q.feature].push_back(q.point_w_mm);
+  } catch (const InputError& e) {
+    touches.clear();
+    out.warnings.push_back(
+        std::string("the CMM program of ttp plan cmm cannot be planned for "
+                    "this part (") +
+        e.what() + "): each DMIS plane is taken as one touch");
+  }
   std::vector<std::string> reversed;
   for (const NominalFeature& nominal : TestFeatures(part)) {
     auto it = by_id.find(nominal.Key());

@@ -80,8 +80,10 @@ std::vector<CycleFigures> SimulatedFigureUncertainty(
   std::vector<std::array<double, kFigureCount>> var(cycles);
   for (auto& v : var) v.fill(0.0);
   const double d_half = log.sphere_distance_mm;
-  for (const auto& [group, time] : group_time) {
-    const double t_s = time.first / time.second;
+  for (const auto& entry : group_time) {
+    // (Not a structured binding: the lambda below captures the group.)
+    const int group = entry.first;
+    const double t_s = entry.second.first / entry.second.second;
     for (int e = 0; e < 7; ++e) {
       // The diagnosis's budget of the estimator at the group's time.
       const double sigma = estimator.ErrorSigmaAt(e, t_s);
