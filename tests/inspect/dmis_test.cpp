@@ -166,6 +166,32 @@ TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
   EXPECT_NEAR(got.results.at(test::Fid("X1-1")).d_mm, x11.size_mm + 0.001, 1e-9);
 }
 
+// A plane's uncertainty is that of the touches `ttp plan cmm` takes (six
+// per facet: the distance's variance a sixth of one touch's); a part whose
+// program cannot be planned (the 4 mm ball does not fit its datum band)
+// counts each plane as one touch and says so.
+TEST(DmisTest, APlaneCountsThePlannedTouchesOrOneWhenNoneCanBePlanned) {
+  const PartSpec part;
+  PartSpec narrow = part;
+  narrow.datum_circle_z_max_mm = -15.5;
+  const std::string text =
+      "FA(X1_1)=FEAT/PLANE,CART,78.7240,57.1963,-6,0.8090170,0.5877853,0\n";
+  const DmisImport planned =
+      DmisToFeatureResults(ParseDmisOutput(text, "a"), part);
+  const DmisImport unplanned =
+      DmisToFeatureResults(ParseDmisOutput(text, "a"), narrow);
+  const FeatureResult& a = planned.results.at(test::Fid("X1-1"));
+  const FeatureResult& b = unplanned.results.at(test::Fid("X1-1"));
+  EXPECT_NEAR(b.var_d_mm2 / a.var_d_mm2, 6.0, 1e-9);
+  EXPECT_GT(b.var_d_mm2, 0);
+  bool said = false;
+  for (const std::string& w : unplanned.warnings)
+    said = said || w.find("one touch") != std::string::npos;
+  EXPECT_TRUE(said);
+  for (const std::string& w : planned.warnings)
+    EXPECT_EQ(w.find("one touch"), std::string::npos) << w;
+}
+
 // Units that do not fit the piece's size, a plane normal reported into the
 // piece, readings of 1e300.
 TEST(DmisTest, RefusesWhatCannotBeThisPiece) {
