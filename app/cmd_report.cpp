@@ -184,9 +184,7 @@ void RegisterReportHtml(CLI::App& root, GlobalOptions& global) {
       ->required();
   cmd->callback([data_path, out, &global] {
     if (*out != "-") CheckOutputPath(*out, {*data_path}, "--output");
-    const std::string text = ReadTextFile(*data_path);
-    nlohmann::json data;
-    data = ParseJsonText(text, *data_path);
+    const nlohmann::json data = ReadJsonFile(*data_path);
     try {
       WriteText(*out, RenderReportHtml(data));
     } catch (const InputError& e) {

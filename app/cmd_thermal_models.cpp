@@ -166,8 +166,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                   "do not shift a jumping temperature sensor back by its "
                   "step (default: shift it; either way it is warned about)");
     cmd->callback([&global, model_path, log, out, json_out, po] {
-      const std::string text = ReadTextFile(*model_path);
-      const nlohmann::json j = ParseJsonText(text, *model_path);
+      const nlohmann::json j = ReadJsonFile(*model_path);
       const models::ThermalModel model = models::ModelFromJson(j, *model_path);
       const models::TimeSeries ts = ReadLog(*log);
       const models::Prediction p = models::Predict(model, ts, *po);

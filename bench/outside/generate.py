@@ -781,9 +781,8 @@ def measure_dmis(sim, rng):
     for k in range(12):
         a = 2 * math.pi * (k + 0.5) / 12
         circ.append(touch((99.5 * math.cos(a), 99.5 * math.sin(a), -15.0), (math.cos(a), math.sin(a), 0.0)))
-    # fitted in the CMM frame on the circle's plane: the touches turned back
-    # to W's XY (the CMM knows the plane from the top face), the centre
-    # turned forward again
+    # fitted in the circle's plane (W's XY: a CMM fits it in the plane its
+    # top face gives), reported in the CMM frame with W's Z as its axis
     cx, cy, rad = _fit_circle_xy(circ)
     c = to_cmm((cx, cy, -15.0))
     ax = turn((0.0, 0.0, 1.0))

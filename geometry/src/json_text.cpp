@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
 
 namespace ttp {
 namespace {
@@ -48,6 +49,10 @@ nlohmann::json ParseJsonText(const std::string& text,
                      "not valid JSON: " + detail +
                          " (a number beyond the range of a double)");
   }
+}
+
+nlohmann::json ReadJsonFile(const std::filesystem::path& path) {
+  return ParseJsonText(ReadTextFile(path), path.string());
 }
 
 }  // namespace ttp

@@ -448,13 +448,6 @@ ShardPlan PlanShards(const Grid& grid, const fs::path& log, int shards,
   return p;
 }
 
-namespace {
-nlohmann::json ReadJsonFile(const fs::path& path) {
-  const std::string text = ReadTextFile(path);
-  return ParseJsonText(text, path.string());
-}
-}  // namespace
-
 void RunShard(const fs::path& dir, int k, int threads,
               const LogReader& read_log) {
   const nlohmann::json plan = ReadJsonFile(dir / "plan.json");

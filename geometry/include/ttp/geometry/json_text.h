@@ -1,6 +1,7 @@
 // JSON text read into nlohmann::json with the project's input errors.
 #pragma once
 
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -12,5 +13,8 @@ namespace ttp {
 // the line of the number's first occurrence).
 nlohmann::json ParseJsonText(const std::string& text,
                              const std::string& source);
+
+// Reads a whole file (ReadTextFile) and parses it as above.
+nlohmann::json ReadJsonFile(const std::filesystem::path& path);
 
 }  // namespace ttp
