@@ -17,9 +17,10 @@ namespace {
 
 // Measured figures from any measurement file (cloud, inspection JSON, dial
 // CSV, DMIS output, probe results).
-std::vector<CycleFigures> LoadMeasuredFigures(const Config& config,
-                                              const std::string& path) {
-  return inspect::LoadMeasurement(config, path).result.figures;
+std::vector<CycleFigures> LoadMeasuredFigures(
+    const Config& config, const std::string& path,
+    const inspect::MeasurementOptions& options) {
+  return inspect::LoadMeasurement(config, path, options).result.figures;
 }
 
 void Register(CLI::App& root, GlobalOptions& global) {
@@ -38,14 +39,16 @@ void Register(CLI::App& root, GlobalOptions& global) {
                   "JSON, dial-gauge CSV, DMIS output or probe results")
       ->required();
   cmd->add_option("--json", *json_out, "also write the check as JSON");
+  auto how = std::make_shared<MeasurementArgs>();
+  AddMeasurementOptions(cmd, how.get());
   cmd->add_option("--time-tolerance-s", *tolerance,
                   "how far a logged cut may end from its planned time "
                   "(default 120 s)")
       ->check(FiniteRange(0.0, 86400.0));
   cmd->add_flag("--no-schedule-check", *no_schedule,
                 "skip the log <-> program schedule check");
-  cmd->callback([&global, log_path, measurement, json_out, tolerance,
-                 no_schedule] {
+  cmd->callback([&global, cmd, log_path, measurement, json_out, tolerance,
+                 no_schedule, how] {
     const Config config = global.LoadConfig();
     const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
     nlohmann::json schedule_json;
@@ -59,8 +62,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
                        {"matched_cuts", sc.matched},
                        {"tolerance_s", so.tolerance_s}};
     }
-    const std::vector<CycleFigures> measured =
-        LoadMeasuredFigures(config, *measurement);
+    const std::vector<CycleFigures> measured = LoadMeasuredFigures(
+        config, *measurement, ToMeasurementOptions(*how, *cmd));
     const thermal::CheckResult result =
         thermal::CheckPiece(log, config, measured);
     if (result.compared == 0) {

@@ -35,6 +35,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
            "dial CSV, DMIS, probe CSV), which is inspected first")
         ->required();
     cmd->add_option("--json", *json_out, "also write the diagnosis as JSON");
+    auto how = std::make_shared<MeasurementArgs>();
+    AddMeasurementOptions(cmd, how.get());
     cmd->add_option("--evidence", *threshold,
                     "BIC margin over the nominal model needed to name a "
                     "cause (default: the calibrated threshold, "
@@ -45,7 +47,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
                   "do not check the log's cuts against the program's "
                   "schedule (for a log of another program)");
     cmd->callback(
-        [&global, log_path, measurement, json_out, threshold, no_schedule] {
+        [&global, cmd, log_path, measurement, json_out, threshold, no_schedule,
+         how] {
           const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
           const Config config = global.LoadConfig();
           diagnosis::DiagnosisOptions options;
@@ -54,7 +57,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
           if (!options.IsValid(&invalid))
             throw CLI::ValidationError("--evidence", invalid);
           const diagnosis::MeasuredPiece measured =
-              diagnosis::LoadMeasuredPiece(config, *measurement);
+              diagnosis::LoadMeasuredPiece(config, *measurement,
+                                           ToMeasurementOptions(*how, *cmd));
           // A log that does not match the program's schedule (or does not
           // cover its cuts) cannot belong to the measured piece: refused.
           diagnosis::DiagnosisReport report;

@@ -14,63 +14,9 @@ namespace {
 
 struct InspectArgs {
   std::string measurement;
-  std::string units = "mm";
-  bool units_given = false;
   std::string json;
-  std::string instrument = "cmm";
-  double probe_repeatability_um = 0.5;
-  std::string probe_points;
-  std::string probe_frame = "auto";
-  double dial_resolution_um = 1.0;
-  double dial_repeatability_um = 0.5;
+  MeasurementArgs how;
 };
-
-inspect::MeasurementOptions ToOptions(const InspectArgs& a) {
-  inspect::MeasurementOptions mo;
-  mo.read.units = inspect::ParseLengthUnit(a.units);
-  mo.read.units_given = a.units_given;
-  if (a.instrument == "none")
-    mo.inspect.instrument = inspect::Instrument::kNone;
-  else if (a.instrument != "cmm")
-    throw InputError("--instrument", 0, "instrument",
-                     "'" + a.instrument + "' is not cmm or none");
-  mo.inspect.check_units = !a.units_given;
-  mo.probe.repeatability_um = a.probe_repeatability_um;
-  mo.probe.points_csv_path = a.probe_points;
-  if (a.probe_frame == "machine")
-    mo.probe.frame = inspect::ProbeFrame::kMachine;
-  else if (a.probe_frame == "program")
-    mo.probe.frame = inspect::ProbeFrame::kProgram;
-  else if (a.probe_frame != "auto")
-    throw InputError("--probe-frame", 0, "probe_frame",
-                     "'" + a.probe_frame + "' is not auto, machine or program");
-  mo.probe.Validate();
-  mo.dial.resolution_um = a.dial_resolution_um;
-  mo.dial.repeatability_um = a.dial_repeatability_um;
-  mo.dial.Validate();
-  return mo;
-}
-
-void AddMeasurementOptions(CLI::App* cmd, InspectArgs* a) {
-  cmd->add_option("--units", a->units,
-                  "units of a point cloud: mm (default), m, in");
-  cmd->add_option(
-      "--instrument", a->instrument,
-      "cloud uncertainty model: cmm (MPE 1.2 um + L/400, default) or none");
-  cmd->add_option("--probe-repeatability-um", a->probe_repeatability_um,
-                  "probe results: standard uncertainty of one touch (um)");
-  cmd->add_option("--probe-points", a->probe_points,
-                  "probe results: the point list of the program (ttp plan "
-                  "probe); default: the default plan");
-  cmd->add_option("--probe-frame", a->probe_frame,
-                  "probe results: x, y, z in the machine frame (machine), the "
-                  "work offset G54 as the program prints them (program), or "
-                  "auto (default)");
-  cmd->add_option("--dial-resolution-um", a->dial_resolution_um,
-                  "dial readings: gauge resolution (um)");
-  cmd->add_option("--dial-repeatability-um", a->dial_repeatability_um,
-                  "dial readings: standard uncertainty of one reading (um)");
-}
 
 constexpr const char* kMeasurementHelp =
     "point cloud (PLY, PCD, .xyz/.txt/.csv), probe results CSV "
@@ -85,12 +31,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
       ->required();
   AddJsonOption(cmd, &args->json,
                 "the figures, facets and diagnostics as JSON");
-  AddMeasurementOptions(cmd, args.get());
+  AddMeasurementOptions(cmd, &args->how);
   cmd->callback([&global, args, cmd] {
-    args->units_given = cmd->get_option("--units")->count() > 0;
     const Config config = global.LoadConfig();
-    const inspect::Measurement m =
-        inspect::LoadMeasurement(config, args->measurement, ToOptions(*args));
+    const inspect::Measurement m = inspect::LoadMeasurement(
+        config, args->measurement, ToMeasurementOptions(args->how, *cmd));
     // With --json - stdout is pure JSON: the table goes to stderr.
     std::ostream& text = JsonToStdout(args->json) ? std::cerr : std::cout;
     if (!global.quiet) {
@@ -115,14 +60,13 @@ void Register(CLI::App& root, GlobalOptions& global) {
   AddLimitOptions(grade, limits.get(), figures.get());
   AddJsonOption(grade, json_out.get(), "the verdict as JSON");
   AddVerboseFlag(grade, verbose.get());
-  AddMeasurementOptions(grade, gargs.get());
+  AddMeasurementOptions(grade, &gargs->how);
   grade->callback([&global, limits, figures, gargs, json_out, verbose, grade] {
     limits->figures = inspect::ParseFigureList(*figures);
     limits->Validate();
-    gargs->units_given = grade->get_option("--units")->count() > 0;
     const Config config = global.LoadConfig();
-    const inspect::Measurement m =
-        inspect::LoadMeasurement(config, gargs->measurement, ToOptions(*gargs));
+    const inspect::Measurement m = inspect::LoadMeasurement(
+        config, gargs->measurement, ToMeasurementOptions(gargs->how, *grade));
     const inspect::GradeResult r = inspect::GradeMeasurement(m, *limits);
     std::ostream& text = JsonToStdout(*json_out) ? std::cerr : std::cout;
     if (!global.quiet) text << inspect::GradeTable(r, *verbose);

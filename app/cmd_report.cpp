@@ -78,6 +78,8 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("--json", *json_out,
                   "also write the report data (JSON) the page is made from");
   AddLimitOptions(cmd, limits.get(), figures.get());
+  auto how = std::make_shared<MeasurementArgs>();
+  AddMeasurementOptions(cmd, how.get());
   cmd->add_option("--evidence", options->diagnosis.evidence_threshold,
                   "BIC margin over the nominal model needed to name a cause")
       ->capture_default_str();
@@ -87,8 +89,8 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
   cmd->add_flag("--no-schedule-check", *no_schedule,
                 "do not check the log's cuts against the program's schedule "
                 "(for a log of another program)");
-  cmd->callback([&global, log_path, measurement, out, json_out, compare,
-                 options, limits, figures, no_schedule] {
+  cmd->callback([&global, cmd, log_path, measurement, out, json_out, compare,
+                 options, limits, figures, no_schedule, how] {
     limits->figures = inspect::ParseFigureList(*figures);
     limits->Validate();
     if (!log_path->empty() &&
@@ -98,6 +100,8 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
       return;
     }
     const Config config = global.LoadConfig();
+    const inspect::MeasurementOptions measured_how =
+        ToMeasurementOptions(*how, *cmd);
     if (!compare->empty()) {
       if (!measurement->empty() || !log_path->empty())
         throw InputError("--compare", 0, "compare",
@@ -106,9 +110,9 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
       CheckOutputPath(*out, *compare, "--output");
       if (!json_out->empty()) CheckOutputPath(*json_out, *compare, "--json");
       const inspect::Measurement a =
-          inspect::LoadMeasurement(config, (*compare)[0]);
+          inspect::LoadMeasurement(config, (*compare)[0], measured_how);
       const inspect::Measurement b =
-          inspect::LoadMeasurement(config, (*compare)[1]);
+          inspect::LoadMeasurement(config, (*compare)[1], measured_how);
       const inspect::GradeResult ga = inspect::GradeMeasurement(a, *limits);
       const inspect::GradeResult gb = inspect::GradeMeasurement(b, *limits);
       const std::string title = options->title == report::ReportOptions{}.title
@@ -129,7 +133,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
     if (!json_out->empty())
       CheckOutputPath(*json_out, {*measurement, *log_path}, "--json");
     const inspect::Measurement m =
-        inspect::LoadMeasurement(config, *measurement);
+        inspect::LoadMeasurement(config, *measurement, measured_how);
     // The verdict of `ttp grade`, computed once and rendered as is.
     const inspect::GradeResult grade = inspect::GradeMeasurement(m, *limits);
     report::ReportInputs inputs;

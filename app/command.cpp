@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 
 namespace ttp::app {
@@ -43,6 +44,76 @@ void WriteText(const std::string& path, const std::string& text) {
 
 void WriteJson(const std::string& path, const nlohmann::json& doc) {
   WriteText(path, doc.dump(2) + "\n");
+}
+
+void AddMeasurementOptions(CLI::App* cmd, MeasurementArgs* a) {
+  cmd->add_option("--units", a->units,
+                  "units of a point cloud: mm (default), m, in");
+  cmd->add_option("--instrument", a->instrument,
+                  "cloud uncertainty model: cmm (the CMM's MPE, default) or "
+                  "none");
+  cmd->add_option("--cmm-mpe-um", a->cmm_mpe_um,
+                  "clouds and DMIS: the CMM's MPE a + L/b per touch, a in um "
+                  "(default 1.2)");
+  cmd->add_option("--cmm-mpe-l-mm", a->cmm_mpe_l_mm,
+                  "clouds and DMIS: b of the MPE a + L/b, in mm (default 400)");
+  auto* points =
+      cmd->add_option("--cmm-points", a->cmm_points,
+                      "DMIS results: the point list of the CMM program that "
+                      "measured them (cmm_points.csv of ttp plan cmm); "
+                      "default: the default plan");
+  cmd->add_option("--cmm-touches", a->cmm_touches,
+                  "DMIS results of a program of one's own: touches per plane, "
+                  "spread over each feature (instead of --cmm-points)")
+      ->excludes(points);
+  cmd->add_option("--probe-repeatability-um", a->probe_repeatability_um,
+                  "probe results: standard uncertainty of one touch (um)");
+  cmd->add_option("--probe-points", a->probe_points,
+                  "probe results: the point list of the program (ttp plan "
+                  "probe); default: the default plan");
+  cmd->add_option("--probe-frame", a->probe_frame,
+                  "probe results: x, y, z in the machine frame (machine), the "
+                  "work offset G54 as the program prints them (program), or "
+                  "auto (default)");
+  cmd->add_option("--dial-resolution-um", a->dial_resolution_um,
+                  "dial readings: gauge resolution (um)");
+  cmd->add_option("--dial-repeatability-um", a->dial_repeatability_um,
+                  "dial readings: standard uncertainty of one reading (um)");
+}
+
+inspect::MeasurementOptions ToMeasurementOptions(const MeasurementArgs& a,
+                                                 const CLI::App& cmd) {
+  inspect::MeasurementOptions mo;
+  mo.read.units = inspect::ParseLengthUnit(a.units);
+  mo.read.units_given = cmd.get_option("--units")->count() > 0;
+  if (a.instrument == "none")
+    mo.inspect.instrument = inspect::Instrument::kNone;
+  else if (a.instrument != "cmm")
+    throw InputError("--instrument", 0, "instrument",
+                     "'" + a.instrument + "' is not cmm or none");
+  mo.inspect.check_units = !mo.read.units_given;
+  // One CMM: the same MPE for its scanned clouds and its DMIS planes.
+  mo.dmis.cmm_mpe_um = a.cmm_mpe_um;
+  mo.dmis.cmm_mpe_l_mm = a.cmm_mpe_l_mm;
+  mo.dmis.points_csv_path = a.cmm_points;
+  mo.dmis.touches_per_plane = a.cmm_touches;
+  mo.dmis.Validate();
+  mo.inspect.cmm_mpe_um = a.cmm_mpe_um;
+  mo.inspect.cmm_mpe_l_mm = a.cmm_mpe_l_mm;
+  mo.probe.repeatability_um = a.probe_repeatability_um;
+  mo.probe.points_csv_path = a.probe_points;
+  if (a.probe_frame == "machine")
+    mo.probe.frame = inspect::ProbeFrame::kMachine;
+  else if (a.probe_frame == "program")
+    mo.probe.frame = inspect::ProbeFrame::kProgram;
+  else if (a.probe_frame != "auto")
+    throw InputError("--probe-frame", 0, "probe_frame",
+                     "'" + a.probe_frame + "' is not auto, machine or program");
+  mo.probe.Validate();
+  mo.dial.resolution_um = a.dial_resolution_um;
+  mo.dial.repeatability_um = a.dial_repeatability_um;
+  mo.dial.Validate();
+  return mo;
 }
 
 void AddLimitOptions(CLI::App* cmd, inspect::GradeLimits* limits,

@@ -14,6 +14,7 @@
 
 #include "ttp/geometry/config.h"
 #include "ttp/inspect/grade.h"
+#include "ttp/inspect/measurement.h"
 
 namespace ttp::app {
 
@@ -48,6 +49,29 @@ void WriteText(const std::string& path, const std::string& text);
 // inspect::ParseFigureList into limits->figures).
 void AddLimitOptions(CLI::App* cmd, inspect::GradeLimits* limits,
                      std::string* figures);
+
+// How a measurement was taken, for every command that reads one (inspect,
+// grade, check, diagnose, report): cloud units and uncertainty model, the
+// CMM's MPE and the touches behind DMIS planes, the probe's point list and
+// repeatability, the dial gauge.
+struct MeasurementArgs {
+  std::string units = "mm";
+  std::string instrument = "cmm";
+  double cmm_mpe_um = 1.2;
+  double cmm_mpe_l_mm = 400.0;
+  std::string cmm_points;
+  int cmm_touches = 0;
+  double probe_repeatability_um = 0.5;
+  std::string probe_points;
+  std::string probe_frame = "auto";
+  double dial_resolution_um = 1.0;
+  double dial_repeatability_um = 0.5;
+};
+void AddMeasurementOptions(CLI::App* cmd, MeasurementArgs* args);
+// InputError naming the option for a bad value. `cmd` is the command the
+// options were added to (whether --units was given).
+inspect::MeasurementOptions ToMeasurementOptions(const MeasurementArgs& args,
+                                                 const CLI::App& cmd);
 
 // ---- Shared conventions of every subcommand (one option vocabulary) ----
 // -o/--output: the command's main output (a file or a folder).

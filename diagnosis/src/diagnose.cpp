@@ -1619,9 +1619,10 @@ MeasuredPiece MeasuredPieceFromInspection(
   return m;
 }
 
-MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path) {
+MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path,
+                                const inspect::MeasurementOptions& options) {
   return MeasuredPieceFromInspection(
-      config.part, inspect::LoadMeasurement(config, path).result);
+      config.part, inspect::LoadMeasurement(config, path, options).result);
 }
 
 PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,

@@ -4,6 +4,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -16,6 +18,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/file_io.h"
 #include "ttp/geometry/limits.h"
 #include "ttp/inspect/plane_result.h"
 #include "ttp/plan/dmis_writer.h"
@@ -180,7 +183,86 @@ DmisResults ParseDmisOutput(const std::string& text,
   return out;
 }
 
-DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
+namespace {
+
+// Variances of a plane fitted by least squares through touches of unit
+// variance, as the figures read it (test-piece.md section 4). Facets: the
+// touches' normal distance w = a + b s + c h (s along the horizontal
+// tangent, h = z), so d (the plane's distance to W's origin) is a and the
+// angle about Z is b: the tilt c counts in d through the touches' height
+// (d = n . p). Strips: z = a + b x + c (y - y_k): d is the depth at
+// (0, y_k), the angle b.
+struct PlaneCovariance {
+  bool valid = false;
+  double d_per_u2 = 0, angle_per_u2 = 0;
+};
+
+PlaneCovariance TouchedPlaneCovariance(
+    const NominalFeature& nominal,
+    const std::vector<Eigen::Vector3d>& touches) {
+  PlaneCovariance out;
+  if (touches.size() < 3) return out;
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(touches.size()), 3);
+  const Eigen::Vector3d tangent =
+      Eigen::Vector3d(-nominal.normal.y(), nominal.normal.x(), 0).normalized();
+  for (size_t i = 0; i < touches.size(); ++i) {
+    const Eigen::Vector3d& q = touches[i];
+    const auto row = static_cast<Eigen::Index>(i);
+    if (nominal.kind == FeatureKind::kStrip)
+      a.row(row) << 1.0, q.x(), q.y() - nominal.point.y();
+    else
+      a.row(row) << 1.0, tangent.dot(q), q.z();
+  }
+  const Eigen::Matrix3d normal_matrix = a.transpose() * a;
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(normal_matrix);
+  const Eigen::Vector3d sv = svd.singularValues();
+  // Touches on a line leave the plane undetermined across it.
+  if (!(sv(2) > 1e-9 * sv(0))) return out;
+  const Eigen::Matrix3d cov = normal_matrix.inverse();
+  out.valid = true;
+  out.d_per_u2 = cov(0, 0);
+  out.angle_per_u2 = cov(1, 1);
+  return out;
+}
+
+}  // namespace
+
+bool DmisImportOptions::IsValid(std::string* error) const {
+  const auto fail = [&](const char* field, const char* problem) {
+    if (error)
+      *error = std::string("DmisImportOptions.") + field + ": " + problem;
+    return false;
+  };
+  if (!std::isfinite(cmm_mpe_um) || cmm_mpe_um <= 0 || cmm_mpe_um > 1000)
+    return fail("cmm_mpe_um", "must be a finite number in (0, 1000] um");
+  if (!std::isfinite(cmm_mpe_l_mm) || cmm_mpe_l_mm <= 0)
+    return fail("cmm_mpe_l_mm", "must be a positive finite length in mm");
+  if (touches_per_plane != 0 &&
+      (touches_per_plane < 3 || touches_per_plane > 100000))
+    return fail("touches_per_plane",
+                "must be 0 (from the point list) or 3 to 100000: a plane "
+                "needs three touches");
+  if (touches_per_plane != 0 && !points_csv_path.empty())
+    return fail("touches_per_plane",
+                "give either the touches per plane or the point list, not "
+                "both");
+  return true;
+}
+
+void DmisImportOptions::Validate() const {
+  std::string error;
+  if (IsValid(&error)) return;
+  const std::string problem = error.substr(error.find(": ") + 2);
+  if (error.find(".cmm_mpe_um:") != std::string::npos)
+    throw InputError("--cmm-mpe-um", 0, "cmm_mpe_um", problem);
+  if (error.find(".cmm_mpe_l_mm:") != std::string::npos)
+    throw InputError("--cmm-mpe-l-mm", 0, "cmm_mpe_l_mm", problem);
+  throw InputError("--cmm-touches", 0, "touches_per_plane", problem);
+}
+
+DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
+                                const DmisImportOptions& options) {
+  options.Validate();
   DmisImport out;
   std::map<FeatureId, const DmisFeature*> by_id;
   // The two points of the half-turn check (not features of their own).
@@ -281,19 +363,30 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
     }
   }
 
-  // The touches the program of `ttp plan cmm` takes per feature, in W
-  // (none when that program cannot be planned for this part: each plane
-  // then counts as one touch).
+  // The touches the CMM program took per feature, in W: its point list,
+  // or the program of `ttp plan cmm` (none when that program cannot be
+  // planned for this part: each plane then counts as one touch), or none
+  // when the touches per plane are given.
   std::map<FeatureId, std::vector<Eigen::Vector3d>> touches;
-  try {
-    for (const plan::PlannedPoint& q : plan::CmmPoints(part))
+  if (!options.points_csv_path.empty()) {
+    for (const plan::PlannedPoint& q : plan::PointsFromCsv(
+             ReadTextFile(options.points_csv_path), options.points_csv_path))
       touches[q.feature].push_back(q.point_w_mm);
-  } catch (const InputError& e) {
-    touches.clear();
-    out.warnings.push_back(
-        std::string("the CMM program of ttp plan cmm cannot be planned for "
-                    "this part (") +
-        e.what() + "): each DMIS plane is taken as one touch");
+  } else {
+    try {
+      for (const plan::PlannedPoint& q : plan::CmmPoints(part))
+        touches[q.feature].push_back(q.point_w_mm);
+    } catch (const InputError& e) {
+      touches.clear();
+      out.warnings.push_back(
+          std::string("the CMM program of ttp plan cmm cannot be planned for "
+                      "this part (") +
+          e.what() + "): each DMIS plane is taken as " +
+          (options.touches_per_plane > 0
+               ? std::to_string(options.touches_per_plane) +
+                     " touches without their pattern"
+               : std::string("one touch")));
+    }
   }
   std::vector<std::string> reversed;
   for (const NominalFeature& nominal : TestFeatures(part)) {
@@ -324,34 +417,32 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part) {
               std::to_string(limits::kMaxFeatureAngleRad) +
               " rad): the units (UNITS/) or the frame do not fit the "
               "piece's size");
-    // MPE = 1.2 um + L/400 (L in mm) bounds each touch; as a uniform bound
-    // its standard uncertainty is MPE/sqrt(3). A DMIS result carries no
-    // touch count: the plane is taken as probed by the program `ttp plan
-    // cmm` writes (CmmPoints), fitted by least squares through independent
-    // touches: the distance at their centroid u^2/n, the angle u^2 over the
-    // touches' squared spread along the direction it tilts (a facet's
-    // horizontal tangent, a strip's X). Without planned touches (n < 3),
-    // one touch for the distance and two at the feature's ends for the
-    // angle.
+    // The variance of a least-squares plane through independent touches
+    // (DmisImportOptions).
     const double reach_mm = nominal.point.norm();
-    const double u_mm = (1.2 + reach_mm / 400.0) * 1e-3 / std::sqrt(3.0);
-    const double extent_mm = std::max(1.0, nominal.t_max_mm - nominal.t_min_mm);
-    r.var_d_mm2 = u_mm * u_mm;
-    r.var_angle_rad2 = 2.0 * u_mm * u_mm / (extent_mm * extent_mm);
+    const double u_mm = (options.cmm_mpe_um + reach_mm / options.cmm_mpe_l_mm) *
+                        1e-3 / std::sqrt(3.0);
     auto planned = touches.find(nominal.Key());
-    if (planned != touches.end() && planned->second.size() >= 3) {
-      const std::vector<Eigen::Vector3d>& t = planned->second;
-      const Eigen::Vector3d lever =
-          nominal.kind == FeatureKind::kStrip
-              ? Eigen::Vector3d::UnitX()
-              : Eigen::Vector3d(-nominal.normal.y(), nominal.normal.x(), 0)
-                    .normalized();
-      double mean = 0, spread = 0;
-      for (const Eigen::Vector3d& q : t) mean += lever.dot(q) / t.size();
-      for (const Eigen::Vector3d& q : t)
-        spread += std::pow(lever.dot(q) - mean, 2);
-      r.var_d_mm2 = u_mm * u_mm / static_cast<double>(t.size());
-      if (spread > 1e-6) r.var_angle_rad2 = u_mm * u_mm / spread;
+    const PlaneCovariance cov =
+        planned == touches.end()
+            ? PlaneCovariance{}
+            : TouchedPlaneCovariance(nominal, planned->second);
+    if (cov.valid) {
+      // A program of one's own: n touches in the plan's pattern.
+      const double scale = options.touches_per_plane > 0
+                               ? static_cast<double>(planned->second.size()) /
+                                     options.touches_per_plane
+                               : 1.0;
+      r.var_d_mm2 = u_mm * u_mm * cov.d_per_u2 * scale;
+      r.var_angle_rad2 = u_mm * u_mm * cov.angle_per_u2 * scale;
+    } else {
+      // No pattern: the distance as from n touches (one by default), the
+      // angle as from two at the feature's ends.
+      const double n = std::max(1, options.touches_per_plane);
+      const double extent_mm =
+          std::max(1.0, nominal.t_max_mm - nominal.t_min_mm);
+      r.var_d_mm2 = u_mm * u_mm / n;
+      r.var_angle_rad2 = 2.0 * u_mm * u_mm / (n * extent_mm * extent_mm);
     }
     r.points = 0;
     out.results[nominal.Key()] = r;

@@ -365,6 +365,7 @@ bool MeasurementOptions::IsValid(std::string* error) const {
   if (!inspect.IsValid(&inner)) return fail("inspect");
   if (!dial.IsValid(&inner)) return fail("dial");
   if (!probe.IsValid(&inner)) return fail("probe");
+  if (!dmis.IsValid(&inner)) return fail("dmis");
   return true;
 }
 
@@ -410,7 +411,7 @@ Measurement LoadMeasurement(const Config& config,
     }
     case MeasurementKind::kDmis: {
       const DmisResults dmis = ParseDmisOutput(ReadAll(path), m.source);
-      DmisImport imp = DmisToFeatureResults(dmis, part);
+      DmisImport imp = DmisToFeatureResults(dmis, part, options.dmis);
       m.result = FromFeatures(part, std::move(imp.results), m.source,
                               std::move(imp.warnings));
       break;

@@ -100,6 +100,40 @@ TEST(CliCheck, RunBAgrees) {
 
 // run-a hides a workpiece expansion (truth.json): the measured E_TTP
 // exceeds the rigid-table simulation during the warm-up.
+// A lab's CMM: its MPE (a + L/b) reaches the measured U of DMIS results,
+// and options that cannot describe a CMM program are refused by name.
+// Run-c's DMIS output (piece.dmo) with the default MPE (1.2 um + L/400)
+// and with a = 5 um: every feature lies within 200 mm of W's origin, so
+// the measured U of a figure grows by (5 + L/400) / (1.2 + L/400), between
+// 3.2 (L = 200 mm) and 4.17 (L = 0).
+TEST(CliCheck, TheCmmsMpeReachesTheMeasuredUncertainty) {
+  const fs::path dir = test::TestDir("check");
+  const std::string base = "check --log " + kSamples + "run-c/talc.csv " +
+                           kSamples + "run-c/piece.dmo --json ";
+  const auto a = test::RunTtp(base + (dir / "mpe_default.json").string());
+  const auto b =
+      test::RunTtp(base + (dir / "mpe_5.json").string() + " --cmm-mpe-um 5");
+  ASSERT_NE(a.exit_code, 2) << a.output;
+  ASSERT_NE(b.exit_code, 2) << b.output;
+  std::ifstream ia(dir / "mpe_default.json"), ib(dir / "mpe_5.json");
+  const auto ja = nlohmann::json::parse(ia), jb = nlohmann::json::parse(ib);
+  int compared = 0;
+  for (size_t c = 1; c < ja["cycles"].size(); ++c)
+    for (const char* f : {"E_X", "E_Y", "E_Z"}) {
+      const double ua = ja["cycles"][c][f]["U_measured"];
+      const double ub = jb["cycles"][c][f]["U_measured"];
+      EXPECT_GT(ub / ua, 3.2) << f << " cycle " << c;
+      EXPECT_LT(ub / ua, 4.17) << f << " cycle " << c;
+      ++compared;
+    }
+  EXPECT_GT(compared, 10);
+  const auto bad =
+      test::RunTtp(base + (dir / "bad.json").string() + " --cmm-touches 2");
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--cmm-touches"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("three touches"), std::string::npos) << bad.output;
+}
+
 TEST(CliCheck, RunAsWorkpieceExpansionDisagrees) {
   const fs::path json = test::TestDir("check") / "a.json";
   const auto r = Check(kSamples + "run-a/talc.csv", "--json " + json.string());

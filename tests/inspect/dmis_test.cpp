@@ -4,14 +4,20 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <functional>
 #include <random>
+#include <stdexcept>
 
+#include "feature_ids.h"
+#include "test_dir.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
-#include "feature_ids.h"
+#include "ttp/plan/dmis_writer.h"
 
 namespace ttp::inspect {
 namespace {
@@ -166,10 +172,59 @@ TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
   EXPECT_NEAR(got.results.at(test::Fid("X1-1")).d_mm, x11.size_mm + 0.001, 1e-9);
 }
 
-// A plane's uncertainty is that of the touches `ttp plan cmm` takes (six
-// per facet: the distance's variance a sixth of one touch's); a part whose
-// program cannot be planned (the 4 mm ball does not fit its datum band)
-// counts each plane as one touch and says so.
+// The scatter of a facet's d = n . centroid and angle when the CMM touches
+// `points` (on the nominal plane) with independent Gaussian errors of u_mm
+// along the normal and fits the plane by orthogonal regression (SVD), as
+// simulated here: the oracle of the reader's closed-form variances.
+struct PlaneScatter {
+  double var_d_mm2 = 0, var_angle_rad2 = 0;
+};
+PlaneScatter SimulatedPlaneScatter(const NominalFeature& f,
+                                   const std::vector<Eigen::Vector3d>& points,
+                                   double u_mm) {
+  std::mt19937 rng(20261126);
+  std::normal_distribution<double> noise(0.0, u_mm);
+  const double phi = std::atan2(f.normal.y(), f.normal.x());
+  double sd = 0, sdd = 0, sa = 0, saa = 0;
+  const int trials = 20000;
+  for (int k = 0; k < trials; ++k) {
+    Eigen::MatrixXd q(static_cast<Eigen::Index>(points.size()), 3);
+    for (size_t i = 0; i < points.size(); ++i)
+      q.row(static_cast<Eigen::Index>(i)) =
+          (points[i] + noise(rng) * f.normal).transpose();
+    const Eigen::RowVector3d c = q.colwise().mean();
+    const Eigen::MatrixXd centred = q.rowwise() - c;
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
+    Eigen::Vector3d n = svd.matrixV().col(2);
+    if (n.dot(f.normal) < 0) n = -n;
+    const double d = n.dot(c.transpose());
+    const double angle =
+        std::remainder(std::atan2(n.y(), n.x()) - phi, 2.0 * M_PI);
+    sd += d, sdd += d * d, sa += angle, saa += angle * angle;
+  }
+  return {sdd / trials - (sd / trials) * (sd / trials),
+          saa / trials - (sa / trials) * (sa / trials)};
+}
+
+const NominalFeature& NominalOf(const std::vector<NominalFeature>& all,
+                                const std::string& id) {
+  for (const NominalFeature& f : all)
+    if (f.id == id) return f;
+  throw std::runtime_error("no feature " + id);
+}
+
+std::vector<Eigen::Vector3d> TouchesOf(
+    const std::vector<plan::PlannedPoint>& points, const std::string& id) {
+  std::vector<Eigen::Vector3d> out;
+  for (const plan::PlannedPoint& q : points)
+    if (q.feature == test::Fid(id)) out.push_back(q.point_w_mm);
+  return out;
+}
+
+// A DMIS plane's variance is that of the plane through the touches of the
+// program `ttp plan cmm` writes (two rows of three on a facet: its tilt
+// counts in d through the rows' height), checked against simulated touches;
+// for a part whose program cannot be planned, one touch, with a warning.
 TEST(DmisTest, APlaneCountsThePlannedTouchesOrOneWhenNoneCanBePlanned) {
   const PartSpec part;
   PartSpec narrow = part;
@@ -182,14 +237,85 @@ TEST(DmisTest, APlaneCountsThePlannedTouchesOrOneWhenNoneCanBePlanned) {
       DmisToFeatureResults(ParseDmisOutput(text, "a"), narrow);
   const FeatureResult& a = planned.results.at(test::Fid("X1-1"));
   const FeatureResult& b = unplanned.results.at(test::Fid("X1-1"));
-  EXPECT_NEAR(b.var_d_mm2 / a.var_d_mm2, 6.0, 1e-9);
-  EXPECT_GT(b.var_d_mm2, 0);
+  const NominalFeature& x11 = NominalOf(TestFeatures(part), "X1-1");
+  const double u_mm = (1.2 + x11.point.norm() / 400.0) * 1e-3 / std::sqrt(3.0);
+  const PlaneScatter sim = SimulatedPlaneScatter(
+      x11, TouchesOf(plan::CmmPoints(part), "X1-1"), u_mm);
+  EXPECT_NEAR(a.var_d_mm2 / sim.var_d_mm2, 1.0, 0.04);
+  EXPECT_NEAR(a.var_angle_rad2 / sim.var_angle_rad2, 1.0, 0.04);
+  // Not the centroid's u^2/6: the tilt's share through the rows' height.
+  EXPECT_GT(a.var_d_mm2, 3.0 * u_mm * u_mm / 6.0);
+  EXPECT_NEAR(b.var_d_mm2, u_mm * u_mm, 1e-6 * u_mm * u_mm);
   bool said = false;
   for (const std::string& w : unplanned.warnings)
     said = said || w.find("one touch") != std::string::npos;
   EXPECT_TRUE(said);
   for (const std::string& w : planned.warnings)
     EXPECT_EQ(w.find("one touch"), std::string::npos) << w;
+}
+
+// A lab's CMM and program: its MPE, its own touch count (the plan's
+// pattern taken n / 6 times: twelve touches = every planned touch twice),
+// or the point list of the program `ttp plan cmm` wrote with other
+// options; each against simulated touches.
+TEST(DmisTest, TheLabsMpeAndTouchesSetAPlanesVariance) {
+  const PartSpec part;
+  const std::string text =
+      "FA(X1_1)=FEAT/PLANE,CART,78.7240,57.1963,-6,0.8090170,0.5877853,0\n";
+  const DmisResults dmis = ParseDmisOutput(text, "a");
+  const std::vector<NominalFeature> nominal = TestFeatures(part);
+  const NominalFeature& x11 = NominalOf(nominal, "X1-1");
+  const double reach_mm = x11.point.norm();
+
+  DmisImportOptions own;
+  own.cmm_mpe_um = 2.0;
+  own.cmm_mpe_l_mm = 250.0;
+  own.touches_per_plane = 12;
+  const DmisImport own_import = DmisToFeatureResults(dmis, part, own);
+  const FeatureResult& a = own_import.results.at(test::Fid("X1-1"));
+  const double u_mm = (2.0 + reach_mm / 250.0) * 1e-3 / std::sqrt(3.0);
+  std::vector<Eigen::Vector3d> twice = TouchesOf(plan::CmmPoints(part), "X1-1");
+  ASSERT_EQ(twice.size(), 6u);
+  twice.insert(twice.end(), twice.begin(), twice.end());
+  const PlaneScatter sim_own = SimulatedPlaneScatter(x11, twice, u_mm);
+  EXPECT_NEAR(a.var_d_mm2 / sim_own.var_d_mm2, 1.0, 0.04);
+  EXPECT_NEAR(a.var_angle_rad2 / sim_own.var_angle_rad2, 1.0, 0.04);
+
+  // The point list of a program planned with five columns and three rows.
+  plan::PlanOptions denser;
+  denser.facet_columns = 5;
+  denser.facet_rows = 3;
+  const std::vector<plan::PlannedPoint> points = plan::CmmPoints(part, denser);
+  ASSERT_EQ(TouchesOf(points, "X1-1").size(), 15u);
+  const std::filesystem::path csv = test::TestDir() / "cmm_points.csv";
+  WriteFileAtomic(csv, plan::PointsToCsv(points));
+  DmisImportOptions listed;
+  listed.points_csv_path = csv.string();
+  const DmisImport listed_import = DmisToFeatureResults(dmis, part, listed);
+  const FeatureResult& b = listed_import.results.at(test::Fid("X1-1"));
+  const double u0_mm = (1.2 + reach_mm / 400.0) * 1e-3 / std::sqrt(3.0);
+  const PlaneScatter sim_listed =
+      SimulatedPlaneScatter(x11, TouchesOf(points, "X1-1"), u0_mm);
+  EXPECT_NEAR(b.var_d_mm2 / sim_listed.var_d_mm2, 1.0, 0.04);
+  EXPECT_NEAR(b.var_angle_rad2 / sim_listed.var_angle_rad2, 1.0, 0.04);
+
+  // Options that cannot describe a CMM program, named as the user gave them.
+  for (auto bad :
+       {std::function<void(DmisImportOptions&)>(
+            [](DmisImportOptions& o) { o.touches_per_plane = 2; }),
+        std::function<void(DmisImportOptions&)>(
+            [](DmisImportOptions& o) { o.cmm_mpe_um = 0; }),
+        std::function<void(DmisImportOptions&)>([&](DmisImportOptions& o) {
+          o.touches_per_plane = 9;
+          o.points_csv_path = csv.string();
+        })}) {
+    DmisImportOptions o;
+    bad(o);
+    std::string why;
+    EXPECT_FALSE(o.IsValid(&why));
+    EXPECT_EQ(why.rfind("DmisImportOptions.", 0), 0u) << why;
+    EXPECT_THROW(DmisToFeatureResults(dmis, part, o), InputError);
+  }
 }
 
 // Units that do not fit the piece's size, a plane normal reported into the

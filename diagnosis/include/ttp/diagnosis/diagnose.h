@@ -20,6 +20,7 @@
 #include "ttp/geometry/config.h"
 #include "ttp/geometry/figures.h"
 #include "ttp/inspect/inspect.h"
+#include "ttp/inspect/measurement.h"
 #include "ttp/thermal/simulate.h"
 #include "ttp/thermal/talc_log.h"
 
@@ -49,7 +50,9 @@ MeasuredPiece MeasuredPieceFromInspection(
 // inspect::LoadMeasurement, then MeasuredPieceFromInspection: every
 // measurement file `ttp inspect` reads. Throws InputError naming the file
 // and field.
-MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path);
+MeasuredPiece LoadMeasuredPiece(
+    const Config& config, const std::string& path,
+    const inspect::MeasurementOptions& options = {});
 
 // Residual observations: measured - simulated, figures in um and facet
 // normal angles in urad, each with its covariance (the error budget:

@@ -57,10 +57,36 @@ struct DmisImport {
 // 180 deg (X1 measured as X2...): refused; no depth either way: a warning
 // (without the two points the half-turn is the CMM program's alignment).
 // Without all four datums the
-// reported frame is taken as W and a warning says so. Variances come from
-// the CMM's MPE (1.2 um + L/400, thesis 7.3) taken as a uniform bound over
-// the feature's extent.
-DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part);
+// reported frame is taken as W and a warning says so.
+//
+// A DMIS result carries no touch count, so a plane's variance comes from
+// the CMM's MPE and the touches the CMM program took (DmisImportOptions).
+struct DmisImportOptions {
+  // MPE = a + L / b (L = the feature's distance from W's origin, mm) bounds
+  // each touch; as a uniform bound its standard uncertainty is MPE/sqrt(3)
+  // (thesis 7.3: a = 1.2 um, b = 400 mm).
+  double cmm_mpe_um = 1.2;
+  double cmm_mpe_l_mm = 400.0;
+  // The touches of each plane: the point list of the program that measured
+  // the piece (`ttp plan cmm` writes it as cmm_points.csv); empty: the
+  // program `ttp plan cmm` writes with its default options.
+  std::string points_csv_path;
+  // A program of one's own: this many touches per plane (at least 3),
+  // spread evenly over each feature's extent; 0: from the point list.
+  int touches_per_plane = 0;
+  // Ceres style: false with "DmisImportOptions.<field>: <problem>".
+  bool IsValid(std::string* error) const;
+  void Validate() const;  // InputError naming the command-line option
+};
+
+// Planes are fitted by least squares through independent touches of
+// standard uncertainty u: the distance at their centroid has variance
+// u^2/n, the angle u^2 over the touches' squared spread along the direction
+// it tilts (a facet's horizontal tangent, a strip's X). A feature without
+// three planned touches counts as one touch (distance) and two at its ends
+// (angle).
+DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
+                                const DmisImportOptions& options = {});
 
 // ------------------------------------------------------------ programs
 

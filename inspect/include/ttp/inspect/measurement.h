@@ -18,6 +18,7 @@
 
 #include "ttp/geometry/config.h"
 #include "ttp/inspect/dial.h"
+#include "ttp/inspect/dmis.h"
 #include "ttp/inspect/inspect.h"
 #include "ttp/inspect/probe.h"
 
@@ -31,6 +32,7 @@ struct MeasurementOptions {
   InspectOptions inspect;  // cloud inspection rules, instrument
   DialOptions dial;        // gauge resolution and repeatability
   ProbeReadOptions probe;  // probe repeatability, point list
+  DmisImportOptions dmis;  // the CMM's MPE and touches behind DMIS planes
   // Ceres style: the first invalid member's message, prefixed
   // "MeasurementOptions.<member>." (the point reader's options check
   // themselves when read).
