@@ -64,7 +64,7 @@ void AddMeasurementOptions(CLI::App* cmd, MeasurementArgs* a) {
                       "default: the default plan");
   cmd->add_option("--cmm-touches", a->cmm_touches,
                   "DMIS results of a program of one's own: touches per plane, "
-                  "spread over each feature (instead of --cmm-points)")
+                  "in the pattern of ttp plan cmm (instead of --cmm-points)")
       ->excludes(points);
   cmd->add_option("--probe-repeatability-um", a->probe_repeatability_um,
                   "probe results: standard uncertainty of one touch (um)");

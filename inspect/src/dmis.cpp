@@ -363,10 +363,9 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
     }
   }
 
-  // The touches the CMM program took per feature, in W: its point list,
-  // or the program of `ttp plan cmm` (none when that program cannot be
-  // planned for this part: each plane then counts as one touch), or none
-  // when the touches per plane are given.
+  // The touches the CMM program took per feature, in W: its point list, or
+  // the program of `ttp plan cmm` (whose pattern --cmm-touches repeats;
+  // none when that program cannot be planned for this part).
   std::map<FeatureId, std::vector<Eigen::Vector3d>> touches;
   if (!options.points_csv_path.empty()) {
     for (const plan::PlannedPoint& q : plan::PointsFromCsv(

@@ -71,8 +71,9 @@ struct DmisImportOptions {
   // the piece (`ttp plan cmm` writes it as cmm_points.csv); empty: the
   // program `ttp plan cmm` writes with its default options.
   std::string points_csv_path;
-  // A program of one's own: this many touches per plane (at least 3),
-  // spread evenly over each feature's extent; 0: from the point list.
+  // A program of one's own: this many touches per plane (at least 3), in
+  // the pattern of `ttp plan cmm`'s program (its covariance times
+  // planned / n); 0: the point list's touches.
   int touches_per_plane = 0;
   // Ceres style: false with "DmisImportOptions.<field>: <problem>".
   bool IsValid(std::string* error) const;
@@ -80,11 +81,13 @@ struct DmisImportOptions {
 };
 
 // Planes are fitted by least squares through independent touches of
-// standard uncertainty u: the distance at their centroid has variance
-// u^2/n, the angle u^2 over the touches' squared spread along the direction
-// it tilts (a facet's horizontal tangent, a strip's X). A feature without
-// three planned touches counts as one touch (distance) and two at its ends
-// (angle).
+// standard uncertainty u, and read as test-piece.md section 4 says: a
+// facet's d is the plane's distance to W's origin (n . p), so the plane's
+// tilt counts in it through the touches' height; its angle is the normal's
+// turn about Z; a strip's depth is taken at (0, y_k), its angle along X.
+// A feature without three planned touches off one line counts as one touch
+// (or touches_per_plane) for the distance and two at its ends for the
+// angle.
 DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
                                 const DmisImportOptions& options = {});
 
