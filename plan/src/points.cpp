@@ -165,9 +165,9 @@ std::vector<PlannedPoint> PointsFromCsv(const std::string& text,
   for (const CsvRow& row : t.rows) {
     PlannedPoint p;
     const double idv = t.Number(row, id);
-    if (idv < 1 || idv != std::floor(idv))
+    if (!(idv >= 1 && idv <= 1e9) || idv != std::floor(idv))
       throw InputError(source, row.line, "point_id",
-                       "must be a whole number >= 1");
+                       "must be a whole number from 1 to 1e9");
     p.id = static_cast<int>(idv);
     const std::string name = t.Text(row, feature);
     const std::optional<FeatureId> parsed = FeatureId::Parse(name);
@@ -178,6 +178,14 @@ std::vector<PlannedPoint> PointsFromCsv(const std::string& text,
                            "Z1..Z9, TOP, FLANK+Y, FLANK-Y, CYL<diameter>)");
     p.feature = *parsed;
     p.point_w_mm = {t.Number(row, x), t.Number(row, y), t.Number(row, zc)};
+    for (int c = 0; c < 3; ++c)
+      if (!(std::abs(p.point_w_mm[c]) <= limits::kMaxCoordinateMm))
+        throw InputError(source, row.line,
+                         c == 0   ? "x_mm"
+                         : c == 1 ? "y_mm"
+                                  : "z_mm",
+                         "beyond " + std::to_string(limits::kMaxCoordinateMm) +
+                             " mm: not a point of the piece");
     const Eigen::Vector3d a(t.Number(row, i), t.Number(row, j),
                             t.Number(row, k));
     if (std::abs(a.norm() - 1.0) > 1e-6)

@@ -2,6 +2,9 @@
 
 #include <cmath>
 #include <map>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
@@ -135,6 +138,23 @@ TEST(PlanPointsTest, BadOptionsAndFilesNameTheField) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.field(), "feature");
     EXPECT_EQ(e.line(), 2);
+  }
+  // Values no plan writes, each refused naming its column (the fuzzer's
+  // point id of 2.2e73 once overflowed the int it is stored in).
+  const std::string header =
+      "point_id,feature,x_mm,y_mm,z_mm,approach_i,approach_j,approach_k\n";
+  for (const auto& [row, field] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"2.2e73,TOP,0,0,0,0,0,-1", "point_id"},
+           {"1,TOP,1e300,0,0,0,0,-1", "x_mm"},
+           {"1,TOP,0,0,-2e6,0,0,-1", "z_mm"}}) {
+    try {
+      PointsFromCsv(header + row + "\n", "p.csv");
+      ADD_FAILURE() << row;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.field(), field) << row;
+      EXPECT_EQ(e.line(), 2) << row;
+    }
   }
 }
 
