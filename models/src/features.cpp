@@ -168,7 +168,7 @@ void FeatureBank::SetState(const nlohmann::json& state) {
     Channel& c = channels_[k];
     c.history.clear();
     for (const auto& p : chans[k].at("history"))
-      c.history.emplace_back(p[0].get<double>(), p[1].get<double>());
+      c.history.emplace_back(p.at(0).get<double>(), p.at(1).get<double>());
     c.u_prev = chans[k].at("u_prev").get<std::vector<double>>();
     c.y = chans[k].at("y").get<std::vector<double>>();
     if (c.y.size() != regs_[k].taus_s.size() || c.u_prev.size() != c.y.size())

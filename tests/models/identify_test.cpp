@@ -197,6 +197,34 @@ TEST(Identify, ModelFileRoundTripAndContinuation) {
   EXPECT_FALSE(Predict(back, shifted).continued);
 }
 
+// A model file whose filter state is cut short (a delayed input's history
+// entry without its time or value): refused as a bad file, not read past
+// its end (the fuzzer's model file).
+TEST(Identify, RefusesAModelFileWithAShortFilterHistory) {
+  const TimeSeries ts = TwoNodeNetwork(5);
+  FitOptions o;
+  o.model = "fir";
+  const nlohmann::json good =
+      ModelToJson(FitThermalModel(ts, {"d_z"}, o, kSplit));
+  int delayed = 0;
+  for (const nlohmann::json& cut :
+       {nlohmann::json::array(), nlohmann::json::array({1.0})}) {
+    nlohmann::json bad = good;
+    bool changed = false;
+    for (auto& out : bad["outputs"])
+      for (auto& chan : out["end_state"]["regressors"])
+        if (!changed && !chan["history"].empty()) {
+          chan["history"][0] = cut;
+          changed = true;
+        }
+    ASSERT_TRUE(changed) << "no delayed regressor in the fir model";
+    ++delayed;
+    EXPECT_THROW(ModelFromJson(bad, "model.json"), InputError) << cut.dump();
+  }
+  EXPECT_EQ(delayed, 2);
+  EXPECT_NO_THROW(ModelFromJson(good, "model.json"));
+}
+
 TEST(Identify, RefusesModelWhoseInputIsMissing) {
   const TimeSeries ts = TwoNodeNetwork(9);
   FitOptions o;
