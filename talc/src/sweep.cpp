@@ -14,6 +14,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/json_text.h"
+#include "ttp/geometry/limits.h"
 #include "ttp/talc/regressors.h"
 #include "ttp/talc/replay.h"
 
@@ -73,6 +74,15 @@ Grid GridFromJson(const nlohmann::json& j, const std::string& source) {
         }
         g.keys.push_back(g_it.key());
         g.values.push_back(g_it.value());
+        // Checked as it grows: the product of the list lengths neither
+        // overflows nor sends the validation below through billions of
+        // points.
+        if (g.size() > static_cast<std::size_t>(limits::kMaxGridPoints))
+          throw InputError(
+              source, 0, f,
+              fmt::format("the grid has more than {} points (the product of "
+                          "its list lengths): split it into several sweeps",
+                          limits::kMaxGridPoints));
       }
     } else if (k == "limit_p99_um") {
       if (!v.is_number() || !(v.get<double>() > 0))

@@ -65,6 +65,21 @@ TEST(Grid, ABadFieldIsNamed) {
                                   "max_interval_s": [3600, 18000]}})"),
             "max_interval_s");
   EXPECT_EQ(field_of(R"({"grid": {"interval_s": [60]}})"), "(accepted)");
+  // Ten values of each of seven fields: 1e7 points, past the limit of 1e6,
+  // refused at the field that crosses it (keys in alphabetical order).
+  nlohmann::json big = {{"grid", nlohmann::json::object()}};
+  for (const char* field :
+       {"calibration_s", "forgetting_per_h", "interval_s", "max_interval_s",
+        "measuring_time_s", "ridge", "threshold_um"}) {
+    nlohmann::json values = nlohmann::json::array();
+    for (int i = 1; i <= 10; ++i)
+      values.push_back(std::string(field) == "forgetting_per_h" ? 1.0 - 0.01 * i
+                                                                : 1000.0 * i);
+    big["grid"][field] = values;
+  }
+  EXPECT_EQ(field_of(big.dump().c_str()), "grid.threshold_um");
+  big["grid"].erase("threshold_um");
+  EXPECT_EQ(GridFromJson(big, "g.json").size(), 1000000u);
 }
 
 TEST(Sweep, ParetoFrontAndBestSetsMatchABruteForce) {

@@ -33,6 +33,9 @@ constexpr double kMinSphereDistanceMm = 1.0;   // sphere_distance_mm
 constexpr double kMaxSphereDistanceMm = 10'000.0;
 constexpr double kMaxTemperatureC = 1000.0;          // |T_env|, |T_ws|, ...
 constexpr std::int64_t kMaxCycleId = 1'000'000'000;  // R-test cycle numbers
+// Points of a strategy sweep's grid (talc sweep): the thesis' 8,764
+// replays and far beyond; a grid past it is a typo, not a plan.
+constexpr std::int64_t kMaxGridPoints = 1'000'000;
 
 // Measured feature values (inspection JSON, DMIS, dial): a thermal test
 // piece deviates from nominal by micrometres; a feature more than this far
