@@ -2,7 +2,8 @@
 """How often `ttp check` judges a piece to disagree with its log: pieces
 and logs from generate.py (no effect, or `--effect E --size S` for the
 check's power), every measurement
-kind in turn (json, dial, dmis, cloud), compensation on and off in turn,
+kind in turn (json, dial, dmis with its CMM stated, cloud), compensation
+on and off in turn,
 R-tests every 300, 1800, 3600 and 7200 s. Prints per spacing the runs
 judged to disagree (exit 1) and the figures outside their own U.
 
@@ -43,7 +44,9 @@ def main():
                 shutil.rmtree(d, ignore_errors=True)
                 meas, log = generate.generate(d, a.effect, a.size, seed, spacing, r % 2 == 1, kind)
                 out = os.path.join(d, "check.json")
-                p = subprocess.run([a.ttp, "check", "--log", log, meas, "--json", out],
+                # A DMIS piece read with its CMM stated, as a lab states its own.
+                stated = generate.CMM_STATED_ARGS if kind == "dmis" else []
+                p = subprocess.run([a.ttp, "check", "--log", log, meas, "--json", out] + stated,
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
                 if p.returncode not in (0, 1):
                     errors += 1

@@ -693,6 +693,10 @@ def measure_cloud(sim, rng, n_points, fmt, pose_kind, wall_top_mm=1.0):
 # big-notch flanks, the 199 cylinder) are reported too, so that the frame
 # W can be found from them (test-piece.md section 5).
 DMIS_TOUCH_SIG_FRACTION_OF_MPE = 1.0 / 3.0
+# What a lab knows of this CMM, as ttp's options say it: ttp takes a touch's
+# u as MPE'/sqrt(3), so MPE' = sqrt(3)/3 (1.2 um + L/400) = 0.69 um + L/693;
+# 9 touches per plane, the fewest this CMM takes (facets).
+CMM_STATED_ARGS = ["--cmm-mpe-um", "0.69", "--cmm-mpe-l-mm", "693", "--cmm-touches", "9"]
 
 
 def _fit_plane(points):

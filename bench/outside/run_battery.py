@@ -139,13 +139,10 @@ PROBE_PLANS = {"probe": [], "probe-sparse": ["--facet-columns", "2", "--facet-ro
 
 # Options given to every `ttp diagnose` (--diagnose-args).
 DIAGNOSE_ARGS = []
-# What the lab knows of the generator's CMM (generate.py: each touch off by a
-# Gaussian error of a third of the MPE 1.2 um + L/400, 9 to 16 touches per
-# plane), in ttp's terms (a touch's u = MPE'/sqrt(3)): MPE' = sqrt(3)/3 of
-# it, a = 0.69 um, b = 693 mm; 9 touches, the fewest it takes. Given with
-# every DMIS run unless --dmis-cmm default (ttp's own program assumed).
-GENERATOR_CMM = ["--cmm-mpe-um", "0.69", "--cmm-mpe-l-mm", "693", "--cmm-touches", "9"]
-DMIS_ARGS = list(GENERATOR_CMM)
+# What the lab knows of the generator's CMM (generate.CMM_STATED_ARGS),
+# given with every DMIS run unless --dmis-cmm default (ttp's own program
+# assumed).
+DMIS_ARGS = list(generate.CMM_STATED_ARGS)
 
 
 def probe_points(ttp, work, kind="probe"):

@@ -185,44 +185,41 @@ DmisResults ParseDmisOutput(const std::string& text,
 
 namespace {
 
-// Variances of a plane fitted by least squares through touches of unit
-// variance, as the figures read it (test-piece.md section 4). Facets: the
-// touches' normal distance w = a + b s + c h (s along the horizontal
-// tangent, h = z), so d (the plane's distance to W's origin) is a and the
-// angle about Z is b: the tilt c counts in d through the touches' height
-// (d = n . p). Strips: z = a + b x + c (y - y_k): d is the depth at
-// (0, y_k), the angle b.
-struct PlaneCovariance {
-  bool valid = false;
-  double d_per_u2 = 0, angle_per_u2 = 0;
-};
-
-PlaneCovariance TouchedPlaneCovariance(
-    const NominalFeature& nominal,
-    const std::vector<Eigen::Vector3d>& touches) {
-  PlaneCovariance out;
-  if (touches.size() < 3) return out;
-  Eigen::MatrixXd a(static_cast<Eigen::Index>(touches.size()), 3);
-  const Eigen::Vector3d tangent =
-      Eigen::Vector3d(-nominal.normal.y(), nominal.normal.x(), 0).normalized();
-  for (size_t i = 0; i < touches.size(); ++i) {
-    const Eigen::Vector3d& q = touches[i];
-    const auto row = static_cast<Eigen::Index>(i);
-    if (nominal.kind == FeatureKind::kStrip)
-      a.row(row) << 1.0, q.x(), q.y() - nominal.point.y();
-    else
-      a.row(row) << 1.0, tangent.dot(q), q.z();
+// The covariance of a plane w = a + b s + c h fitted by least squares
+// through touches of unit variance at the coordinates (s, h) of each touch
+// in the plane (and nullopt when they lie on a line, which leaves the
+// plane undetermined across it).
+std::optional<Eigen::Matrix3d> UnitTouchCovariance(
+    const std::vector<Eigen::Vector2d>& sh) {
+  if (sh.size() < 3) return std::nullopt;
+  Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector2d& q : sh) {
+    const Eigen::Vector3d row(1.0, q.x(), q.y());
+    normal_matrix += row * row.transpose();
   }
-  const Eigen::Matrix3d normal_matrix = a.transpose() * a;
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(normal_matrix);
   const Eigen::Vector3d sv = svd.singularValues();
-  // Touches on a line leave the plane undetermined across it.
-  if (!(sv(2) > 1e-9 * sv(0))) return out;
-  const Eigen::Matrix3d cov = normal_matrix.inverse();
-  out.valid = true;
-  out.d_per_u2 = cov(0, 0);
-  out.angle_per_u2 = cov(1, 1);
-  return out;
+  if (!(sv(2) > 1e-9 * sv(0))) return std::nullopt;
+  return normal_matrix.inverse();
+}
+
+// A feature's plane as the figures read it (test-piece.md section 4).
+// Facets: the touches' normal distance w = a + b s + c h (s along the
+// horizontal tangent, h = z): d (the plane's distance to W's origin) is a
+// and the angle about Z is b, so the tilt c counts in d through the
+// touches' height (d = n . p). Strips and the top face: z = a + b x +
+// c (y - y_ref): a strip's depth at (0, y_k) is a, its angle b.
+std::vector<Eigen::Vector2d> PlaneCoordinates(
+    const NominalFeature& nominal,
+    const std::vector<Eigen::Vector3d>& touches) {
+  const Eigen::Vector3d tangent =
+      Eigen::Vector3d(-nominal.normal.y(), nominal.normal.x(), 0).normalized();
+  std::vector<Eigen::Vector2d> sh;
+  for (const Eigen::Vector3d& q : touches)
+    sh.push_back(nominal.kind == FeatureKind::kStrip
+                     ? Eigen::Vector2d(q.x(), q.y() - nominal.point.y())
+                     : Eigen::Vector2d(tangent.dot(q), q.z()));
+  return sh;
 }
 
 }  // namespace
@@ -387,6 +384,35 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
                : std::string("one touch")));
     }
   }
+  // A touch's standard uncertainty: MPE = a + L/b as a uniform bound.
+  const auto touch_u_mm = [&](double reach_mm) {
+    return (options.cmm_mpe_um + reach_mm / options.cmm_mpe_l_mm) * 1e-3 /
+           std::sqrt(3.0);
+  };
+  // A program of one's own: n touches in the plan's pattern.
+  const auto own_program_scale = [&](size_t planned) {
+    return options.touches_per_plane > 0
+               ? static_cast<double>(planned) / options.touches_per_plane
+               : 1.0;
+  };
+  // W's Z is the top face's normal: its tilt about X, from the top face's
+  // touches, moves a strip's depth at (0, y_k) by tilt * y_k (W's origin
+  // lies on the datum circle's axis).
+  double top_tilt_var_rad2 = 0;
+  if (out.aligned_from_datums) {
+    auto top = touches.find(FeatureId::Top());
+    if (top != touches.end()) {
+      std::vector<Eigen::Vector2d> xy;
+      double reach_mm = 0;
+      for (const Eigen::Vector3d& q : top->second) {
+        xy.emplace_back(q.x(), q.y());
+        reach_mm += q.norm() / static_cast<double>(top->second.size());
+      }
+      if (const auto cov = UnitTouchCovariance(xy))
+        top_tilt_var_rad2 = std::pow(touch_u_mm(reach_mm), 2) * (*cov)(2, 2) *
+                            own_program_scale(top->second.size());
+    }
+  }
   std::vector<std::string> reversed;
   for (const NominalFeature& nominal : TestFeatures(part)) {
     auto it = by_id.find(nominal.Key());
@@ -418,22 +444,16 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
               "piece's size");
     // The variance of a least-squares plane through independent touches
     // (DmisImportOptions).
-    const double reach_mm = nominal.point.norm();
-    const double u_mm = (options.cmm_mpe_um + reach_mm / options.cmm_mpe_l_mm) *
-                        1e-3 / std::sqrt(3.0);
+    const double u_mm = touch_u_mm(nominal.point.norm());
     auto planned = touches.find(nominal.Key());
-    const PlaneCovariance cov =
+    const std::optional<Eigen::Matrix3d> cov =
         planned == touches.end()
-            ? PlaneCovariance{}
-            : TouchedPlaneCovariance(nominal, planned->second);
-    if (cov.valid) {
-      // A program of one's own: n touches in the plan's pattern.
-      const double scale = options.touches_per_plane > 0
-                               ? static_cast<double>(planned->second.size()) /
-                                     options.touches_per_plane
-                               : 1.0;
-      r.var_d_mm2 = u_mm * u_mm * cov.d_per_u2 * scale;
-      r.var_angle_rad2 = u_mm * u_mm * cov.angle_per_u2 * scale;
+            ? std::nullopt
+            : UnitTouchCovariance(PlaneCoordinates(nominal, planned->second));
+    if (cov) {
+      const double scale = own_program_scale(planned->second.size());
+      r.var_d_mm2 = u_mm * u_mm * (*cov)(0, 0) * scale;
+      r.var_angle_rad2 = u_mm * u_mm * (*cov)(1, 1) * scale;
     } else {
       // No pattern: the distance as from n touches (one by default), the
       // angle as from two at the feature's ends.
@@ -443,6 +463,8 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
       r.var_d_mm2 = u_mm * u_mm / n;
       r.var_angle_rad2 = 2.0 * u_mm * u_mm / (n * extent_mm * extent_mm);
     }
+    if (nominal.kind == FeatureKind::kStrip)
+      r.var_d_mm2 += top_tilt_var_rad2 * nominal.point.y() * nominal.point.y();
     r.points = 0;
     out.results[nominal.Key()] = r;
   }

@@ -254,6 +254,61 @@ TEST(DmisTest, APlaneCountsThePlannedTouchesOrOneWhenNoneCanBePlanned) {
     EXPECT_EQ(w.find("one touch"), std::string::npos) << w;
 }
 
+// W's Z is the top face's normal, fitted from a few touches: its tilt about
+// X moves a strip's depth at (0, y_k) by tilt * y_k. The share a strip's
+// variance gains with the datums reported (against the same strip in the
+// reported frame) is y_k^2 times the variance of that tilt, here simulated:
+// the top face's planned touches off by Gaussian errors of u, a plane
+// fitted to them by orthogonal regression (SVD), its slope along Y.
+TEST(DmisTest, AStripsDepthCarriesTheTopFacesTilt) {
+  const PartSpec part;
+  const std::vector<NominalFeature> nominal = TestFeatures(part);
+  const NominalFeature& z1 = NominalOf(nominal, "Z1");
+  const std::string strip = fmt::format(
+      "FA(Z1)=FEAT/PLANE,CART,30,{:.6f},-12.1,0,0,1\n", z1.point.y());
+  const std::string datums =
+      "FA(TOP)=FEAT/PLANE,CART,30,40,0,0,0,1\n"
+      "FA(FLANK_PY)=FEAT/PLANE,CART,20,53,-5,0,-1,0\n"
+      "FA(FLANK_NY)=FEAT/PLANE,CART,-10,-53,-7,0,1,0\n"
+      "FA(CYL199)=FEAT/CIRCLE,CART,0,0,-15,0,0,1,199.0\n";
+  const DmisImport with =
+      DmisToFeatureResults(ParseDmisOutput(datums + strip, "w.dmo"), part);
+  const DmisImport without =
+      DmisToFeatureResults(ParseDmisOutput(strip, "r.dmo"), part);
+  ASSERT_TRUE(with.aligned_from_datums);
+  ASSERT_FALSE(without.aligned_from_datums);
+  const double gained = with.results.at(test::Fid("Z1")).var_d_mm2 -
+                        without.results.at(test::Fid("Z1")).var_d_mm2;
+
+  std::vector<Eigen::Vector3d> top;
+  double reach_mm = 0;
+  for (const plan::PlannedPoint& q : plan::CmmPoints(part))
+    if (q.feature == FeatureId::Top()) top.push_back(q.point_w_mm);
+  ASSERT_GE(top.size(), 3u);
+  for (const Eigen::Vector3d& q : top) reach_mm += q.norm() / top.size();
+  const double u_mm = (1.2 + reach_mm / 400.0) * 1e-3 / std::sqrt(3.0);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, u_mm);
+  double s = 0, ss = 0;
+  const int trials = 20000;
+  for (int k = 0; k < trials; ++k) {
+    Eigen::MatrixXd q(static_cast<Eigen::Index>(top.size()), 3);
+    for (size_t i = 0; i < top.size(); ++i)
+      q.row(static_cast<Eigen::Index>(i)) =
+          (top[i] + noise(rng) * Eigen::Vector3d::UnitZ()).transpose();
+    const Eigen::RowVector3d c = q.colwise().mean();
+    const Eigen::MatrixXd centred = q.rowwise() - c;
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
+    const Eigen::Vector3d n = svd.matrixV().col(2);
+    const double slope = -n.y() / n.z();  // dz/dy
+    s += slope, ss += slope * slope;
+  }
+  const double var_tilt = ss / trials - (s / trials) * (s / trials);
+  const double y = z1.point.y();
+  ASSERT_GT(std::abs(y), 20.0);
+  EXPECT_NEAR(gained / (y * y * var_tilt), 1.0, 0.05);
+}
+
 // A lab's CMM and program: its MPE, its own touch count (the plan's
 // pattern taken n / 6 times: twelve touches = every planned touch twice),
 // or the point list of the program `ttp plan cmm` wrote with other
