@@ -1,10 +1,9 @@
 #!/usr/bin/env python3
 """How often `ttp check` judges a piece to disagree with its log: pieces
 and logs from generate.py (no effect, or `--effect E --size S` for the
-check's power), every measurement
-kind in turn (json, dial, dmis with its CMM stated, cloud), compensation
-on and off in turn,
-R-tests every 300, 1800, 3600 and 7200 s. Prints per spacing the runs
+check's power), every measurement kind in turn (json, dial and dmis with
+their instrument stated, cloud), compensation on and off in turn, R-tests
+every 300, 1800, 3600 and 7200 s. Prints per spacing the runs
 judged to disagree (exit 1) and the figures outside their own U.
 
 Usage: check_rate.py [--ttp build/app/ttp] [--runs 16] [--seed 11] [--effect E --size S]
@@ -45,7 +44,8 @@ def main():
                 meas, log = generate.generate(d, a.effect, a.size, seed, spacing, r % 2 == 1, kind)
                 out = os.path.join(d, "check.json")
                 # A DMIS piece read with its CMM stated, as a lab states its own.
-                stated = generate.CMM_STATED_ARGS if kind == "dmis" else []
+                stated = {"dmis": generate.CMM_STATED_ARGS,
+                          "dial": generate.DIAL_STATED_ARGS}.get(kind, [])
                 p = subprocess.run([a.ttp, "check", "--log", log, meas, "--json", out] + stated,
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
                 if p.returncode not in (0, 1):

@@ -697,6 +697,9 @@ DMIS_TOUCH_SIG_FRACTION_OF_MPE = 1.0 / 3.0
 # u as MPE'/sqrt(3), so MPE' = sqrt(3)/3 (1.2 um + L/400) = 0.69 um + L/693;
 # 9 touches per plane, the fewest this CMM takes (facets).
 CMM_STATED_ARGS = ["--cmm-mpe-um", "0.69", "--cmm-mpe-l-mm", "693", "--cmm-touches", "9"]
+# What a lab knows of this dial gauge (measure(): readings off by
+# SIG_DIAL_UM, written to 0.1 um).
+DIAL_STATED_ARGS = ["--dial-resolution-um", "0.1", "--dial-repeatability-um", "%g" % SIG_DIAL_UM]
 
 
 def _fit_plane(points):
