@@ -237,7 +237,8 @@ TEST(DmisTest, APlaneCountsThePlannedTouchesOrOneWhenNoneCanBePlanned) {
       DmisToFeatureResults(ParseDmisOutput(text, "a"), narrow);
   const FeatureResult& a = planned.results.at(test::Fid("X1-1"));
   const FeatureResult& b = unplanned.results.at(test::Fid("X1-1"));
-  const NominalFeature& x11 = NominalOf(TestFeatures(part), "X1-1");
+  const std::vector<NominalFeature> nominal = TestFeatures(part);
+  const NominalFeature& x11 = NominalOf(nominal, "X1-1");
   const double u_mm = (1.2 + x11.point.norm() / 400.0) * 1e-3 / std::sqrt(3.0);
   const PlaneScatter sim = SimulatedPlaneScatter(
       x11, TouchesOf(plan::CmmPoints(part), "X1-1"), u_mm);
