@@ -24,6 +24,23 @@ double Seconds(std::chrono::steady_clock::time_point a) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - a)
       .count();
 }
+
+// RMS of output j's measured minus predicted over the rows with t_s in
+// [from_s, to_s) where it is measured.
+double RmsOver(const TimeSeries& ts, int j, const Eigen::VectorXd& predicted,
+               double from_s, double to_s) {
+  double sum = 0;
+  int n = 0;
+  for (size_t i = 0; i < ts.rows(); ++i) {
+    const auto row = static_cast<Eigen::Index>(i);
+    if (ts.t_s[i] >= from_s && ts.t_s[i] < to_s &&
+        std::isfinite(ts.outputs_um(row, j))) {
+      const double r = ts.outputs_um(row, j) - predicted(row);
+      sum += r * r, ++n;
+    }
+  }
+  return std::sqrt(sum / std::max(1, n));
+}
 }  // namespace
 
 int main() {
@@ -76,16 +93,7 @@ int main() {
     FitOptions ols = o;
     ols.ridge = {0};
     auto rms = [&](int j, const Eigen::VectorXd& p) {
-      double s = 0;
-      int n = 0;
-      for (size_t i = 0; i < part.rows(); ++i)
-        if (part.t_s[i] >= split.first &&
-            std::isfinite(part.outputs_um(static_cast<Eigen::Index>(i), j))) {
-          const double r = part.outputs_um(static_cast<Eigen::Index>(i), j) -
-                           p(static_cast<Eigen::Index>(i));
-          s += r * r, ++n;
-        }
-      return std::sqrt(s / std::max(1, n));
+      return RmsOver(part, j, p, split.first, 1e300);
     };
     t0 = std::chrono::steady_clock::now();
     for (size_t j = 0; j < part.output_names.size(); ++j) {
@@ -218,15 +226,7 @@ int main() {
     FitOptions ols = o;
     ols.ridge = {0};
     auto rms = [&](int j, const Eigen::VectorXd& p) {
-      double sum = 0;
-      int n = 0;
-      for (size_t i = 0; i < ts.rows(); ++i)
-        if (ts.t_s[i] >= b.from_s && ts.t_s[i] < b.to_s) {
-          const double r = ts.outputs_um(static_cast<Eigen::Index>(i), j) -
-                           p(static_cast<Eigen::Index>(i));
-          sum += r * r, ++n;
-        }
-      return std::sqrt(sum / std::max(1, n));
+      return RmsOver(ts, j, p, b.from_s, b.to_s);
     };
     std::string none, st, lag, au;
     for (size_t j = 0; j < ts.output_names.size(); ++j) {

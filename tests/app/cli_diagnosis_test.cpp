@@ -144,6 +144,34 @@ TEST(CliDiagnosis, TwinJsonAndXyzMeasurements) {
   EXPECT_NE(bad.exit_code, 0);
 }
 
+// How the piece was measured reaches the reader from `diagnose` and
+// `report` as from `inspect`: run-c's probe results are read against the
+// plan given with --probe-points (here one of two columns per facet, not
+// the plan they were taken with: refused naming the probe file), and a
+// CMM program option that cannot be is refused naming the option.
+TEST(CliDiagnosis, TheMeasurementOptionsReachTheReader) {
+  const fs::path dir = test::TestDir("diag_options");
+  const std::string c = (kSamples / "run-c").string();
+  const std::string log = " --log " + c + "/talc.csv ";
+  auto r = test::RunTtp("diagnose" + log + c + "/probe.csv");
+  EXPECT_NE(r.exit_code, 2) << r.output;
+  const std::string plan = (dir / "two_columns.csv").string();
+  ASSERT_EQ(test::RunTtp("plan probe --facet-columns 2 -o " +
+                         (dir / "p.nc").string() + " --points-csv " + plan)
+                .exit_code,
+            0);
+  for (const std::string command : {"diagnose" + log, "report" + log}) {
+    const std::string out =
+        command[0] == 'r' ? " -o " + (dir / "r.html").string() : "";
+    r = test::RunTtp(command + c + "/probe.csv --probe-points " + plan + out);
+    EXPECT_EQ(r.exit_code, 2) << command << r.output;
+    EXPECT_NE(r.output.find("probe.csv:"), std::string::npos) << r.output;
+    r = test::RunTtp(command + c + "/piece.dmo --cmm-touches 2" + out);
+    EXPECT_EQ(r.exit_code, 2) << command << r.output;
+    EXPECT_NE(r.output.find("--cmm-touches"), std::string::npos) << r.output;
+  }
+}
+
 TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
   const fs::path dir = test::TestDir("diag_bad");
   const std::string a = (kSamples / "run-a").string();
