@@ -51,33 +51,10 @@ void PrintResolution(const RTestArgs& a, const RTestGeometry& base) {
 }
 
 void Evaluate(const RTestArgs& a, const RTestGeometry& g) {
-  const CsvTable t = ParseCsv(ReadTextFile(a.spheres), a.spheres);
-  const int c_cycle = t.Require("cycle"), c_deg = t.Require("c_deg");
-  const int cx = t.Require("x"), cy = t.Require("y"), cz = t.Require("z");
-  std::map<long, std::vector<SphereMeasurement>> cycles;
-  std::vector<long> order;
-  for (const CsvRow& row : t.rows) {
-    const double cycle = t.Number(row, c_cycle);
-    if (cycle != std::floor(cycle)) {
-      throw InputError(a.spheres, row.line, "cycle", "must be an integer");
-    }
-    if (std::abs(cycle) > static_cast<double>(limits::kMaxCycleId)) {
-      throw InputError(a.spheres, row.line, "cycle",
-                       t.Text(row, c_cycle) + " is beyond the limit of " +
-                           std::to_string(limits::kMaxCycleId));
-    }
-    const long id = static_cast<long>(cycle);
-    if (!cycles.count(id)) order.push_back(id);
-    cycles[id].push_back({t.Number(row, c_deg) * M_PI / 180,
-                          Eigen::Vector3d(t.Number(row, cx), t.Number(row, cy),
-                                          t.Number(row, cz))});
-  }
-  if (order.size() < 2) {
-    throw InputError(a.spheres, 0, "cycle",
-                     "need a reference cycle and at least one more");
-  }
-  const auto& reference = cycles[order.front()];
-  nlohmann::json out = {{"reference_cycle", order.front()},
+  const std::vector<SphereCycle> cycles =
+      ParseSphereMeasurements(ReadTextFile(a.spheres), a.spheres);
+  const std::vector<SphereMeasurement>& reference = cycles.front().positions;
+  nlohmann::json out = {{"reference_cycle", cycles.front().cycle},
                         {"sphere_distance_mm", g.sphere_distance_mm},
                         {"sphere_height_mm", g.sphere_height_mm},
                         {"cycles", nlohmann::json::array()}};
@@ -87,12 +64,12 @@ void Evaluate(const RTestArgs& a, const RTestGeometry& g) {
         " {:>9}", std::string(kErrorNames[i]) + "[" + kUnits[i] + "]");
   }
   TextOut(a.json_out) << fmt::format(" {:>9}\n", "rms[um]");
-  for (size_t k = 1; k < order.size(); ++k) {
-    const RTestSolution s = SolveRTest(g, reference, cycles[order[k]]);
+  for (size_t k = 1; k < cycles.size(); ++k) {
+    const RTestSolution s = SolveRTest(g, reference, cycles[k].positions);
     const auto e = s.errors.ToMicro();
-    nlohmann::json row = {{"cycle", order[k]},
+    nlohmann::json row = {{"cycle", cycles[k].cycle},
                           {"rms_residual_um", s.rms_residual_mm * 1e3}};
-    TextOut(a.json_out) << fmt::format("{:>6}", order[k]);
+    TextOut(a.json_out) << fmt::format("{:>6}", cycles[k].cycle);
     for (int i = 0; i < 7; ++i) {
       row[kErrorNames[i]] = e[i];
       TextOut(a.json_out) << fmt::format(" {:>9.3f}", e[i]);

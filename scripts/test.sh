@@ -3,7 +3,7 @@
 # whole suite again under AddressSanitizer and UndefinedBehaviorSanitizer,
 # then every fuzz target for a bounded time (docs/ARCHITECTURE.md, "CI").
 #   TTP_TEST_STAGES  which stages to run (default "release sanitize fuzz")
-#   FUZZ_SECONDS     seconds per fuzz target (default 25; 14 targets)
+#   FUZZ_SECONDS     seconds per fuzz target (default 25; 15 targets)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 stages="${TTP_TEST_STAGES:-release sanitize fuzz}"

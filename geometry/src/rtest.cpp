@@ -2,9 +2,12 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <map>
 
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/frames.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp {
 
@@ -49,6 +52,48 @@ Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& a,
   return scale.cwiseInverse().asDiagonal() * pinv_scaled;
 }
 }  // namespace
+
+std::vector<SphereCycle> ParseSphereMeasurements(const std::string& text,
+                                                 const std::string& source) {
+  const CsvTable t = ParseCsv(text, source);
+  const int c_cycle = t.Require("cycle"), c_deg = t.Require("c_deg");
+  const int cx = t.Require("x"), cy = t.Require("y"), cz = t.Require("z");
+  std::vector<SphereCycle> out;
+  std::map<long, size_t> index;
+  for (const CsvRow& row : t.rows) {
+    const double cycle = t.Number(row, c_cycle);
+    if (cycle != std::floor(cycle))
+      throw InputError(source, row.line, "cycle", "must be an integer");
+    if (std::abs(cycle) > static_cast<double>(limits::kMaxCycleId))
+      throw InputError(source, row.line, "cycle",
+                       t.Text(row, c_cycle) + " is beyond the limit of " +
+                           std::to_string(limits::kMaxCycleId));
+    const double deg = t.Number(row, c_deg);
+    if (std::abs(deg) > 3600.0)
+      throw InputError(
+          source, row.line, "c_deg",
+          t.Text(row, c_deg) + " deg is beyond +-3600 deg: not a table angle");
+    Eigen::Vector3d centre;
+    const int columns[3] = {cx, cy, cz};
+    for (int k = 0; k < 3; ++k) {
+      centre[k] = t.Number(row, columns[k]);
+      if (std::abs(centre[k]) > limits::kMaxProgramCoordinate)
+        throw InputError(source, row.line,
+                         t.columns[static_cast<size_t>(columns[k])],
+                         t.Text(row, columns[k]) + " mm is beyond " +
+                             std::to_string(limits::kMaxProgramCoordinate) +
+                             " mm: not a position on a machine");
+    }
+    const long id = static_cast<long>(cycle);
+    auto [it, fresh] = index.emplace(id, out.size());
+    if (fresh) out.push_back({id, {}});
+    out[it->second].positions.push_back({deg * M_PI / 180, centre});
+  }
+  if (out.size() < 2)
+    throw InputError(source, 0, "cycle",
+                     "need a reference cycle and at least one more");
+  return out;
+}
 
 RTestSolution SolveRTest(const RTestGeometry& g,
                          const std::vector<SphereMeasurement>& reference,

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "ttp/geometry/error.h"
 
@@ -57,6 +60,40 @@ TEST(RTest, TooFewAnglesIsAnError) {
   std::vector<SphereMeasurement> two = {{0, {160, 0, 80}},
                                         {M_PI, {-160, 0, 80}}};
   EXPECT_THROW(SolveRTest(g, two, two), InputError);
+}
+
+// An R-test file: cycles in the order the file first names them, each
+// position's angle and centre; values no machine reports refused naming the
+// line and the column.
+TEST(RTest, SphereFileCyclesInFileOrderAndValuesWithinLimits) {
+  const std::string head = "cycle,c_deg,x,y,z\n";
+  const std::vector<SphereCycle> cycles = ParseSphereMeasurements(
+      head +
+          "7,0,160,0,80\n7,90,0,-160,80\n3,0,160.001,0,80\n"
+          "3,90,0,-160.002,80\n",
+      "s.csv");
+  ASSERT_EQ(cycles.size(), 2u);
+  EXPECT_EQ(cycles[0].cycle, 7);
+  EXPECT_EQ(cycles[1].cycle, 3);
+  ASSERT_EQ(cycles[1].positions.size(), 2u);
+  EXPECT_NEAR(cycles[1].positions[1].c_rad, M_PI / 2, 1e-15);
+  EXPECT_EQ(cycles[1].positions[1].centre_mm.y(), -160.002);
+  for (const auto& [row, field] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"1,0,1e300,0,80", "x"},
+           {"1,0,0,0,-2e5", "z"},
+           {"1,1e9,0,0,80", "c_deg"},
+           {"1.5,0,0,0,80", "cycle"}}) {
+    try {
+      ParseSphereMeasurements(head + "0,0,160,0,80\n" + row + "\n", "s.csv");
+      ADD_FAILURE() << row;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.field(), field) << row;
+      EXPECT_EQ(e.line(), 3) << row;
+    }
+  }
+  EXPECT_THROW(ParseSphereMeasurements(head + "0,0,160,0,80\n", "s.csv"),
+               InputError);  // one cycle: nothing to compare
 }
 
 }  // namespace

@@ -26,6 +26,19 @@ struct SphereMeasurement {
   Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
 };
 
+// The sphere centres of an R-test file (CSV `cycle,c_deg,x,y,z`, machine
+// frame, mm; `ttp rtest`), one entry per cycle in the order the file first
+// names them, positions in file order. InputError naming the line and the
+// column for a cycle that is not a whole number within limits::kMaxCycleId,
+// an angle beyond +-3600 deg, a coordinate beyond
+// limits::kMaxProgramCoordinate, or fewer than two cycles.
+struct SphereCycle {
+  long cycle = 0;
+  std::vector<SphereMeasurement> positions;
+};
+std::vector<SphereCycle> ParseSphereMeasurements(const std::string& text,
+                                                 const std::string& source);
+
 // Nominal machine position of the sphere centre at table angle c.
 Eigen::Vector3d NominalSpherePosition(const RTestGeometry& g, double c_rad);
 
