@@ -480,12 +480,74 @@ void RunShard(const fs::path& dir, int k, int threads,
   WriteFileAtomic(dir / fmt::format("result-{}.json", k), out.dump() + "\n");
 }
 
+namespace {
+
+// A point of a shard's result file, as MergeSweep reads it: its index in
+// the grid (whole, in range, not given before), its status and, for an
+// evaluated point, the figures the Pareto fronts and best sets use, with
+// the same outputs as every other evaluated point. A file edited by hand
+// or from another plan is bad input, named with the point.
+void CheckShardPoint(const nlohmann::json& p, const std::string& file,
+                     std::size_t j, std::vector<char>& seen,
+                     std::vector<std::string>& names) {
+  const std::string where = fmt::format("points[{}]", j);
+  const auto bad = [&](const std::string& field, const std::string& problem) {
+    return InputError(file, 0, where + field, problem);
+  };
+  if (!p.is_object()) throw bad("", "not a sweep point (a JSON object)");
+  if (!p.contains("index") || !p["index"].is_number_unsigned() ||
+      p["index"].get<std::size_t>() >= seen.size())
+    throw bad(".index", fmt::format("not a point of this grid (0 to {})",
+                                    seen.size() - 1));
+  const std::size_t i = p["index"].get<std::size_t>();
+  if (seen[i]) throw bad(".index", fmt::format("point {} is given twice", i));
+  seen[i] = 1;
+  if (!p.contains("status") || !p["status"].is_string())
+    throw bad(".status", "missing");
+  if (p["status"] != "ok") return;
+  for (const char* key : {"p99_mean_um", "rms_mean_um", "q_prod_percent"})
+    if (!p.contains(key) || !p[key].is_number())
+      throw bad(std::string(".") + key, "missing or not a number");
+  if (!p.contains("outputs") || !p["outputs"].is_array() ||
+      p["outputs"].empty())
+    throw bad(".outputs", "missing or empty");
+  std::vector<std::string> these;
+  for (const auto& o : p["outputs"]) {
+    if (!o.is_object() || !o.contains("name") || !o["name"].is_string() ||
+        !o.contains("p99_um") || !o["p99_um"].is_number())
+      throw bad(".outputs", "an output without its name or p99_um");
+    these.push_back(o["name"].get<std::string>());
+  }
+  if (names.empty()) names = these;
+  if (these != names)
+    throw bad(".outputs", "other outputs than the other points (another log?)");
+}
+
+}  // namespace
+
 nlohmann::json MergeShards(const fs::path& dir) {
-  const nlohmann::json plan = ReadJsonFile(dir / "plan.json");
-  const int shards = plan.at("shards").get<int>();
-  const Grid grid =
-      GridFromJson(plan.at("grid"), plan.at("grid_source").get<std::string>());
+  const fs::path plan_path = dir / "plan.json";
+  const nlohmann::json plan = ReadJsonFile(plan_path);
+  int shards = 0;
+  Grid grid;
+  std::string log_name;
+  try {
+    shards = plan.at("shards").get<int>();
+    grid = GridFromJson(plan.at("grid"),
+                        plan.at("grid_source").get<std::string>());
+    log_name = plan.at("log_name").get<std::string>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(
+        plan_path.string(), 0, "",
+        std::string("not a sweep plan of ttp talc sweep --plan: ") + e.what());
+  }
+  if (shards < 1 || static_cast<std::size_t>(shards) > grid.size())
+    throw InputError(
+        plan_path.string(), 0, "shards",
+        fmt::format("{} shards for a grid of {} points", shards, grid.size()));
   std::vector<nlohmann::json> points;
+  std::vector<char> seen(grid.size(), 0);
+  std::vector<std::string> names;
   for (int k = 0; k < shards; ++k) {
     const fs::path f = dir / fmt::format("result-{}.json", k);
     if (!fs::exists(f))
@@ -494,10 +556,25 @@ nlohmann::json MergeShards(const fs::path& dir) {
                                    "sweep --run-shard {} {}`)",
                                    k, k, dir.string()));
     const nlohmann::json result = ReadJsonFile(f);
-    for (const auto& p : result.at("points")) points.push_back(p);
+    if (!result.is_object() || !result.contains("shard") ||
+        result["shard"] != k || !result.contains("points") ||
+        !result["points"].is_array())
+      throw InputError(
+          f.string(), 0, "shard",
+          fmt::format("not the result of shard {} of this plan", k));
+    std::size_t j = 0;
+    for (const auto& p : result["points"]) {
+      CheckShardPoint(p, f.string(), j++, seen, names);
+      points.push_back(p);
+    }
   }
-  return MergeSweep(grid, plan.at("log_name").get<std::string>(),
-                    std::move(points));
+  for (std::size_t i = 0; i < seen.size(); ++i)
+    if (!seen[i])
+      throw InputError(dir.string(), 0, "points",
+                       fmt::format("grid point {} is in no shard's result: a "
+                                   "result file of another plan?",
+                                   i));
+  return MergeSweep(grid, log_name, std::move(points));
 }
 
 }  // namespace ttp::talc

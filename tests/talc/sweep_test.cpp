@@ -6,7 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <functional>
 #include <set>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "synthetic_series.h"
 #include "test_dir.h"
@@ -161,6 +165,43 @@ TEST(Sweep, ShardedRunsMergeToTheInProcessResultByteForByte) {
       });
     EXPECT_EQ(MergeShards(plan_dir).dump(2), in_process) << shards;
   }
+  // A shard's result damaged or from another plan: bad input naming the
+  // file and the point, never a merged result (nor an internal error).
+  const auto plan_dir = dir / "plan3";
+  const auto result = plan_dir / "result-0.json";
+  const nlohmann::json good = nlohmann::json::parse(ReadTextFile(result));
+  ASSERT_EQ(good["points"][0]["status"], "ok");
+  const std::vector<
+      std::pair<std::function<void(nlohmann::json&)>, std::string>>
+      damage = {
+          {[](nlohmann::json& d) { d["points"][0]["index"] = "x"; },
+           "points[0].index"},
+          {[](nlohmann::json& d) { d["points"][0]["index"] = 1000000; },
+           "points[0].index"},
+          {[](nlohmann::json& d) { d["points"][0].erase("p99_mean_um"); },
+           "points[0].p99_mean_um"},
+          {[](nlohmann::json& d) {
+             d["points"][0]["outputs"][0].erase("name");
+           },
+           "points[0].outputs"},
+          {[](nlohmann::json& d) { d["points"].push_back(d["points"][0]); },
+           "points[" + std::to_string(good["points"].size()) + "].index"},
+          {[](nlohmann::json& d) { d["points"].erase(0); }, "points"},
+          {[](nlohmann::json& d) { d["shard"] = 2; }, "shard"},
+      };
+  for (const auto& [change, field] : damage) {
+    nlohmann::json bad = good;
+    change(bad);
+    WriteFileAtomic(result, bad.dump());
+    try {
+      MergeShards(plan_dir);
+      ADD_FAILURE() << "merged with " << field << " damaged";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.field(), field);
+    }
+  }
+  WriteFileAtomic(result, good.dump());
+  EXPECT_EQ(MergeShards(plan_dir).dump(2), in_process);
 }
 
 }  // namespace
