@@ -21,6 +21,12 @@
 namespace ttp::gcode {
 namespace {
 
+// A macro variable's number from its digits (#5061: "5061"); -1 for more
+// digits than any FANUC variable has (std::stoi would throw out_of_range).
+int VariableNumber(const std::string& digits) {
+  return digits.size() > 6 ? -1 : std::stoi(digits);
+}
+
 // ---- read ------------------------------------------------------------------
 
 struct Word {
@@ -76,7 +82,7 @@ class Lexer {
           Fail("IF",
                "only IF [ABS[#50xx-<nominal>] GT <window>] THEN #3000=<n> "
                "(touch check) is supported");
-        const int var = std::stoi(m[1]);
+        const int var = VariableNumber(m[1]);
         if (var < 5061 || var > 5068)
           Fail("IF", "the touch check must test a skip position #5061..#5068");
         block.touch_check = true;
@@ -96,7 +102,7 @@ class Lexer {
         for (auto it =
                  std::sregex_iterator(body.begin(), body.end(), kVariable);
              it != std::sregex_iterator(); ++it) {
-          const int var = std::stoi((*it)[1]);
+          const int var = VariableNumber((*it)[1]);
           if (((var < 5061 || var > 5068) && var != 3011 && var != 3012) ||
               !(*it)[2].matched)
             Fail("DPRNT",

@@ -186,6 +186,15 @@ TEST(ReaderTest, BadProgramsNameLineAndWord) {
       {Dialect::kFanuc, "T222222222228.\n", 1, "T222222222228."},
       {Dialect::kLinuxCnc, "M3 $99999999999 S100\n", 1, "$99999999999"},
       {Dialect::kFanuc, "M30000000000\n", 1, "M30000000000"},
+      // A macro variable of 127 digits in a DPRNT (the fuzzer's: std::stoi
+      // threw out_of_range past the reader).
+      {Dialect::kFanuc,
+       "DPRNT[C*C#22222222222222222222222222222222222222222222222222222222222"
+       "22222222222222222222222222222222222222222222222222222222222222222222"
+       ".C#.5*B#.001]\n",
+       1, "DPRNT"},
+      {Dialect::kFanuc, "IF[ABS[#99999999999999-1.0]GT0.5]THEN#3000=1\n", 1,
+       "IF"},
   };
   for (const BadProgram& c : cases) {
     SCOPED_TRACE(c.text);
