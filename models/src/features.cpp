@@ -33,14 +33,16 @@ Regressor Regressor::FromJson(const nlohmann::json& j,
   Regressor r;
   try {
     r.input = j.at("input").get<std::string>();
-    r.power = j.value("power", 1);
+    // Read as a number first: 1e100 does not fit an int.
+    const double power = j.value("power", 1.0);
+    if (power != 1 && power != 2)
+      throw InputError(source, 0, "regressors.power", "must be 1 or 2");
+    r.power = static_cast<int>(power);
     r.delay_s = j.value("delay_s", 0.0);
     r.taus_s = j.value("taus_s", std::vector<double>{});
   } catch (const nlohmann::json::exception& e) {
     throw InputError(source, 0, "regressors", e.what());
   }
-  if (r.power != 1 && r.power != 2)
-    throw InputError(source, 0, "regressors.power", "must be 1 or 2");
   if (!(r.delay_s >= 0))
     throw InputError(source, 0, "regressors.delay_s", "must be >= 0");
   if (r.taus_s.size() > 2)

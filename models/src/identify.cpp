@@ -1026,7 +1026,8 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
 ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
   ThermalModel model;
   try {
-    if (j.value("thermal_model", 0) != 1)
+    // Numbers read as double first: 3e106 does not fit an int.
+    if (j.value("thermal_model", 0.0) != 1.0)
       throw InputError(source, 0, "thermal_model",
                        "not a thermal model file (version 1)");
     model.source = j.value("fitted_log", "");
@@ -1075,7 +1076,8 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
       m.fit_rms_um = oj.value("fit_rms_um", 0.0);
       if (oj.contains("cv_rms_um") && oj.at("cv_rms_um").is_number())
         m.cv_rms_um = oj.at("cv_rms_um").get<double>();
-      m.n_fit = oj.value("n_fit", 0);
+      const double n_fit = oj.value("n_fit", 0.0);
+      m.n_fit = n_fit >= 0 && n_fit <= 1e9 ? static_cast<int>(n_fit) : 0;
       m.end_state = oj.value("end_state", nlohmann::json());
       if (!m.end_state.is_null()) {
         FeatureBank probe(m.regressors, model.inputs, source);

@@ -225,6 +225,24 @@ TEST(Identify, RefusesAModelFileWithAShortFilterHistory) {
   EXPECT_NO_THROW(ModelFromJson(good, "model.json"));
 }
 
+// Numbers of a model file beyond an int where the file has an integer (its
+// version, a regressor's power): refused, not converted (the fuzzer's
+// thermal_model of 3.3e106).
+TEST(Identify, RefusesAModelFileWithNumbersBeyondAnInt) {
+  const TimeSeries ts = TwoNodeNetwork(5);
+  FitOptions o;
+  o.model = "static";
+  const nlohmann::json good =
+      ModelToJson(FitThermalModel(ts, {"d_z"}, o, kSplit));
+  nlohmann::json version = good;
+  version["thermal_model"] = 3.3e106;
+  EXPECT_THROW(ModelFromJson(version, "model.json"), InputError);
+  nlohmann::json power = good;
+  power["outputs"][0]["regressors"][0]["power"] = 1e100;
+  EXPECT_THROW(ModelFromJson(power, "model.json"), InputError);
+  EXPECT_NO_THROW(ModelFromJson(good, "model.json"));
+}
+
 TEST(Identify, RefusesModelWhoseInputIsMissing) {
   const TimeSeries ts = TwoNodeNetwork(9);
   FitOptions o;
