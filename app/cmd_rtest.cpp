@@ -4,13 +4,10 @@
 
 #include <cmath>
 #include <iostream>
-#include <map>
 
 #include "command.h"
-#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
-#include "ttp/geometry/limits.h"
 #include "ttp/geometry/rtest.h"
 
 namespace ttp::app {

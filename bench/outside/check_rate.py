@@ -43,9 +43,9 @@ def main():
                 shutil.rmtree(d, ignore_errors=True)
                 meas, log = generate.generate(d, a.effect, a.size, seed, spacing, r % 2 == 1, kind)
                 out = os.path.join(d, "check.json")
-                # A DMIS piece read with its CMM stated, as a lab states its own.
-                stated = {"dmis": generate.CMM_STATED_ARGS,
-                          "dial": generate.DIAL_STATED_ARGS}.get(kind, [])
+                # DMIS and dial pieces read with their instrument stated, as a
+                # lab states its own.
+                stated = generate.STATED_ARGS.get(kind, [])
                 p = subprocess.run([a.ttp, "check", "--log", log, meas, "--json", out] + stated,
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
                 if p.returncode not in (0, 1):

@@ -700,6 +700,8 @@ CMM_STATED_ARGS = ["--cmm-mpe-um", "0.69", "--cmm-mpe-l-mm", "693", "--cmm-touch
 # What a lab knows of this dial gauge (measure(): readings off by
 # SIG_DIAL_UM, written to 0.1 um).
 DIAL_STATED_ARGS = ["--dial-resolution-um", "0.1", "--dial-repeatability-um", "%g" % SIG_DIAL_UM]
+# The instrument a lab states with each measurement kind (ttp options).
+STATED_ARGS = {"dmis": CMM_STATED_ARGS, "dial": DIAL_STATED_ARGS}
 
 
 def _fit_plane(points):

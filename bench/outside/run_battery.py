@@ -139,12 +139,13 @@ PROBE_PLANS = {"probe": [], "probe-sparse": ["--facet-columns", "2", "--facet-ro
 
 # Options given to every `ttp diagnose` (--diagnose-args).
 DIAGNOSE_ARGS = []
-# What the lab knows of the generator's CMM (generate.CMM_STATED_ARGS),
-# given with every DMIS run unless --dmis-cmm default (ttp's own program
-# assumed).
-DMIS_ARGS = list(generate.CMM_STATED_ARGS)
-# and of its dial gauge, with every dial run.
-DIAL_ARGS = list(generate.DIAL_STATED_ARGS)
+# The instrument stated with each DMIS and dial run (generate.STATED_ARGS);
+# --dmis-cmm default leaves the CMM unstated (ttp's own program assumed).
+STATED_ARGS = dict(generate.STATED_ARGS)
+
+
+def stated_args(kind):
+    return STATED_ARGS.get(kind, [])
 
 
 def probe_points(ttp, work, kind="probe"):
@@ -166,8 +167,7 @@ def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0)
     # gives it.
     outcome, rc, detail, decision = diagnose(ttp, meas, log, os.path.join(d, "diag.json"),
                                              (["--probe-points", points] if points else [])
-                                             + (DMIS_ARGS if kind == "dmis" else [])
-                                             + (DIAL_ARGS if kind == "dial" else []) + DIAGNOSE_ARGS)
+                                             + stated_args(kind) + DIAGNOSE_ARGS)
     if kind == "cloud" and outcome != expected(effect):
         detail = (detail + "; " if detail else "") + inspection_check(
             ttp, meas, os.path.join(d, "truth.json"), os.path.join(d, "inspect.json"))
@@ -194,8 +194,7 @@ def command_for(r):
              "probe" if probed else r["measurement"], extra,
              r.get("file") or ("dial.csv" if r["measurement"] == "dial" else "piece.json"),
              " --probe-points out/points.csv" if probed else
-             (" " + " ".join(DMIS_ARGS) if r["measurement"] == "dmis" and DMIS_ARGS else "") +
-             (" " + " ".join(DIAL_ARGS) if r["measurement"] == "dial" else "")))
+             "".join(" " + a for a in stated_args(r["measurement"]))))
 
 
 def report(results, spacings):
@@ -387,15 +386,14 @@ def main():
     ap.add_argument("--cloud-wall-top-mm", type=float, default=1.0,
                     help="clouds: highest facet and flank points, mm below the top face (generate.py --wall-top-mm)")
     ap.add_argument("--diagnose-args", default="",
-                    help="options added to every ttp diagnose, e.g. the generator's CMM for --json-as dmis: "
-                         "'--cmm-mpe-um 0.4 --cmm-mpe-l-mm 1200 --cmm-touches 9'")
+                    help="options added to every ttp diagnose, e.g. '--evidence 20'")
     ap.add_argument("--dmis-cmm", choices=["stated", "default"], default="stated",
                     help="DMIS runs: read with the generator's CMM stated (MPE and touches, default) or with "
                          "ttp's defaults (the touches of ttp plan cmm at MPE 1.2 um + L/400)")
     a = ap.parse_args()
     DIAGNOSE_ARGS.extend(a.diagnose_args.split())
     if a.dmis_cmm == "default":
-        DMIS_ARGS.clear()
+        del STATED_ARGS["dmis"]
     work = a.workdir or tempfile.mkdtemp(prefix="ttp-outside-")
     os.makedirs(work, exist_ok=True)
     try:

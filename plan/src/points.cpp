@@ -178,12 +178,11 @@ std::vector<PlannedPoint> PointsFromCsv(const std::string& text,
                            "Z1..Z9, TOP, FLANK+Y, FLANK-Y, CYL<diameter>)");
     p.feature = *parsed;
     p.point_w_mm = {t.Number(row, x), t.Number(row, y), t.Number(row, zc)};
+    const int coordinate[3] = {x, y, zc};
     for (int c = 0; c < 3; ++c)
       if (!(std::abs(p.point_w_mm[c]) <= limits::kMaxCoordinateMm))
         throw InputError(source, row.line,
-                         c == 0   ? "x_mm"
-                         : c == 1 ? "y_mm"
-                                  : "z_mm",
+                         t.columns[static_cast<size_t>(coordinate[c])],
                          "beyond " + std::to_string(limits::kMaxCoordinateMm) +
                              " mm: not a point of the piece");
     const Eigen::Vector3d a(t.Number(row, i), t.Number(row, j),

@@ -176,34 +176,59 @@ TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
 // `points` (on the nominal plane) with independent Gaussian errors of u_mm
 // along the normal and fits the plane by orthogonal regression (SVD), as
 // simulated here: the oracle of the reader's closed-form variances.
+// One simulated plane per trial: its normal (oriented like `normal`) and
+// the centroid of its touches.
+struct SimulatedPlane {
+  Eigen::Vector3d n, centroid;
+};
+std::vector<SimulatedPlane> SimulatedPlaneFits(
+    const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal,
+    double u_mm, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, u_mm);
+  std::vector<SimulatedPlane> out;
+  for (int k = 0; k < 20000; ++k) {
+    Eigen::MatrixXd q(static_cast<Eigen::Index>(points.size()), 3);
+    for (size_t i = 0; i < points.size(); ++i)
+      q.row(static_cast<Eigen::Index>(i)) =
+          (points[i] + noise(rng) * normal).transpose();
+    const Eigen::RowVector3d c = q.colwise().mean();
+    const Eigen::MatrixXd centred = q.rowwise() - c;
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
+    Eigen::Vector3d n = svd.matrixV().col(2);
+    if (n.dot(normal) < 0) n = -n;
+    out.push_back({n, c.transpose()});
+  }
+  return out;
+}
+
+// Population variance of f over the simulated planes.
+template <typename F>
+double VarianceOver(const std::vector<SimulatedPlane>& planes, F f) {
+  double s = 0, ss = 0;
+  for (const SimulatedPlane& p : planes) {
+    const double v = f(p);
+    s += v, ss += v * v;
+  }
+  const double n = static_cast<double>(planes.size());
+  return ss / n - (s / n) * (s / n);
+}
+
 struct PlaneScatter {
   double var_d_mm2 = 0, var_angle_rad2 = 0;
 };
 PlaneScatter SimulatedPlaneScatter(const NominalFeature& f,
                                    const std::vector<Eigen::Vector3d>& points,
                                    double u_mm) {
-  std::mt19937 rng(20261126);
-  std::normal_distribution<double> noise(0.0, u_mm);
+  const std::vector<SimulatedPlane> planes =
+      SimulatedPlaneFits(points, f.normal, u_mm, 20261126);
   const double phi = std::atan2(f.normal.y(), f.normal.x());
-  double sd = 0, sdd = 0, sa = 0, saa = 0;
-  const int trials = 20000;
-  for (int k = 0; k < trials; ++k) {
-    Eigen::MatrixXd q(static_cast<Eigen::Index>(points.size()), 3);
-    for (size_t i = 0; i < points.size(); ++i)
-      q.row(static_cast<Eigen::Index>(i)) =
-          (points[i] + noise(rng) * f.normal).transpose();
-    const Eigen::RowVector3d c = q.colwise().mean();
-    const Eigen::MatrixXd centred = q.rowwise() - c;
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
-    Eigen::Vector3d n = svd.matrixV().col(2);
-    if (n.dot(f.normal) < 0) n = -n;
-    const double d = n.dot(c.transpose());
-    const double angle =
-        std::remainder(std::atan2(n.y(), n.x()) - phi, 2.0 * M_PI);
-    sd += d, sdd += d * d, sa += angle, saa += angle * angle;
-  }
-  return {sdd / trials - (sd / trials) * (sd / trials),
-          saa / trials - (sa / trials) * (sa / trials)};
+  return {
+      VarianceOver(planes,
+                   [](const SimulatedPlane& p) { return p.n.dot(p.centroid); }),
+      VarianceOver(planes, [phi](const SimulatedPlane& p) {
+        return std::remainder(std::atan2(p.n.y(), p.n.x()) - phi, 2.0 * M_PI);
+      })};
 }
 
 const NominalFeature& NominalOf(const std::vector<NominalFeature>& all,
@@ -288,23 +313,9 @@ TEST(DmisTest, AStripsDepthCarriesTheTopFacesTilt) {
   ASSERT_GE(top.size(), 3u);
   for (const Eigen::Vector3d& q : top) reach_mm += q.norm() / top.size();
   const double u_mm = (1.2 + reach_mm / 400.0) * 1e-3 / std::sqrt(3.0);
-  std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0.0, u_mm);
-  double s = 0, ss = 0;
-  const int trials = 20000;
-  for (int k = 0; k < trials; ++k) {
-    Eigen::MatrixXd q(static_cast<Eigen::Index>(top.size()), 3);
-    for (size_t i = 0; i < top.size(); ++i)
-      q.row(static_cast<Eigen::Index>(i)) =
-          (top[i] + noise(rng) * Eigen::Vector3d::UnitZ()).transpose();
-    const Eigen::RowVector3d c = q.colwise().mean();
-    const Eigen::MatrixXd centred = q.rowwise() - c;
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
-    const Eigen::Vector3d n = svd.matrixV().col(2);
-    const double slope = -n.y() / n.z();  // dz/dy
-    s += slope, ss += slope * slope;
-  }
-  const double var_tilt = ss / trials - (s / trials) * (s / trials);
+  const double var_tilt = VarianceOver(
+      SimulatedPlaneFits(top, Eigen::Vector3d::UnitZ(), u_mm, 7),
+      [](const SimulatedPlane& p) { return -p.n.y() / p.n.z(); });  // dz/dy
   const double y = z1.point.y();
   ASSERT_GT(std::abs(y), 20.0);
   EXPECT_NEAR(gained / (y * y * var_tilt), 1.0, 0.05);

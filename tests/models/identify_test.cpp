@@ -197,15 +197,18 @@ TEST(Identify, ModelFileRoundTripAndContinuation) {
   EXPECT_FALSE(Predict(back, shifted).continued);
 }
 
+// The model file of one structure fitted on the two-node network.
+nlohmann::json FittedModelFile(const char* structure) {
+  FitOptions o;
+  o.model = structure;
+  return ModelToJson(FitThermalModel(TwoNodeNetwork(5), {"d_z"}, o, kSplit));
+}
+
 // A model file whose filter state is cut short (a delayed input's history
 // entry without its time or value): refused as a bad file, not read past
 // its end (the fuzzer's model file).
 TEST(Identify, RefusesAModelFileWithAShortFilterHistory) {
-  const TimeSeries ts = TwoNodeNetwork(5);
-  FitOptions o;
-  o.model = "fir";
-  const nlohmann::json good =
-      ModelToJson(FitThermalModel(ts, {"d_z"}, o, kSplit));
+  const nlohmann::json good = FittedModelFile("fir");
   int delayed = 0;
   for (const nlohmann::json& cut :
        {nlohmann::json::array(), nlohmann::json::array({1.0})}) {
@@ -229,11 +232,7 @@ TEST(Identify, RefusesAModelFileWithAShortFilterHistory) {
 // version, a regressor's power): refused, not converted (the fuzzer's
 // thermal_model of 3.3e106).
 TEST(Identify, RefusesAModelFileWithNumbersBeyondAnInt) {
-  const TimeSeries ts = TwoNodeNetwork(5);
-  FitOptions o;
-  o.model = "static";
-  const nlohmann::json good =
-      ModelToJson(FitThermalModel(ts, {"d_z"}, o, kSplit));
+  const nlohmann::json good = FittedModelFile("static");
   nlohmann::json version = good;
   version["thermal_model"] = 3.3e106;
   EXPECT_THROW(ModelFromJson(version, "model.json"), InputError);
