@@ -5,10 +5,11 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
-#include <optional>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 #include "ttp/geometry/error.h"
@@ -121,7 +122,10 @@ Column Stack(const ObservationEffect& e) {
 // A candidate model: causes with, for c_axis_indexing, its harmonics.
 struct ModelSpec {
   std::vector<Cause> causes;
-  int c_harmonics = 0;
+  // The harmonics per turn of the C stop error (ascending, from 1..max):
+  // a table's error is a sum of a few, not necessarily consecutive ones
+  // (once from the encoder's eccentricity, four times from a bearing).
+  std::vector<int> c_harmonics;
   // workpiece_expansion: the piece's temperature at the log's start free
   // (off the lagged table's by a term decaying with tau) instead of in
   // equilibrium with it.
@@ -172,9 +176,13 @@ class ColumnCache {
   }
   const Column& ToolWear() const { return tool_wear_; }
   const std::vector<Column>& Clamping() const { return clamping_; }
-  std::vector<Column> CAxis(int harmonics) const {
-    return std::vector<Column>(c_axis_.begin(),
-                               c_axis_.begin() + 2 * harmonics);
+  std::vector<Column> CAxis(const std::vector<int>& harmonics) const {
+    std::vector<Column> out;
+    for (int h : harmonics) {
+      out.push_back(c_axis_[2 * (h - 1)]);
+      out.push_back(c_axis_[2 * (h - 1) + 1]);
+    }
+    return out;
   }
   const Column& WorkpieceBase() const { return wp_base_; }
   // A spring-back of another lobe count than the bolts' three (a rival of
@@ -669,8 +677,9 @@ struct Selection {
   double step_rival = -kInf;
   // The evidence threshold the chosen model was held to (against none).
   double threshold = 0;
-  // Largest chi2 drop by a drift of one figure kind over the cycles.
-  double trend_chi2 = 0;
+  // Largest chi2 drop by a drift of one figure kind over the cycles, and
+  // that drift over the cycles measured (um).
+  double trend_chi2 = 0, trend_um = 0;
 };
 
 // A drift of one figure kind over the cycles (one feature type wearing or
@@ -722,6 +731,26 @@ TrendTest FigureTrend(const Fitter& fitter, const Fit& fit,
   return out;
 }
 
+// The C stop error's candidate harmonic sets: every set of up to
+// kMaxCHarmonicTerms harmonics from 1..max_harmonics, ascending. A
+// consecutive 1..K would make a table whose error is once and four times
+// per turn pay for the twice and three times it does not have.
+constexpr int kMaxCHarmonicTerms = 4;
+std::vector<std::vector<int>> HarmonicSets(int max_harmonics) {
+  std::vector<std::vector<int>> out;
+  std::vector<int> set;
+  const std::function<void(int)> extend = [&](int from) {
+    for (int h = from; h <= max_harmonics; ++h) {
+      set.push_back(h);
+      out.push_back(set);
+      if (static_cast<int>(set.size()) < kMaxCHarmonicTerms) extend(h + 1);
+      set.pop_back();
+    }
+  };
+  extend(1);
+  return out;
+}
+
 // `tests`: false inside the held-out folds, where only the chosen model's
 // prediction is used.
 Selection Select(const ColumnCache& cache, const Problem& problem,
@@ -730,17 +759,18 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   const int n = problem.Rows();
   Selection sel;
   sel.fits.push_back(fitter.Run(ModelSpec{}));
-  // C-axis indexing: the number of harmonics by evidence.
+  // C-axis indexing: which harmonics, by evidence.
   Fit c_axis;
   double c_bic = kInf;
-  for (int k = 1; k <= options.max_c_harmonics; ++k) {
-    const Fit f = fitter.Run(ModelSpec{{Cause::kCAxisIndexing}, k});
+  for (const std::vector<int>& set : HarmonicSets(options.max_c_harmonics)) {
+    const Fit f = fitter.Run(ModelSpec{{Cause::kCAxisIndexing}, set});
     if (f.ok && Bic(f, n) < c_bic) {
       c_bic = Bic(f, n);
       c_axis = f;
     }
   }
-  const int harmonics = c_axis.ok ? c_axis.spec.c_harmonics : 1;
+  const std::vector<int> harmonics =
+      c_axis.ok ? c_axis.spec.c_harmonics : std::vector<int>{1};
   // Workpiece expansion: the piece's initial state free or in equilibrium,
   // by evidence (the free state costs a parameter) among the fits that are
   // a result (a free state that leaves the lag undetermined is none).
@@ -759,9 +789,8 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   sel.fits.push_back(wp);
   sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kToolWear}}));
   sel.fits.push_back(fitter.Run(ModelSpec{{Cause::kClampingDistortion}}));
-  sel.fits.push_back(c_axis.ok ? c_axis
-                               : fitter.Run(ModelSpec{{Cause::kCAxisIndexing},
-                                                      1}));
+  sel.fits.push_back(
+      c_axis.ok ? c_axis : fitter.Run(ModelSpec{{Cause::kCAxisIndexing}, {1}}));
   const int singles = static_cast<int>(sel.fits.size());
   if (options.pairs) {
     const Cause all[4] = {Cause::kWorkpieceExpansion, Cause::kToolWear,
@@ -979,6 +1008,7 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   {
     const TrendTest t = FigureTrend(fitter, f, problem);
     sel.trend_chi2 = t.chi2_drop;
+    sel.trend_um = t.drift_um;
     sel.machine_pooled_z_one_kind =
         std::min({sel.machine_pooled_z, t.machine_pooled_z, step_pooled_z});
     if (t.chi2_drop > options.trend_chi2 &&
@@ -1030,8 +1060,9 @@ std::vector<ParamEstimate> ReportParams(const Fit& fit) {
       return i < cov.rows() ? std::sqrt(std::max(0.0, cov(i, i))) : 0.0;
     };
     const std::vector<std::string> names =
-        cause == Cause::kCAxisIndexing ? CAxisParameterNames(fit.spec.c_harmonics)
-                                       : CauseParameterNames(cause);
+        cause == Cause::kCAxisIndexing
+            ? CAxisParameterNames(fit.spec.c_harmonics)
+            : CauseParameterNames(cause);
     if (cause == Cause::kClampingDistortion || cause == Cause::kCAxisIndexing) {
       // Amplitude and phase of a cos + b sin = A cos(x - phase) per harmonic.
       const bool clamp = cause == Cause::kClampingDistortion;
@@ -1039,14 +1070,15 @@ std::vector<ParamEstimate> ReportParams(const Fit& fit) {
         const double a = p[h], b = p[h + 1];
         const double amp = std::hypot(a, b);
         const double s = std::max(sd(h), sd(h + 1));
-        const std::string tag = clamp ? "" : std::to_string(h / 2 + 1);
+        const std::string tag =
+            clamp ? "" : std::to_string(fit.spec.c_harmonics[h / 2]);
         out.push_back({"amplitude" + tag + (clamp ? "_um" : "_urad"), amp, s});
         out.push_back({"phase" + tag + "_deg", std::atan2(b, a) * 180 / M_PI,
                        amp > 0 ? s / amp * 180 / M_PI : 180.0});
       }
       if (!clamp)
-        out.push_back({"harmonics", static_cast<double>(fit.spec.c_harmonics),
-                       0.0});
+        out.push_back({"harmonics",
+                       static_cast<double>(fit.spec.c_harmonics.size()), 0.0});
     }
     for (size_t i = 0; i < names.size() && i < p.size(); ++i)
       out.push_back({names[i], p[i], sd(static_cast<int>(i))});
@@ -1353,6 +1385,8 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.machine_kind_z = sel.machine_kind_z;
   report.machine_pooled_z_one_kind = sel.machine_pooled_z_one_kind;
   report.step_chi2 = sel.step_chi2;
+  report.trend_chi2 = sel.trend_chi2;
+  report.trend_um = sel.trend_um;
   report.evidence_threshold = sel.threshold;
   report.baseline_rms_um = report.candidates[0].rms_um;
   report.baseline_rms_urad = report.candidates[0].rms_urad;
@@ -1912,6 +1946,8 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
     refused.best_evidence = report.best_evidence;
     refused.evidence_threshold = report.evidence_threshold;
     refused.step_chi2 = report.step_chi2;
+    refused.trend_chi2 = report.trend_chi2;
+    refused.trend_um = report.trend_um;
     return refused;
   };
   // The log of another run: the measured piece's E_X and E_Y (which no
@@ -2073,7 +2109,9 @@ nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
       {"machine_pooled_deviate", finite_or_null(r.machine_pooled_z)},
       {"machine_pooled_deviate_after_one_kind",
        finite_or_null(r.machine_pooled_z_one_kind)},
-      {"step_chi2", r.step_chi2}};
+      {"step_chi2", r.step_chi2},
+      {"trend_chi2", r.trend_chi2},
+      {"trend_um", r.trend_um}};
   if (std::isfinite(r.simulation_slope))
     j["simulation_slope"] = {{"value", r.simulation_slope},
                              {"uncertainty", r.simulation_slope_sd}};

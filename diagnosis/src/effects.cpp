@@ -45,14 +45,15 @@ std::vector<std::string> CauseParameterNames(Cause cause) {
     case Cause::kClampingDistortion:
       return {"cos3_um", "sin3_um"};
     case Cause::kCAxisIndexing:
-      return CAxisParameterNames(1);
+      return CAxisParameterNames({1});
   }
   return {};
 }
 
-std::vector<std::string> CAxisParameterNames(int harmonics) {
+std::vector<std::string> CAxisParameterNames(
+    const std::vector<int>& harmonics) {
   std::vector<std::string> out;
-  for (int k = 1; k <= harmonics; ++k) {
+  for (int k : harmonics) {
     out.push_back("cos" + std::to_string(k) + "_urad");
     out.push_back("sin" + std::to_string(k) + "_urad");
   }

@@ -428,6 +428,42 @@ TEST(Diagnose, CAxisIndexingReportsWhatThePieceShows) {
   EXPECT_TRUE(found);
 }
 
+// A table whose stop error is four times per turn only (a bearing) turns
+// each facet by that error at the angle the log says it was cut at,
+// written here from the spec's description and added to a twin run
+// without a cause. The diagnosis names the C stop error with the fourth
+// harmonic alone, its amplitude recovered, not harmonics 1 to 4.
+TEST(Diagnose, CAxisIndexingFindsTheHarmonicsTheTableHas) {
+  const Config config;
+  TwinOptions o;
+  o.seed = 31;
+  TwinRun run = RunTwin(config, o);
+  const thermal::TalcLog log = thermal::ParseTalcLog(run.log_text, "bearing");
+  const double amplitude_urad = 40, phase_rad = 1.1;
+  int turned = 0;
+  for (const thermal::CutRecord& cut : log.cuts) {
+    auto it = run.measured.find(cut.feature);
+    if (cut.feature.kind != FeatureKind::kFacet || it == run.measured.end())
+      continue;
+    it->second.angle_rad +=
+        1e-6 * amplitude_urad * std::cos(4 * cut.c_rad + phase_rad);
+    ++turned;
+  }
+  ASSERT_GT(turned, 16);
+  const DiagnosisReport r = DiagnoseRun(
+      log, config, MeasuredPieceFromFeatures(config.part, run.measured));
+  ASSERT_EQ(r.status, DiagnosisStatus::kNamed) << r.reason;
+  ASSERT_EQ(r.cause, "c_axis_indexing");
+  std::map<std::string, ParamEstimate> params;
+  for (const ParamEstimate& p : r.params) params[p.name] = p;
+  EXPECT_EQ(params.count("cos1_urad"), 0u);
+  EXPECT_EQ(params.count("cos2_urad"), 0u);
+  ASSERT_EQ(params.count("amplitude4_urad"), 1u);
+  EXPECT_EQ(params.at("harmonics").value, 1);
+  const ParamEstimate& a = params.at("amplitude4_urad");
+  EXPECT_NEAR(a.value, amplitude_urad, 3 * a.uncertainty + 2.0);
+}
+
 // Effects outside the catalogue written here from their description alone
 // (not from the fit's effect model) and added to the residuals of a twin
 // run without a cause: one feature type drifting over the run, and a step

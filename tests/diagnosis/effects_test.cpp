@@ -101,7 +101,7 @@ TEST(Effects, CAxisIndexingIsASumOfHarmonics) {
                      5 * std::cos(4 * c) - 5 * std::sin(4 * c)),
                 1e-15);
   }
-  EXPECT_EQ(CAxisParameterNames(2),
+  EXPECT_EQ(CAxisParameterNames({1, 2}),
             (std::vector<std::string>{"cos1_urad", "sin1_urad", "cos2_urad",
                                       "sin2_urad"}));
 }

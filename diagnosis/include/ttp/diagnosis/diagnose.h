@@ -120,7 +120,7 @@ struct DiagnosisOptions {
   // drifting by more than `trend_min_um` over the cycles measured (less is
   // within the R-tests' expanded uncertainty, thesis table 5.4, and the
   // figures' model error on real pieces).
-  double trend_chi2 = 20.0;
+  double trend_chi2 = 15.0;
   double trend_min_um = 1.0;
   // A named cause must beat the best such step (as an alternative to the
   // cause, two parameters: height and first cycle) by this much in BIC.
@@ -245,6 +245,9 @@ struct DiagnosisReport {
   // and the largest chi2 a step in one figure kind explains after the
   // chosen model.
   double best_evidence = 0, structure_z = 0, step_chi2 = 0;
+  // The largest chi2 a drift of one figure kind over the cycles explains
+  // after the chosen model, and that drift over the cycles measured (um).
+  double trend_chi2 = 0, trend_um = 0;
   // The evidence threshold the chosen model was held to against the
   // nominal one (DiagnosisOptions::evidence_threshold, or
   // angle_evidence_threshold for a cause seen only in the facet angles).

@@ -78,9 +78,11 @@ using EffectDeltas = std::map<FeatureId, FeatureDelta>;
 //    the lobes' slope implies; amplitude/phase for reports)
 //  c_axis_indexing: cos1_urad, sin1_urad, cos2_urad, ... (C stop error
 //    sum_k cos_k cos(k c) + sin_k sin(k c), harmonics 1..K with K =
-//    params / 2, turning facet normals about Z)
+//    params / 2, turning facet normals about Z; a fit of a set of
+//    harmonics names its coefficients by CAxisParameterNames)
 std::vector<std::string> CauseParameterNames(Cause cause);
-std::vector<std::string> CAxisParameterNames(int harmonics);
+// The C stop error's coefficient names for the given harmonics per turn.
+std::vector<std::string> CAxisParameterNames(const std::vector<int>& harmonics);
 EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
                            const EffectContext& context);
 
