@@ -371,6 +371,51 @@ def check(ttp, work):
     return 1 if bad else 0
 
 
+# the detection curve: sizes per catalogue cause, from below the battery's
+# smallest to above its largest (workpiece expansion stays above the gain
+# near 0.47 at which the piece grows like the table and the effect vanishes)
+LADDER = {
+    "workpiece_expansion": [0.6, 0.75, 1.0, 1.5, 2.0],
+    "tool_wear": [0.5, 1.0, 2.0, 4.0, 6.0],
+    "clamping_distortion": [0.25, 0.5, 0.8, 1.5, 3.0],
+    "c_axis_indexing": [10.0, 25.0, 50.0, 100.0, 200.0],
+}
+
+
+def detection(ttp, work, spacings, runs, seed):
+    """Share of runs in which a cause alone is named right, per size, R-test
+    spacing and measurement (json; dial too where a dial gauge can see the
+    cause), compensation alternating; and the detection limit: the smallest
+    size from which every larger one is named in at least 90 %."""
+    rng = random.Random(seed)
+    t0 = time.time()
+    n = 0
+    print("detection (share named right, %d runs per point, compensation alternating)" % runs)
+    for effect, sizes in LADDER.items():
+        kinds = ["json"] if effect == "c_axis_indexing" else ["json", "dial"]
+        for kind in kinds:
+            for sp in spacings:
+                shares = []
+                for size in sizes:
+                    right = 0
+                    for k in range(runs):
+                        r = run_one(ttp, work, sp, k % 2 == 1, effect, size, kind, rng.randrange(1, 10 ** 6))
+                        right += r["outcome"] == effect
+                        n += 1
+                    shares.append(right / runs)
+                limit = None
+                for i in range(len(sizes) - 1, -1, -1):
+                    if shares[i] < 0.9:
+                        break
+                    limit = sizes[i]
+                print("  %-20s %-4s %5d s: %s -> %s" % (
+                    effect, kind, sp,
+                    "  ".join("%g:%d%%" % (z, round(100 * f)) for z, f in zip(sizes, shares)),
+                    "90 %% at %g" % limit if limit is not None else "90 %% at > %g" % sizes[-1]))
+    print("%d runs in %.0f s" % (n, time.time() - t0))
+    return 0
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--ttp", default="build/app/ttp")
@@ -380,6 +425,9 @@ def main():
     ap.add_argument("--only", help="comma-separated effects to keep (e.g. none,step,two_lobe,strip_drift)")
     ap.add_argument("--json", help="write every run's result here")
     ap.add_argument("--check", action="store_true", help="the ctest's fixed small set")
+    ap.add_argument("--detection", type=int, metavar="RUNS",
+                    help="the detection curve per catalogue cause instead, RUNS runs per point "
+                         "(at the spacings given; 300,3600 is a good choice)")
     ap.add_argument("--workdir", help="scratch folder (default: a temporary one)")
     ap.add_argument("--no-clouds", action="store_true",
                     help="measurements json/dial only (the battery before point clouds)")
@@ -406,6 +454,8 @@ def main():
         if a.check:
             return check(a.ttp, work)
         spacings = [int(x) for x in a.spacings.split(",")]
+        if a.detection:
+            return detection(a.ttp, work, spacings, a.detection, a.seed)
         rng = random.Random(a.seed)
         results = []
         t0 = time.time()
