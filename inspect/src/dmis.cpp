@@ -403,14 +403,15 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
     auto top = touches.find(FeatureId::Top());
     if (top != touches.end()) {
       std::vector<Eigen::Vector2d> xy;
-      double reach_mm = 0;
+      double var_mm2 = 0;  // the touches' mean variance, each for its length
       for (const Eigen::Vector3d& q : top->second) {
         xy.emplace_back(q.x(), q.y());
-        reach_mm += q.norm() / static_cast<double>(top->second.size());
+        var_mm2 += std::pow(touch_u_mm(q.norm()), 2) /
+                   static_cast<double>(top->second.size());
       }
       if (const auto cov = UnitTouchCovariance(xy))
-        top_tilt_var_rad2 = std::pow(touch_u_mm(reach_mm), 2) * (*cov)(2, 2) *
-                            own_program_scale(top->second.size());
+        top_tilt_var_rad2 =
+            var_mm2 * (*cov)(2, 2) * own_program_scale(top->second.size());
     }
   }
   std::vector<std::string> reversed;
@@ -443,9 +444,18 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
               " rad): the units (UNITS/) or the frame do not fit the "
               "piece's size");
     // The variance of a least-squares plane through independent touches
-    // (DmisImportOptions).
-    const double u_mm = touch_u_mm(nominal.point.norm());
+    // (DmisImportOptions), each touch's MPE for its own length from W's
+    // origin (a strip's touches reach 95 mm out where its centre lies on
+    // the axis): the mean of their variances.
     auto planned = touches.find(nominal.Key());
+    double u_mm = touch_u_mm(nominal.point.norm());
+    if (planned != touches.end() && !planned->second.empty()) {
+      double var_mm2 = 0;
+      for (const Eigen::Vector3d& q : planned->second)
+        var_mm2 += std::pow(touch_u_mm(q.norm()), 2) /
+                   static_cast<double>(planned->second.size());
+      u_mm = std::sqrt(var_mm2);
+    }
     const std::optional<Eigen::Matrix3d> cov =
         planned == touches.end()
             ? std::nullopt

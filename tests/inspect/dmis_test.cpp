@@ -181,17 +181,19 @@ TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
 struct SimulatedPlane {
   Eigen::Vector3d n, centroid;
 };
+// Each touch's error: u_of_touch(its point) (mm).
 std::vector<SimulatedPlane> SimulatedPlaneFits(
     const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal,
-    double u_mm, unsigned seed) {
+    const std::function<double(const Eigen::Vector3d&)>& u_of_touch,
+    unsigned seed) {
   std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, u_mm);
+  std::normal_distribution<double> noise(0.0, 1.0);
   std::vector<SimulatedPlane> out;
   for (int k = 0; k < 20000; ++k) {
     Eigen::MatrixXd q(static_cast<Eigen::Index>(points.size()), 3);
     for (size_t i = 0; i < points.size(); ++i)
       q.row(static_cast<Eigen::Index>(i)) =
-          (points[i] + noise(rng) * normal).transpose();
+          (points[i] + u_of_touch(points[i]) * noise(rng) * normal).transpose();
     const Eigen::RowVector3d c = q.colwise().mean();
     const Eigen::MatrixXd centred = q.rowwise() - c;
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinV);
@@ -200,6 +202,13 @@ std::vector<SimulatedPlane> SimulatedPlaneFits(
     out.push_back({n, c.transpose()});
   }
   return out;
+}
+
+std::vector<SimulatedPlane> SimulatedPlaneFits(
+    const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& normal,
+    double u_mm, unsigned seed) {
+  return SimulatedPlaneFits(
+      points, normal, [u_mm](const Eigen::Vector3d&) { return u_mm; }, seed);
 }
 
 // Population variance of f over the simulated planes.
@@ -319,6 +328,37 @@ TEST(DmisTest, AStripsDepthCarriesTheTopFacesTilt) {
   const double y = z1.point.y();
   ASSERT_GT(std::abs(y), 20.0);
   EXPECT_NEAR(gained / (y * y * var_tilt), 1.0, 0.05);
+}
+
+// The MPE holds for each touch's own length from W's origin: a strip's
+// touches reach 80 mm out while its centre lies on the axis. With the
+// length term dominant, the depth's variance is that of simulated touches
+// each scattered by its own MPE.
+TEST(DmisTest, EachTouchHasTheMpeOfItsOwnLength) {
+  const PartSpec part;
+  const std::vector<NominalFeature> nominal = TestFeatures(part);
+  const NominalFeature& z5 = NominalOf(nominal, "Z5");
+  DmisImportOptions cmm;
+  cmm.cmm_mpe_um = 0.1;
+  cmm.cmm_mpe_l_mm = 100.0;
+  const DmisImport got = DmisToFeatureResults(
+      ParseDmisOutput("FA(Z5)=FEAT/PLANE,CART,20,0,-12.1,0,0,1\n", "s.dmo"),
+      part, cmm);
+  const std::vector<Eigen::Vector3d> touches =
+      TouchesOf(plan::CmmPoints(part), "Z5");
+  ASSERT_GE(touches.size(), 3u);
+  const auto u_of_touch = [](const Eigen::Vector3d& q) {
+    return (0.1 + q.norm() / 100.0) * 1e-3 / std::sqrt(3.0);
+  };
+  const double y_k = z5.point.y();
+  const double var_depth = VarianceOver(
+      SimulatedPlaneFits(touches, Eigen::Vector3d::UnitZ(), u_of_touch, 11),
+      [y_k](const SimulatedPlane& p) {  // the plane's height at (0, y_k)
+        return p.centroid.z() - (p.n.x() * (0.0 - p.centroid.x()) +
+                                 p.n.y() * (y_k - p.centroid.y())) /
+                                    p.n.z();
+      });
+  EXPECT_NEAR(got.results.at(test::Fid("Z5")).var_d_mm2 / var_depth, 1.0, 0.04);
 }
 
 // A lab's CMM and program: its MPE, its own touch count (the plan's
