@@ -389,6 +389,16 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
     return (options.cmm_mpe_um + reach_mm / options.cmm_mpe_l_mm) * 1e-3 /
            std::sqrt(3.0);
   };
+  // The mean of a plane's touches' variances, each touch's MPE for its own
+  // length from W's origin (a strip's touches reach 80-95 mm out while its
+  // centre lies near the axis).
+  const auto mean_touch_var_mm2 =
+      [&](const std::vector<Eigen::Vector3d>& plane_touches) {
+        double sum = 0;
+        for (const Eigen::Vector3d& q : plane_touches)
+          sum += std::pow(touch_u_mm(q.norm()), 2);
+        return sum / static_cast<double>(plane_touches.size());
+      };
   // A program of one's own: n touches in the plan's pattern.
   const auto own_program_scale = [&](size_t planned) {
     return options.touches_per_plane > 0
@@ -403,15 +413,11 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
     auto top = touches.find(FeatureId::Top());
     if (top != touches.end()) {
       std::vector<Eigen::Vector2d> xy;
-      double var_mm2 = 0;  // the touches' mean variance, each for its length
-      for (const Eigen::Vector3d& q : top->second) {
+      for (const Eigen::Vector3d& q : top->second)
         xy.emplace_back(q.x(), q.y());
-        var_mm2 += std::pow(touch_u_mm(q.norm()), 2) /
-                   static_cast<double>(top->second.size());
-      }
       if (const auto cov = UnitTouchCovariance(xy))
-        top_tilt_var_rad2 =
-            var_mm2 * (*cov)(2, 2) * own_program_scale(top->second.size());
+        top_tilt_var_rad2 = mean_touch_var_mm2(top->second) * (*cov)(2, 2) *
+                            own_program_scale(top->second.size());
     }
   }
   std::vector<std::string> reversed;
@@ -444,18 +450,11 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
               " rad): the units (UNITS/) or the frame do not fit the "
               "piece's size");
     // The variance of a least-squares plane through independent touches
-    // (DmisImportOptions), each touch's MPE for its own length from W's
-    // origin (a strip's touches reach 95 mm out where its centre lies on
-    // the axis): the mean of their variances.
+    // (DmisImportOptions), at the mean of their variances.
     auto planned = touches.find(nominal.Key());
-    double u_mm = touch_u_mm(nominal.point.norm());
-    if (planned != touches.end() && !planned->second.empty()) {
-      double var_mm2 = 0;
-      for (const Eigen::Vector3d& q : planned->second)
-        var_mm2 += std::pow(touch_u_mm(q.norm()), 2) /
-                   static_cast<double>(planned->second.size());
-      u_mm = std::sqrt(var_mm2);
-    }
+    const double u_mm = planned != touches.end() && !planned->second.empty()
+                            ? std::sqrt(mean_touch_var_mm2(planned->second))
+                            : touch_u_mm(nominal.point.norm());
     const std::optional<Eigen::Matrix3d> cov =
         planned == touches.end()
             ? std::nullopt
