@@ -21,6 +21,18 @@ std::vector<double> Spread(double lo, double hi, int n) {
   return v;
 }
 
+// n points from lo to hi with the outer two at the ends (one point: the
+// middle). For a test feature the touches measure a plane's tilt (a
+// facet's angle, a strip's beta) as well as its position: the tilt's
+// standard deviation goes with 1 / spread of the touches, and Spread's
+// half-steps at either end would lose a third of it with three columns.
+std::vector<double> SpreadToEnds(double lo, double hi, int n) {
+  if (n == 1) return {(lo + hi) / 2};
+  std::vector<double> v;
+  for (int i = 0; i < n; ++i) v.push_back(lo + (hi - lo) * i / (n - 1));
+  return v;
+}
+
 // A count in 1..limit (the limit keeps a plan from allocating without
 // bound: 1e5 x 1e5 facet points would be tens of gigabytes).
 void Positive(int value, const char* field, int limit = 1000) {
@@ -127,14 +139,16 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
       const double x_hi = f.t_max_mm - 2 * m;
       const int n = options.strip_points_per_side;
       for (int side : {-1, +1})
-        for (double x : Spread(x_lo, x_hi, n))
+        for (double x : SpreadToEnds(x_lo, x_hi, n))
           add(f.Key(), Eigen::Vector3d(side * x, f.point.y(), f.point.z()), z);
       continue;
     }
     const Eigen::Vector3d t = z.cross(f.normal);
+    // Rows keep Spread's half-steps: a ball at the bottom margin would
+    // meet the shoulder below the facets (the 199 cylinder at z = -12).
     for (double zz : Spread(f.z_min_mm + m, f.z_max_mm - m, options.facet_rows))
       for (double tt :
-           Spread(f.t_min_mm + m, f.t_max_mm - m, options.facet_columns))
+           SpreadToEnds(f.t_min_mm + m, f.t_max_mm - m, options.facet_columns))
         add(f.Key(), f.point + tt * t + zz * z, f.normal);
   }
   return out;

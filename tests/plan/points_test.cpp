@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
@@ -100,6 +101,53 @@ TEST(PlanPointsTest, EveryPointLiesOnItsNominalSurfaceInsideItsEdges) {
   EXPECT_EQ(count["X1-5"], options.facet_rows * options.facet_columns);
   EXPECT_EQ(count["Z5"], 2 * options.strip_points_per_side);
   EXPECT_EQ(count.size(), 4u + 45u);  // 4 datums + 36 facets + 9 strips
+}
+
+// A plane's tilt (a facet's angle, a strip's beta) has a standard
+// deviation that goes with 1 / spread of its touches: across a facet and
+// along a strip the outer touches must sit at the edge margin, not half a
+// step inside it. The widths come from test-piece.md: a finished facet is
+// 2 x 97.3 tan(3 deg) = 10.2 mm wide; a strip runs from the small notch
+// (|x| = 5) to where the 199 cylinder leaves the floor at its outer edge.
+TEST(PlanPointsTest, TouchesSpanTheFacetsWidthAndTheStripsLength) {
+  const PartSpec part;
+  for (int columns : {2, 3, 5}) {
+    PlanOptions options;
+    options.facet_columns = columns;
+    options.strip_points_per_side = columns;
+    const double m = options.edge_margin_mm;
+    const double facet_half = 97.3 * std::tan(3.0 * kPi / 180);
+    std::map<std::string, std::vector<double>> along;
+    for (const PlannedPoint& p : PlanPoints(part, options)) {
+      const std::string name = p.feature.ToString();
+      if (name[0] == 'Z') {
+        along[name].push_back(p.point_w_mm.x());
+      } else if (name[0] == 'X' || name[0] == 'Y') {
+        const Eigen::Vector3d t = Eigen::Vector3d::UnitZ().cross(p.normal_w);
+        along[name].push_back(t.dot(p.point_w_mm));
+      }
+    }
+    ASSERT_EQ(along.size(), 36u + 9u);
+    for (auto& [name, v] : along) {
+      std::sort(v.begin(), v.end());
+      SCOPED_TRACE(name + " with " + std::to_string(columns) + " columns");
+      if (name[0] == 'Z') {
+        const int k = name[1] - '0';
+        const double y_outer = std::abs((k - 5) * 11.75) + 6.0;
+        const double x_end = std::sqrt(99.5 * 99.5 - y_outer * y_outer);
+        // each side: from the notch's edge + 2 margins to the end - 2 margins
+        ASSERT_EQ(v.size(), 2u * columns);
+        EXPECT_NEAR(v.front(), -(x_end - 2 * m), 1e-6);
+        EXPECT_NEAR(v.back(), x_end - 2 * m, 1e-6);
+        EXPECT_NEAR(v[columns - 1], -(5.0 + 2 * m), 1e-6);
+        EXPECT_NEAR(v[columns], 5.0 + 2 * m, 1e-6);
+      } else {
+        ASSERT_EQ(v.size(), static_cast<size_t>(columns * options.facet_rows));
+        EXPECT_NEAR(v.front(), -(facet_half - m), 1e-6);
+        EXPECT_NEAR(v.back(), facet_half - m, 1e-6);
+      }
+    }
+  }
 }
 
 TEST(PlanPointsTest, CsvRoundTrips) {
