@@ -897,6 +897,36 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
             names[g], chi2[g], count[g], z, options.local_z);
     }
   }
+  // E_X, E_Y and E_Z as the nominal model leaves them, when that is closer
+  // to the log than what the chosen cause leaves: they follow the
+  // machine's location errors the log's R-tests measure, and a cause that
+  // is wrong (an effect outside the catalogue taken for one) can move them
+  // off a log they agree with. The machine statistics are those of the
+  // model that fits E_X, E_Y and E_Z better, so that only a piece whose
+  // machine errors disagree with the log under either is taken for
+  // another run's.
+  if (sel.chosen > 0 && sel.fits[0].ok) {
+    const Column nominal =
+        Column(problem.Whiten(cache.Observed())) -
+        problem.Whiten(Prediction(sel.fits[0], cache, problem.obs()));
+    const double pooled = MachinePooledZ(nominal, kinds);
+    if (pooled < sel.machine_pooled_z) {
+      double chi2[3] = {};
+      int count[3] = {};
+      for (size_t r = 0; r < kinds.size(); ++r)
+        if (kinds[r] <= 2) {
+          chi2[kinds[r]] += nominal[r] * nominal[r];
+          ++count[kinds[r]];
+        }
+      sel.machine_pooled_z = pooled;
+      sel.machine_z = -kInf;
+      for (int g = 0; g < 3; ++g) {
+        sel.machine_kind_z[g] =
+            count[g] < 3 ? -kInf : ChiSquareDeviate(chi2[g], count[g]);
+        sel.machine_z = std::max(sel.machine_z, sel.machine_kind_z[g]);
+      }
+    }
+  }
   // A step in one figure kind from some cycle on, fitted along with the
   // chosen model: a cause that explains the data leaves nothing a step
   // explains better than chance (an effect that starts at one cycle, a

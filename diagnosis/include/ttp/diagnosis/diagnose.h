@@ -173,7 +173,7 @@ struct DiagnosisOptions {
   // `refused` instead of named when E_X, E_Y and E_Z pooled keep a chi2
   // deviate beyond this after the named cause (calibrated on runs without
   // a cause: docs/DIAGNOSIS.md).
-  double named_machine_z = 2.5;
+  double named_machine_z = 3.0;
   // `refused` whatever the outcome when E_X, E_Y and E_Z pooled keep a
   // chi2 deviate beyond this after the best model: above every run with
   // its own log in the calibration and the batteries (docs/DIAGNOSIS.md).
@@ -253,7 +253,9 @@ struct DiagnosisReport {
   // angle_evidence_threshold for a cause seen only in the facet angles).
   double evidence_threshold = 0;
   // The largest per-kind deviate over E_X, E_Y, E_Z (the figures that
-  // follow the machine's location errors).
+  // follow the machine's location errors), after the best model or the
+  // nominal one, whichever leaves E_X, E_Y and E_Z pooled closer to the
+  // log (machine_pooled_z, machine_kind_z: the same model).
   double machine_z = 0;
   // The same over E_X, E_Y and E_Z pooled (one chi2 deviate).
   double machine_pooled_z = 0;
