@@ -738,6 +738,7 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   model.options = o;
   model.fit_t_begin_s = fit.t_s.front();
   model.fit_t_end_s = fit.t_s.back();
+  if (StartEpochS(ts)) model.fit_start = ts.header.at("start");
   model.median_step_s = MedianStep(fit);
   model.input_ranges = InputRanges(fit);
   std::set<std::string> needed;
@@ -937,19 +938,31 @@ Prediction Predict(const ThermalModel& model, const TimeSeries& input_ts,
   for (const auto& m : model.outputs) p.cv_rms_um.push_back(m.cv_rms_um);
   p.values_um.resize(static_cast<Eigen::Index>(ts.rows()),
                      static_cast<Eigen::Index>(model.outputs.size()));
-  const double step = ts.t_s.front() - model.fit_t_end_s;
+  // Both logs' `start` headers place them in one time (a continuation may
+  // count its t_s from its own start); without them, t_s alone.
+  const std::optional<double> fit_start =
+      model.fit_start.empty() ? std::nullopt : Iso8601EpochS(model.fit_start);
+  const std::optional<double> log_start = StartEpochS(ts);
+  const bool absolute = fit_start && log_start;
+  const double step = absolute ? (*log_start + ts.t_s.front()) -
+                                     (*fit_start + model.fit_t_end_s)
+                               : ts.t_s.front() - model.fit_t_end_s;
   p.continued = step > 0 && step <= kGapPeriods * model.median_step_s;
+  // The filters' stored state is at the fitted log's t_s: a continuation
+  // counted from its own start is read in that time.
+  if (p.continued && absolute && *log_start != *fit_start)
+    for (double& t : ts.t_s) t += *log_start - *fit_start;
   if (step > kGapPeriods * model.median_step_s) {
     p.warnings.push_back(fmt::format(
-        "the log starts {:g} s after the fitted log's end: filters start in "
+        "the log starts {:g} s after the fitted log's end{}: filters start in "
         "the steady state of its first row",
-        step));
+        step, absolute ? " (by the two logs' start headers)" : ""));
   } else if (step <= 0) {
     p.warnings.push_back(fmt::format(
-        "the log starts at t = {:g} s, not after the fitted log's end ({:g} "
-        "s): it is not taken as its continuation; filters start in the "
-        "steady state of its first row",
-        ts.t_s.front(), model.fit_t_end_s));
+        "the log starts {:g} s before the fitted log's end{}: it is not "
+        "taken as its continuation; filters start in the steady state of "
+        "its first row",
+        -step, absolute ? " (by the two logs' start headers)" : ""));
   }
   for (size_t k = 0; k < model.outputs.size(); ++k) {
     const OutputModel& m = model.outputs[k];
@@ -971,6 +984,7 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
   j["fitted_log"] = model.source;
   j["fit_t_begin_s"] = model.fit_t_begin_s;
   j["fit_t_end_s"] = model.fit_t_end_s;
+  if (!model.fit_start.empty()) j["fit_start"] = model.fit_start;
   j["median_step_s"] = model.median_step_s;
   j["inputs"] = model.inputs;
   nlohmann::json ranges = nlohmann::json::array();
@@ -1033,6 +1047,14 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
     model.source = j.value("fitted_log", "");
     model.fit_t_begin_s = j.at("fit_t_begin_s").get<double>();
     model.fit_t_end_s = j.at("fit_t_end_s").get<double>();
+    if (j.contains("fit_start")) {
+      model.fit_start = j.at("fit_start").get<std::string>();
+      if (!Iso8601EpochS(model.fit_start))
+        throw InputError(source, 0, "fit_start",
+                         fmt::format("'{}' is not an ISO 8601 date-time with "
+                                     "offset",
+                                     model.fit_start));
+    }
     model.median_step_s = j.at("median_step_s").get<double>();
     model.inputs = j.at("inputs").get<std::vector<std::string>>();
     if (j.contains("input_ranges"))

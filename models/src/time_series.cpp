@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <optional>
 #include <regex>
 #include <set>
 
@@ -258,6 +259,39 @@ void FindGapRows(TimeSeries& ts) {
 TimeSeries ReadThermalLog(const std::filesystem::path& path) {
   const std::string text = ReadTextFile(path);
   return ParseThermalLog(text, path.string());
+}
+
+std::optional<double> Iso8601EpochS(const std::string& text) {
+  static const std::regex form(
+      R"(^(\d{4})-(\d{2})-(\d{2})T(\d{2}):(\d{2})(:(\d{2}(\.\d+)?))?)"
+      R"((Z|([+-])(\d{2}):?(\d{2}))$)");
+  std::smatch m;
+  if (!std::regex_match(text, m, form)) return std::nullopt;
+  const int year = std::stoi(m[1]), month = std::stoi(m[2]),
+            day = std::stoi(m[3]);
+  if (month < 1 || month > 12 || day < 1 || day > 31) return std::nullopt;
+  // Days since 1970-01-01 of a proleptic Gregorian date (the civil-date
+  // algorithm: years start in March so that the leap day comes last).
+  const int y = year - (month <= 2);
+  const int era = (y >= 0 ? y : y - 399) / 400;
+  const int yoe = y - era * 400;
+  const int doy = (153 * (month + (month > 2 ? -3 : 9)) + 2) / 5 + day - 1;
+  const int doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  const double days = static_cast<double>(era) * 146097 + doe - 719468;
+  double seconds = days * 86400 + std::stoi(m[4]) * 3600.0 +
+                   std::stoi(m[5]) * 60.0 +
+                   (m[7].matched ? std::stod(m[7]) : 0.0);
+  if (m[10].matched) {
+    const double offset = std::stoi(m[11]) * 3600.0 + std::stoi(m[12]) * 60.0;
+    seconds += m[10] == "+" ? -offset : offset;
+  }
+  return seconds;
+}
+
+std::optional<double> StartEpochS(const TimeSeries& ts) {
+  const auto it = ts.header.find("start");
+  if (it == ts.header.end()) return std::nullopt;
+  return Iso8601EpochS(it->second);
 }
 
 }  // namespace ttp::models

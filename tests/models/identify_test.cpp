@@ -4,6 +4,7 @@
 // unmeasured node; and the real FL spindle test (chronological holdout).
 #include "ttp/models/identify.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -195,6 +196,59 @@ TEST(Identify, ModelFileRoundTripAndContinuation) {
   TimeSeries shifted = tail;
   for (double& t : shifted.t_s) t += 1e5;
   EXPECT_FALSE(Predict(back, shifted).continued);
+}
+
+// thermal-log.md: t_s counts from the log's own `start`. The second part of
+// a test written as its own log (t_s from 0, start at the first part's
+// start + the time it begins, in another UTC offset) continues the fitted
+// log as the same rows with t_s counted on do; a log whose start puts it
+// before the fitted end does not.
+TEST(Identify, ContinuationIsJudgedInTheTimeOfTheStartHeaders) {
+  TimeSeries ts = TwoNodeNetwork(5);
+  ts.header["start"] = "2024-01-01T00:00:00+00:00";
+  const ThermalModel m = ModelFromJson(
+      nlohmann::json::parse(
+          ModelToJson(FitThermalModel(ts, {"d_z"}, FitOptions{}, kSplit))
+              .dump()),
+      "model.json");
+  EXPECT_EQ(m.fit_start, "2024-01-01T00:00:00+00:00");
+  size_t first = 0;
+  while (ts.t_s[first] < kSplit) ++first;
+  const Eigen::Index nt = static_cast<Eigen::Index>(ts.rows() - first);
+  TimeSeries tail = ts;
+  tail.t_s.erase(tail.t_s.begin(), tail.t_s.begin() + first);
+  tail.inputs = ts.inputs.bottomRows(nt).eval();
+  tail.outputs_um = ts.outputs_um.bottomRows(nt).eval();
+  const Prediction counted_on = Predict(m, tail);
+  ASSERT_TRUE(counted_on.continued);
+
+  TimeSeries own = tail;
+  const double t0 = own.t_s.front();
+  for (double& t : own.t_s) t -= t0;
+  // t0 = kSplit rounded up to the sampling: 2024-01-01T00:00 + t0 in +02:00
+  const long whole = static_cast<long>(t0);
+  ASSERT_EQ(static_cast<double>(whole), t0);
+  const long local = whole + 2 * 3600;
+  own.header["start"] = fmt::format("2024-01-01T{:02d}:{:02d}:{:02d}+02:00",
+                                    local / 3600, local / 60 % 60, local % 60);
+  ASSERT_LT(local, 24 * 3600);
+  const Prediction restarted = Predict(m, own);
+  EXPECT_TRUE(restarted.continued);
+  EXPECT_LT((restarted.values_um - counted_on.values_um).cwiseAbs().maxCoeff(),
+            1e-9);
+
+  TimeSeries before = own;
+  before.header["start"] = "2024-01-01T00:00:00+00:00";  // t_s 0 = fit start
+  EXPECT_FALSE(Predict(m, before).continued);
+  // A model file whose start is not a time is refused naming the field.
+  nlohmann::json j = ModelToJson(m);
+  j["fit_start"] = "yesterday";
+  try {
+    ModelFromJson(j, "model.json");
+    ADD_FAILURE() << "a bad fit_start was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("fit_start"), std::string::npos);
+  }
 }
 
 // The model file of one structure fitted on the two-node network.

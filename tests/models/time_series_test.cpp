@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include "test_dir.h"
 #include "ttp/geometry/error.h"
@@ -26,6 +28,33 @@ InputError ExpectError(const std::string& text) {
   }
   ADD_FAILURE() << "no InputError for:\n" << text;
   return InputError("", 0, "", "");
+}
+
+// Unix times of these dates from Python's datetime.fromisoformat(...)
+// .timestamp(): a leap day, a date before 1970, offsets either side of UTC,
+// with and without seconds and a colon in the offset.
+TEST(ThermalLog, StartIsReadAsUnixTime) {
+  const std::pair<const char*, double> cases[] = {
+      {"1970-01-01T00:00:00+00:00", 0.0},
+      {"2000-03-01T00:00:00Z", 951868800.0},
+      {"2024-01-01T00:00+00:00", 1704067200.0},
+      {"2024-01-01T01:30:00+0130", 1704067200.0},
+      {"1999-12-31T19:00:00-05:00", 946684800.0},
+      {"2024-02-29T12:00:00+00:00", 1709208000.0},
+      {"1969-07-20T20:17:40.5+00:00", -14182939.5},
+  };
+  for (const auto& [text, want] : cases) {
+    const std::optional<double> got = Iso8601EpochS(text);
+    ASSERT_TRUE(got.has_value()) << text;
+    EXPECT_DOUBLE_EQ(*got, want) << text;
+  }
+  EXPECT_FALSE(Iso8601EpochS("2024-01-01 00:00:00+00:00"));
+  EXPECT_FALSE(Iso8601EpochS("2024-01-01T00:00:00"));  // no offset
+  EXPECT_FALSE(Iso8601EpochS("2024-13-01T00:00:00Z"));
+  TimeSeries ts;
+  EXPECT_FALSE(StartEpochS(ts));
+  ts.header["start"] = "2024-01-01T00:00:00+00:00";
+  EXPECT_DOUBLE_EQ(*StartEpochS(ts), 1704067200.0);
 }
 
 TEST(ThermalLog, ReadsValidFileWithSparseOutputsAndIgnoredColumns) {

@@ -104,6 +104,10 @@ struct ThermalModel {
   std::string source;
   std::vector<InputRange> input_ranges;       // every input of the fitted span
   double fit_t_begin_s = 0, fit_t_end_s = 0;  // last fitted row
+  // The fitted log's `start` (ISO 8601 with offset; empty when it had
+  // none): a log continues the fitted one when its start + t_s follows
+  // this start + fit_t_end_s, whatever its own t_s.
+  std::string fit_start;
   double median_step_s = 0;
   std::vector<std::string> inputs;  // columns the model needs
   FitOptions options;
@@ -188,8 +192,10 @@ nlohmann::json PredictionSummaryJson(const Prediction& p);
 
 // Causal prediction of every modelled output at every row of `ts` from its
 // inputs alone (outputs in `ts` are ignored). When ts starts after the
-// fitted log's end (within ten sampling periods) the filters continue from
-// the model's end state; otherwise they start from the first row.
+// fitted log's end (within ten sampling periods; in the time of the two
+// logs' `start` headers when both have one, else in t_s) the filters
+// continue from the model's end state; otherwise they start from the
+// first row.
 Prediction Predict(const ThermalModel& model, const TimeSeries& ts,
                    const PredictOptions& options = {});
 // One output over a whole series, filters from its first row.

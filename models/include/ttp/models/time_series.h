@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -36,6 +37,13 @@ struct TimeSeries {
 // line and column.
 TimeSeries ReadThermalLog(const std::filesystem::path& path);
 TimeSeries ParseThermalLog(std::string_view text, const std::string& source);
+
+// The log's `start` header (thermal-log.md: ISO 8601 date-time with offset
+// of t_s = 0) as seconds since 1970-01-01T00:00:00Z; nullopt when the
+// header is absent or not of that form. Two logs of one test continue each
+// other in this time, whatever their t_s.
+std::optional<double> StartEpochS(const TimeSeries& ts);
+std::optional<double> Iso8601EpochS(const std::string& text);
 
 // Recomputes gap_rows (and adds a warning per gap) from t_s by the rule
 // above; for series built by other readers.
