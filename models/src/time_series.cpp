@@ -96,8 +96,6 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
   TimeSeries ts;
   ts.source = source;
   static const std::regex key_value(R"(^#\s*([A-Za-z0-9_.-]+)\s*:\s*(.*)$)");
-  static const std::regex iso8601(
-      R"(^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})$)");
 
   std::vector<Column> columns;
   std::vector<std::string> names;
@@ -151,11 +149,9 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
                          "required header key is missing (ISO 8601 date-time "
                          "with offset of t_s = 0)");
       }
-      if (!std::regex_match(start->second, iso8601)) {
+      if (const std::string why = Iso8601Problem(start->second); !why.empty()) {
         throw InputError(source, line_no, "# start",
-                         fmt::format("'{}' is not an ISO 8601 date-time with "
-                                     "offset",
-                                     start->second));
+                         fmt::format("'{}': {}", start->second, why));
       }
       names = SplitLine(line);
       std::set<std::string> seen;
@@ -261,15 +257,52 @@ TimeSeries ReadThermalLog(const std::filesystem::path& path) {
   return ParseThermalLog(text, path.string());
 }
 
-std::optional<double> Iso8601EpochS(const std::string& text) {
+namespace {
+
+const std::regex& Iso8601Form() {
   static const std::regex form(
       R"(^(\d{4})-(\d{2})-(\d{2})T(\d{2}):(\d{2})(:(\d{2}(\.\d+)?))?)"
       R"((Z|([+-])(\d{2}):?(\d{2}))$)");
+  return form;
+}
+
+bool IsLeapYear(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
+
+}  // namespace
+
+std::string Iso8601Problem(const std::string& text) {
   std::smatch m;
-  if (!std::regex_match(text, m, form)) return std::nullopt;
+  if (!std::regex_match(text, m, Iso8601Form()))
+    return "not an ISO 8601 date-time with offset";
   const int year = std::stoi(m[1]), month = std::stoi(m[2]),
             day = std::stoi(m[3]);
-  if (month < 1 || month > 12 || day < 1 || day > 31) return std::nullopt;
+  static const int kDays[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  if (month < 1 || month > 12)
+    return fmt::format("month {} does not exist", month);
+  const int days = kDays[month - 1] + (month == 2 && IsLeapYear(year));
+  if (day < 1 || day > days)
+    return fmt::format("day {} does not exist in {:04d}-{:02d}", day, year,
+                       month);
+  if (std::stoi(m[4]) > 23 || std::stoi(m[5]) > 59 ||
+      (m[7].matched && std::stod(m[7]) >= 61))
+    return "not a time of day";
+  if (m[10].matched) {
+    const int oh = std::stoi(m[11]), om = std::stoi(m[12]);
+    const bool minus = m[10] == "-";
+    if (om > 59 || oh > 14 || (minus && oh > 12) || (oh == 14 && om > 0) ||
+        (oh == 12 && minus && om > 0))
+      return "UTC offset " + text.substr(static_cast<size_t>(m.position(9))) +
+             " does not exist (-12:00..+14:00)";
+  }
+  return "";
+}
+
+std::optional<double> Iso8601EpochS(const std::string& text) {
+  if (!Iso8601Problem(text).empty()) return std::nullopt;
+  std::smatch m;
+  std::regex_match(text, m, Iso8601Form());
+  const int year = std::stoi(m[1]), month = std::stoi(m[2]),
+            day = std::stoi(m[3]);
   // Days since 1970-01-01 of a proleptic Gregorian date (the civil-date
   // algorithm: years start in March so that the leap day comes last).
   const int y = year - (month <= 2);

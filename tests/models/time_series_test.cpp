@@ -110,6 +110,31 @@ TEST(ThermalLog, StartWithoutOffset) {
   EXPECT_EQ(e.field(), "# start");
 }
 
+// A start of the right form that names no real moment: each refused with
+// its reason, naming the key and its line (the TALC log reader uses the
+// same check).
+TEST(ThermalLog, StartThatIsNoRealTime) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"2023-02-29T00:00:00Z", "day 29 does not exist in 2023-02"},
+      {"2024-13-01T00:00:00Z", "month 13 does not exist"},
+      {"2024-01-01T24:00:00Z", "not a time of day"},
+      {"2024-01-01T12:60:00Z", "not a time of day"},
+      {"2024-01-01T12:00:00+15:00", "UTC offset +15:00 does not exist"},
+      {"2024-01-01T12:00:00-12:30", "UTC offset -12:30 does not exist"},
+  };
+  for (const auto& [start, why] : cases) {
+    const InputError e =
+        ExpectError(std::string("# thermal-log: 1\n# start: ") + start +
+                    "\nt_s,T_a\n0,20\n");
+    EXPECT_EQ(e.field(), "# start") << start;
+    EXPECT_EQ(e.line(), 3) << start;
+    EXPECT_NE(std::string(e.what()).find(why), std::string::npos)
+        << start << ": " << e.what();
+    EXPECT_FALSE(Iso8601EpochS(start)) << start;
+  }
+  EXPECT_EQ(Iso8601Problem("2024-02-29T23:59:60.5+14:00"), "");
+}
+
 TEST(ThermalLog, TimeNotIncreasing) {
   const InputError e = ExpectError(kHeader + "t_s,T_a\n0,20\n15,20\n15,20.1\n");
   EXPECT_EQ(e.field(), "t_s");

@@ -16,6 +16,7 @@
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/limits.h"
+#include "ttp/models/time_series.h"
 
 namespace ttp::thermal {
 
@@ -107,38 +108,6 @@ void CheckMagnitude(int column, double v, const std::string& source, int line) {
   }
 }
 
-bool IsLeapYear(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
-
-// The fields of an ISO 8601 time already matched by its pattern: a real
-// calendar day, a time of day and a UTC offset within -12:00..+14:00.
-std::string CheckIsoTime(const std::string& t) {
-  const int year = std::stoi(t.substr(0, 4));
-  const int month = std::stoi(t.substr(5, 2));
-  const int day = std::stoi(t.substr(8, 2));
-  const int hour = std::stoi(t.substr(11, 2));
-  const int minute = std::stoi(t.substr(14, 2));
-  static const int kDays[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
-  if (month < 1 || month > 12)
-    return fmt::format("month {} does not exist", month);
-  const int days = kDays[month - 1] + (month == 2 && IsLeapYear(year));
-  if (day < 1 || day > days)
-    return fmt::format("day {} does not exist in {:04d}-{:02d}", day, year,
-                       month);
-  if (hour > 23 || minute > 59) return "not a time of day";
-  if (t.size() > 17 && t[16] == ':' && std::stoi(t.substr(17, 2)) > 60)
-    return "not a time of day";
-  const size_t z = t.find_first_of("Z+-", 16);
-  if (z != std::string::npos && t[z] != 'Z') {
-    const std::string off = t.substr(z + 1);
-    const int oh = std::stoi(off.substr(0, 2));
-    const int om = std::stoi(off.substr(off.size() - 2));
-    if (om > 59 || oh > 14 || (t[z] == '-' && oh > 12) ||
-        (oh == 14 && om > 0) || (oh == 12 && t[z] == '-' && om > 0))
-      return "UTC offset " + t.substr(z) + " does not exist (-12:00..+14:00)";
-  }
-  return "";
-}
-
 }  // namespace
 
 int TalcLog::CountEvent(LogEvent e) const {
@@ -165,8 +134,6 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
   std::unordered_set<std::string> lines_at_last_t;  // exact-duplicate check
   std::map<std::string, int> header_lines;  // key -> line of `# key: value`
   static const std::regex key_value(R"(^#\s*([A-Za-z0-9_.-]+)\s*:\s*(.*)$)");
-  static const std::regex iso8601(
-      R"(^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})$)");
 
   while (std::getline(in, raw)) {
     ++line_no;
@@ -421,12 +388,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
         fmt::format("format version '{}' is not 1", log.header["talc-log"]));
   }
   log.start = log.header["start"];
-  if (!std::regex_match(log.start, iso8601)) {
-    throw InputError(
-        source, key_line_of("start"), "start",
-        fmt::format("'{}' is not an ISO 8601 time with offset", log.start));
-  }
-  if (const std::string why = CheckIsoTime(log.start); !why.empty()) {
+  if (const std::string why = models::Iso8601Problem(log.start); !why.empty()) {
     throw InputError(source, key_line_of("start"), "start",
                      fmt::format("'{}': {}", log.start, why));
   }

@@ -38,10 +38,16 @@ struct TimeSeries {
 TimeSeries ReadThermalLog(const std::filesystem::path& path);
 TimeSeries ParseThermalLog(std::string_view text, const std::string& source);
 
+// Why `text` is not an ISO 8601 date-time with offset as thermal-log.md
+// and talc-log.md require it (YYYY-MM-DDTHH:MM[:SS[.s]] and Z or +-HH[:]MM:
+// a real calendar day, a time of day, a UTC offset within -12:00..+14:00);
+// empty when it is one.
+std::string Iso8601Problem(const std::string& text);
+
 // The log's `start` header (thermal-log.md: ISO 8601 date-time with offset
 // of t_s = 0) as seconds since 1970-01-01T00:00:00Z; nullopt when the
-// header is absent or not of that form. Two logs of one test continue each
-// other in this time, whatever their t_s.
+// header is absent or not such a date-time (Iso8601Problem). Two logs of one
+// test continue each other in this time, whatever their t_s.
 std::optional<double> StartEpochS(const TimeSeries& ts);
 std::optional<double> Iso8601EpochS(const std::string& text);
 
