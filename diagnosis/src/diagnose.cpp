@@ -653,6 +653,23 @@ double MachinePooledZ(const Eigen::VectorXd& whitened_residual,
   return k < 3 ? -kInf : ChiSquareDeviate(chi2, k);
 }
 
+// E_X, E_Y and E_Z each alone as a chi2 deviate (-inf where fewer than
+// three observations).
+std::vector<double> MachineKindZ(const Eigen::VectorXd& whitened_residual,
+                                 const std::vector<int>& row_kinds) {
+  double chi2[3] = {};
+  int count[3] = {};
+  for (size_t r = 0; r < row_kinds.size(); ++r)
+    if (row_kinds[r] <= 2) {
+      chi2[row_kinds[r]] += whitened_residual[r] * whitened_residual[r];
+      ++count[row_kinds[r]];
+    }
+  std::vector<double> z(3, -kInf);
+  for (int g = 0; g < 3; ++g)
+    if (count[g] >= 3) z[g] = ChiSquareDeviate(chi2[g], count[g]);
+  return z;
+}
+
 // Every candidate fitted on one problem, and the decision on it.
 struct Selection {
   std::vector<Fit> fits;  // [0] = none
@@ -866,6 +883,14 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   // Structure left in one figure kind (or the angles) that the global
   // chi2 dilutes: its whitened chi2 as a standard normal deviate
   // (Wilson-Hilferty).
+  // The machine statistics (E_X, E_Y, E_Z pooled, each, their largest) of
+  // one model's whitened residual.
+  const auto set_machine = [&sel, &kinds](const Column& residual) {
+    sel.machine_pooled_z = MachinePooledZ(residual, kinds);
+    sel.machine_kind_z = MachineKindZ(residual, kinds);
+    sel.machine_z =
+        *std::max_element(sel.machine_kind_z.begin(), sel.machine_kind_z.end());
+  };
   std::string local;
   {
     const Column residual = Column(problem.Whiten(cache.Observed())) -
@@ -878,17 +903,13 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     }
     const char* names[kGroups] = {"E_X",   "E_Y",  "E_Z",
                                   "E_TTP", "E_OV", "facet angles"};
-    sel.machine_pooled_z = MachinePooledZ(residual, kinds);
+    set_machine(residual);
     for (int g = 0; g < kGroups; ++g) {
       if (count[g] < 3) continue;
       const double z = ChiSquareDeviate(chi2[g], count[g]);
       if (z > sel.local_z) {
         sel.local_z = z;
         sel.local_group = g;
-      }
-      if (g <= 2) {
-        sel.machine_z = std::max(sel.machine_z, z);
-        sel.machine_kind_z[g] = z;
       }
       if (z > options.local_z && local.empty())
         local = fmt::format(
@@ -909,23 +930,8 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     const Column nominal =
         Column(problem.Whiten(cache.Observed())) -
         problem.Whiten(Prediction(sel.fits[0], cache, problem.obs()));
-    const double pooled = MachinePooledZ(nominal, kinds);
-    if (pooled < sel.machine_pooled_z) {
-      double chi2[3] = {};
-      int count[3] = {};
-      for (size_t r = 0; r < kinds.size(); ++r)
-        if (kinds[r] <= 2) {
-          chi2[kinds[r]] += nominal[r] * nominal[r];
-          ++count[kinds[r]];
-        }
-      sel.machine_pooled_z = pooled;
-      sel.machine_z = -kInf;
-      for (int g = 0; g < 3; ++g) {
-        sel.machine_kind_z[g] =
-            count[g] < 3 ? -kInf : ChiSquareDeviate(chi2[g], count[g]);
-        sel.machine_z = std::max(sel.machine_z, sel.machine_kind_z[g]);
-      }
-    }
+    if (MachinePooledZ(nominal, kinds) < sel.machine_pooled_z)
+      set_machine(nominal);
   }
   // A step in one figure kind from some cycle on, fitted along with the
   // chosen model: a cause that explains the data leaves nothing a step

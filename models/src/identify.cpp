@@ -1049,11 +1049,9 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
     model.fit_t_end_s = j.at("fit_t_end_s").get<double>();
     if (j.contains("fit_start")) {
       model.fit_start = j.at("fit_start").get<std::string>();
-      if (!Iso8601EpochS(model.fit_start))
+      if (const std::string why = Iso8601Problem(model.fit_start); !why.empty())
         throw InputError(source, 0, "fit_start",
-                         fmt::format("'{}' is not an ISO 8601 date-time with "
-                                     "offset",
-                                     model.fit_start));
+                         fmt::format("'{}': {}", model.fit_start, why));
     }
     model.median_step_s = j.at("median_step_s").get<double>();
     model.inputs = j.at("inputs").get<std::vector<std::string>>();
