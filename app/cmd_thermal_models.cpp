@@ -92,8 +92,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
   {
     auto* cmd = group->add_subcommand(
         "fit",
-        "identify a model per output (structure, inputs, lags, orders "
-        "and ridge chosen by chronological cross-validation)");
+        "identify a model per output by chronological cross-validation "
+        "(auto: the ridge of the joint model on every input; select: the "
+        "structure; static..combined: inputs, lags and orders too)");
     auto log = std::make_shared<std::string>();
     auto out = std::make_shared<std::string>();
     auto outputs = std::make_shared<std::string>();

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -154,6 +155,97 @@ int main() {
       const OutputModel m2 = FitFixed(rest, j, second, Structure::kJoint, o);
       return Eigen::VectorXd(PredictOutput(m1, part) + PredictOutput(m2, part));
     };
+    // Joint on a subset of the temperatures (indices into `temps`).
+    auto joint_on = [&](const std::vector<int>& keep) {
+      std::vector<Regressor> r;
+      for (int k : keep) r.push_back(temps[k]);
+      std::vector<Regressor> lagged;
+      for (Regressor x : r) {
+        x.taus_s = {o.temperature_lag_s};
+        lagged.push_back(x);
+      }
+      return cat(cat(r, lagged), speed);
+    };
+    // The temperatures selected by the chronological CV score of joint:
+    // forward from none or backward from all, a sensor (direct and lagged
+    // path) per step while the score falls by min_gain.
+    auto selected = [&](int j, bool backward) {
+      std::vector<int> cur;
+      if (backward)
+        for (size_t k = 0; k < temps.size(); ++k)
+          cur.push_back(static_cast<int>(k));
+      double score =
+          FitFixed(fit, j, joint_on(cur), Structure::kJoint, o).cv_score;
+      for (;;) {
+        double best = std::numeric_limits<double>::infinity();
+        std::vector<int> best_set;
+        for (size_t k = 0; k < temps.size(); ++k) {
+          std::vector<int> t = cur;
+          const auto at = std::find(t.begin(), t.end(), static_cast<int>(k));
+          if (backward == (at == t.end())) continue;
+          if (backward)
+            t.erase(at);
+          else
+            t.push_back(static_cast<int>(k));
+          const double s =
+              FitFixed(fit, j, joint_on(t), Structure::kJoint, o).cv_score;
+          if (s < best) best = s, best_set = t;
+        }
+        if (!(best < score * (1 - o.min_gain))) break;
+        score = best, cur = best_set;
+      }
+      return Eigen::VectorXd(PredictOutput(
+          FitFixed(fit, j, joint_on(cur), Structure::kJoint, o), part));
+    };
+    // One sensor per cluster of temperatures correlated above r over the
+    // fitted span (average linkage; the sensor closest to its cluster),
+    // r in 0.8 .. 0.99 or every sensor, chosen by the CV score of joint.
+    auto clustered = [&](int j) {
+      const int m = static_cast<int>(temps.size());
+      Eigen::MatrixXd x = ComputeFeatures(fit, temps);
+      for (int k = 0; k < m; ++k) {
+        x.col(k).array() -= x.col(k).mean();
+        if (x.col(k).norm() > 0) x.col(k).normalize();
+      }
+      const Eigen::MatrixXd c = x.transpose() * x;
+      OutputModel best;
+      best.cv_score = std::numeric_limits<double>::infinity();
+      for (double r : {0.8, 0.9, 0.95, 0.98, 0.99, 1.01}) {
+        std::vector<std::vector<int>> cl;
+        for (int k = 0; k < m; ++k) cl.push_back({k});
+        for (;;) {
+          double top = -2;
+          size_t a = 0, b = 0;
+          for (size_t p = 0; p < cl.size(); ++p)
+            for (size_t q = p + 1; q < cl.size(); ++q) {
+              double mean = 0;
+              for (int u : cl[p])
+                for (int v : cl[q]) mean += c(u, v);
+              mean /= static_cast<double>(cl[p].size() * cl[q].size());
+              if (mean > top) top = mean, a = p, b = q;
+            }
+          if (cl.size() < 2 || top < r) break;
+          cl[a].insert(cl[a].end(), cl[b].begin(), cl[b].end());
+          cl.erase(cl.begin() + static_cast<std::ptrdiff_t>(b));
+        }
+        std::vector<int> keep;
+        for (const auto& members : cl) {
+          int rep = members.front();
+          double top = -1e300;
+          for (int u : members) {
+            double sum = 0;
+            for (int v : members) sum += c(u, v);
+            if (sum > top) top = sum, rep = u;
+          }
+          keep.push_back(rep);
+        }
+        std::sort(keep.begin(), keep.end());
+        OutputModel mdl =
+            FitFixed(fit, j, joint_on(keep), Structure::kJoint, o);
+        if (mdl.cv_score < best.cv_score) best = mdl;
+      }
+      return Eigen::VectorXd(PredictOutput(best, part));
+    };
     struct Variant {
       const char* name;
       std::function<Eigen::VectorXd(int)> predict;
@@ -195,13 +287,19 @@ int main() {
                  part);
            return Eigen::VectorXd(sum / static_cast<double>(o.taus_s.size()));
          }},
+        {"joint, temperatures selected forward",
+         [&](int j) { return selected(j, false); }},
+        {"joint, temperatures selected backward",
+         [&](int j) { return selected(j, true); }},
+        {"joint, one sensor per correlated cluster",
+         [&](int j) { return clustered(j); }},
     };
     for (const auto& v : variants) {
       std::string line;
       for (size_t j = 0; j < part.output_names.size(); ++j)
         line += fmt::format(" {:6.2f}", rms(static_cast<int>(j),
                                             v.predict(static_cast<int>(j))));
-      fmt::print("  {:<38}{}\n", v.name, line);
+      fmt::print("  {:<41}{}\n", v.name, line);
     }
   }
   // Leave one speed block out: each heating block with the rest after it
