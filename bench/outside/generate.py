@@ -337,7 +337,8 @@ def simulate(seed, effect, size, spacing_s, comp_on):
                 depth_um += effs["strip_drift"].params["total_um"] * k / 8.0
             half = math.sqrt(101.5 ** 2 - y * y)
             path_mm += 2 * (half - 5.0)
-            features[name] = {"depth_um": depth_um, "beta_urad": beta_urad, "t": t_cut, "cycle": k}
+            features[name] = {"depth_um": depth_um, "beta_urad": beta_urad, "t": t_cut, "cycle": k,
+                              "machine_errors": E}
             continue
         nx, ny = NORMAL_M[s]
         n3 = (nx, ny, 0.0)
@@ -365,7 +366,8 @@ def simulate(seed, effect, size, spacing_s, comp_on):
         if "step" in effs and k >= effs["step"].params["from_cycle"]:
             dist_um += effs["step"].params["step_um"]
         path_mm += 12.2
-        features[name] = {"dist_um": dist_um, "angle_urad": ang_urad, "t": t_cut, "cycle": k}
+        features[name] = {"dist_um": dist_um, "angle_urad": ang_urad, "t": t_cut, "cycle": k,
+                          "machine_errors": E}
 
     # ---- the log rows
     cut_rows = {round(c[0], 1): c for c in cuts}

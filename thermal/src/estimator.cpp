@@ -95,6 +95,15 @@ Eigen::VectorXd SmoothWeights(const std::vector<double>& t, double h,
 // tails of a normal distribution: the 99.5 % quantile of Student's t with
 // m degrees of freedom over the normal one (Cornish-Fisher expansion; 1
 // for many evaluations, about 1.4 for six).
+// The structures a fit on n R-tests may choose: m inputs (offset, gain
+// and time constant each, and with a free initial state its amplitude
+// too) kept overdetermined by three R-tests, a free initial state only
+// with three R-tests per parameter (enough to see it).
+bool StructureAffordable(int n, int m, bool free_state) {
+  const int k_params = 1 + 2 * m + (free_state ? m : 0);
+  return n >= k_params + 3 && (!free_state || n >= 3 * k_params);
+}
+
 double SmallSampleFactor(int m) {
   if (m <= 0) return 1.0;
   const double z = 2.5758, v = std::max(m, 3);
@@ -355,8 +364,10 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
 // inputs, time constants and whether the lags' initial state is free, by
 // BIC.
 MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
-    int e, const std::vector<double>& y, const std::vector<int>& rows) const {
+    int e, const std::vector<double>& y, const std::vector<int>& rows,
+    int affordable_n) const {
   const int n = static_cast<int>(rows.size());
+  const int n_afford = affordable_n > 0 ? affordable_n : n;
   const int n_inputs = static_cast<int>(signals_.size());
   const int n_tau = static_cast<int>(options_.tau_grid_s.size());
   // (the longest time constant of the grid is always tried)
@@ -384,9 +395,7 @@ MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
           distinct &= signals_[subset[a]].column != signals_[subset[b]].column;
       if (!distinct) continue;
       const int k_params = 1 + 2 * m + (free_state ? m : 0);
-      // Keep the fit overdetermined; a free initial state only with R-tests
-      // enough to see it (three per parameter).
-      if (n < k_params + 3 || (free_state && n < 3 * k_params)) continue;
+      if (!StructureAffordable(n_afford, m, free_state)) continue;
       std::vector<int> taus(m, 0);
       while (true) {
         // The spindle turns only during cuts, which no R-test sees: only
@@ -518,8 +527,15 @@ void MachineErrorEstimator::CrossValidate() {
         if (k < b0 || k >= b1) kept.push_back(k);
       if (kept.size() < 2) continue;
       Choice c = choice_[e];
+      // The structure is chosen again on the kept R-tests (its choice is
+      // part of what is validated), among the structures the whole log
+      // can afford: with the held-out R-tests' count taken off, R-tests
+      // 2 h apart (six of them afford one input, five none) would have the
+      // folds validate a constant and the smoother across 2 h gaps, not
+      // the estimator used (on the outside generator its budget at the
+      // cuts was then 2.5 to 6 times the error on EX0C..ER0T).
       if (reselect) {
-        c = Choose(e, y, kept);
+        c = Choose(e, y, kept, n);
       } else {
         const Eigen::MatrixXd x = Design(c, kept);
         Eigen::VectorXd ya = Eigen::VectorXd::Zero(x.rows());

@@ -167,6 +167,8 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
     sc.t_s = cut.t_s;
     sc.c_rad = cut.c_rad;
     sc.machine = est.MachineErrorsAt(cut.t_s);
+    for (int e = 0; e < 7; ++e)
+      sc.machine_sigma_um_or_urad[e] = est.ErrorSigmaAt(e, cut.t_s);
     sc.machine_linear = est.LinearErrorsAt(cut.t_s);
     sc.predicted = est.PredictedAt(cut.t_s);
     std::vector<double> extra;
@@ -198,9 +200,10 @@ nlohmann::json SimulationToJson(const Simulation& sim) {
     const auto m = c.machine.ToMicro();
     const auto l = c.machine_linear.ToMicro();
     const auto p = c.predicted.ToMicro();
-    nlohmann::json machine, linear, pred;
+    nlohmann::json machine, machine_u, linear, pred;
     for (int e = 0; e < 7; ++e) {
       machine[kErrorNames[e]] = m[e];
+      machine_u[kErrorNames[e]] = c.machine_sigma_um_or_urad[e];
       linear[kErrorNames[e]] = l[e];
       pred[kErrorNames[e]] = p[e];
     }
@@ -208,6 +211,7 @@ nlohmann::json SimulationToJson(const Simulation& sim) {
                     {"t_s", c.t_s},
                     {"c_deg", c.c_rad * 180 / kPi},
                     {"machine_errors", machine},
+                    {"machine_errors_u", machine_u},
                     {"machine_errors_linear", linear},
                     {"predicted_errors", pred},
                     {"d_mm", c.result.d_mm},

@@ -178,8 +178,11 @@ class MachineErrorEstimator {
     Eigen::VectorXd beta;  // offset, gains, initial states
     double bic = 0, rms = 0;
   };
+  // The structure of error e by BIC on `rows`, among those that
+  // affordable_n R-tests afford (0: rows.size(); a cross-validation fold
+  // passes the whole log's count).
   Choice Choose(int e, const std::vector<double>& y,
-                const std::vector<int>& rows) const;
+                const std::vector<int>& rows, int affordable_n = 0) const;
   Eigen::MatrixXd Design(const Choice& c, const std::vector<int>& rows) const;
   Eigen::VectorXd Row(const Choice& c, double t_s) const;
   void SelectModel(int e, const Eigen::VectorXd& y,

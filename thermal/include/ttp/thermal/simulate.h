@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -68,6 +69,9 @@ struct SimulatedCut {
   double t_s = 0;
   double c_rad = 0;
   CAxisErrors machine;         // estimator (ARX smoother)
+  // Its standard uncertainty per error (ErrorSigmaAt), um or urad in the
+  // order of CAxisErrors::ToMicro.
+  std::array<double, 7> machine_sigma_um_or_urad{};
   CAxisErrors machine_linear;  // straight line between R-tests
   CAxisErrors predicted;       // compensation in force (zero if off)
   FeatureResult result, result_linear;
