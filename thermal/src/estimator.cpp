@@ -91,10 +91,6 @@ Eigen::VectorXd SmoothWeights(const std::vector<double>& t, double h,
   return sw > 1e-300 ? Eigen::VectorXd(w / sw) : Eigen::VectorXd::Zero(n);
 }
 
-// A standard deviation estimated from m squared errors, used for the
-// tails of a normal distribution: the 99.5 % quantile of Student's t with
-// m degrees of freedom over the normal one (Cornish-Fisher expansion; 1
-// for many evaluations, about 1.4 for six).
 // The structures a fit on n R-tests may choose: m inputs (offset, gain
 // and time constant each, and with a free initial state its amplitude
 // too) kept overdetermined by three R-tests, a free initial state only
@@ -104,6 +100,10 @@ bool StructureAffordable(int n, int m, bool free_state) {
   return n >= k_params + 3 && (!free_state || n >= 3 * k_params);
 }
 
+// A standard deviation estimated from m squared errors, used for the
+// tails of a normal distribution: the 99.5 % quantile of Student's t with
+// m degrees of freedom over the normal one (Cornish-Fisher expansion; 1
+// for many evaluations, about 1.4 for six).
 double SmallSampleFactor(int m) {
   if (m <= 0) return 1.0;
   const double z = 2.5758, v = std::max(m, 3);
