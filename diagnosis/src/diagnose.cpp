@@ -1047,6 +1047,18 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     sel.trend_um = t.drift_um;
     sel.machine_pooled_z_one_kind =
         std::min({sel.machine_pooled_z, t.machine_pooled_z, step_pooled_z});
+    // ... or with any candidate's shape fitted, its parameters a result or
+    // not: an effect whose fit ends at a bound (a piece's lag at the
+    // shortest time constant tried) still shows that the piece's E_X, E_Y
+    // and E_Z can follow this log's machine errors.
+    const Column observed = problem.Whiten(cache.Observed());
+    for (const Fit& candidate : sel.fits) {
+      if (!candidate.ok) continue;
+      const Column residual = observed - problem.Whiten(Prediction(
+                                             candidate, cache, problem.obs()));
+      sel.machine_pooled_z_one_kind = std::min(sel.machine_pooled_z_one_kind,
+                                               MachinePooledZ(residual, kinds));
+    }
     if (t.chi2_drop > options.trend_chi2 &&
         std::abs(t.drift_um) > options.trend_min_um)
       trend = fmt::format(

@@ -262,9 +262,11 @@ struct DiagnosisReport {
   // Each of E_X, E_Y, E_Z alone (-inf where fewer than three observations).
   std::vector<double> machine_kind_z;
   // The pooled deviate with the best drift or step of one figure kind
-  // fitted along with the best model: an effect on one feature type (the
-  // strips drifting, one set of facets moved) leaves little here, another
-  // run's machine errors (in every kind the R-tests measure) stay.
+  // fitted along with the best model, or after any candidate's fit (its
+  // parameters a result or not), whichever is least: an effect on one
+  // feature type (the strips drifting, one set of facets moved) or of a
+  // cause's shape leaves little here, another run's machine errors (in
+  // every kind the R-tests measure) stay.
   double machine_pooled_z_one_kind = 0;
   // Held-out cycles (the whole selection repeated without each cycle):
   // RMS of the held-out residuals, nominal vs the fold's chosen model.
