@@ -1045,12 +1045,14 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     const TrendTest t = FigureTrend(fitter, f, problem);
     sel.trend_chi2 = t.chi2_drop;
     sel.trend_um = t.drift_um;
+    // E_X, E_Y and E_Z pooled under the least of the alternatives to
+    // another run's log: the best drift or step of one figure kind fitted
+    // along, or any candidate's fit, its parameters a result or not (an
+    // effect whose fit ends at a bound, a piece's lag at the shortest time
+    // constant tried, still shows that the piece's E_X, E_Y and E_Z can
+    // follow this log's machine errors).
     sel.machine_pooled_z_one_kind =
         std::min({sel.machine_pooled_z, t.machine_pooled_z, step_pooled_z});
-    // ... or with any candidate's shape fitted, its parameters a result or
-    // not: an effect whose fit ends at a bound (a piece's lag at the
-    // shortest time constant tried) still shows that the piece's E_X, E_Y
-    // and E_Z can follow this log's machine errors.
     const Column observed = problem.Whiten(cache.Observed());
     for (const Fit& candidate : sel.fits) {
       if (!candidate.ok) continue;
