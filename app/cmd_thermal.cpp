@@ -64,7 +64,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
         f.u_ttp_mm = u[i].u_ttp_mm;
       }
       std::string text = thermal::SimulationText(sim);
-      nlohmann::json j = thermal::SimulationToJson(sim);
+      nlohmann::json j = thermal::SimulationToJson(sim, estimator);
       if (*compare) {
         const auto c = thermal::CompareInterpolation(log, *interval);
         const auto dense = thermal::CompareAtLoadChanges(log);

@@ -135,14 +135,12 @@ int main() {
     // Extensions, each one fixed variant (nothing tuned on the holdout).
     const std::vector<Regressor> temps = AllTemperatureRegressors(fit);
     const std::vector<Regressor> speed = SpeedLagRegressors(fit, o.taus_s);
-    auto lagged_temps = [&](double tau) {
-      std::vector<Regressor> r;
-      for (Regressor x : temps) {
-        x.taus_s = {tau};
-        r.push_back(x);
-      }
+    // Regressors through one lag of time constant tau.
+    auto lagged = [](std::vector<Regressor> r, double tau) {
+      for (Regressor& x : r) x.taus_s = {tau};
       return r;
     };
+    auto lagged_temps = [&](double tau) { return lagged(temps, tau); };
     auto cat = [](std::vector<Regressor> a, const std::vector<Regressor>& b) {
       a.insert(a.end(), b.begin(), b.end());
       return a;
@@ -159,12 +157,7 @@ int main() {
     auto joint_on = [&](const std::vector<int>& keep) {
       std::vector<Regressor> r;
       for (int k : keep) r.push_back(temps[k]);
-      std::vector<Regressor> lagged;
-      for (Regressor x : r) {
-        x.taus_s = {o.temperature_lag_s};
-        lagged.push_back(x);
-      }
-      return cat(cat(r, lagged), speed);
+      return cat(cat(r, lagged(r, o.temperature_lag_s)), speed);
     };
     // The temperatures selected by the chronological CV score of joint:
     // forward from none or backward from all, a sensor (direct and lagged

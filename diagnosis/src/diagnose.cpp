@@ -891,10 +891,15 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     sel.machine_z =
         *std::max_element(sel.machine_kind_z.begin(), sel.machine_kind_z.end());
   };
+  // The whitened observations, and what one model leaves of them.
+  const Column observed = problem.Whiten(cache.Observed());
+  const auto residual_of = [&](const Fit& fit) {
+    return Column(observed -
+                  problem.Whiten(Prediction(fit, cache, problem.obs())));
+  };
   std::string local;
   {
-    const Column residual = Column(problem.Whiten(cache.Observed())) -
-                            problem.Whiten(Prediction(f, cache, problem.obs()));
+    const Column residual = residual_of(f);
     double chi2[kGroups] = {};
     int count[kGroups] = {};
     for (size_t r = 0; r < kinds.size(); ++r) {
@@ -927,9 +932,7 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   // machine errors disagree with the log under either is taken for
   // another run's.
   if (sel.chosen > 0 && sel.fits[0].ok) {
-    const Column nominal =
-        Column(problem.Whiten(cache.Observed())) -
-        problem.Whiten(Prediction(sel.fits[0], cache, problem.obs()));
+    const Column nominal = residual_of(sel.fits[0]);
     if (MachinePooledZ(nominal, kinds) < sel.machine_pooled_z)
       set_machine(nominal);
   }
@@ -1053,14 +1056,11 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     // follow this log's machine errors).
     sel.machine_pooled_z_one_kind =
         std::min({sel.machine_pooled_z, t.machine_pooled_z, step_pooled_z});
-    const Column observed = problem.Whiten(cache.Observed());
-    for (const Fit& candidate : sel.fits) {
-      if (!candidate.ok) continue;
-      const Column residual = observed - problem.Whiten(Prediction(
-                                             candidate, cache, problem.obs()));
-      sel.machine_pooled_z_one_kind = std::min(sel.machine_pooled_z_one_kind,
-                                               MachinePooledZ(residual, kinds));
-    }
+    for (const Fit& candidate : sel.fits)
+      if (candidate.ok)
+        sel.machine_pooled_z_one_kind =
+            std::min(sel.machine_pooled_z_one_kind,
+                     MachinePooledZ(residual_of(candidate), kinds));
     if (t.chi2_drop > options.trend_chi2 &&
         std::abs(t.drift_um) > options.trend_min_um)
       trend = fmt::format(

@@ -268,10 +268,9 @@ const std::regex& Iso8601Form() {
 
 bool IsLeapYear(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
 
-}  // namespace
-
-std::string Iso8601Problem(const std::string& text) {
-  std::smatch m;
+// Matches `text` against the form into `m` and checks its fields: why it is
+// no ISO 8601 date-time with offset naming a real moment, or "".
+std::string MatchIso8601(const std::string& text, std::smatch& m) {
   if (!std::regex_match(text, m, Iso8601Form()))
     return "not an ISO 8601 date-time with offset";
   const int year = std::stoi(m[1]), month = std::stoi(m[2]),
@@ -297,10 +296,16 @@ std::string Iso8601Problem(const std::string& text) {
   return "";
 }
 
-std::optional<double> Iso8601EpochS(const std::string& text) {
-  if (!Iso8601Problem(text).empty()) return std::nullopt;
+}  // namespace
+
+std::string Iso8601Problem(const std::string& text) {
   std::smatch m;
-  std::regex_match(text, m, Iso8601Form());
+  return MatchIso8601(text, m);
+}
+
+std::optional<double> Iso8601EpochS(const std::string& text) {
+  std::smatch m;
+  if (!MatchIso8601(text, m).empty()) return std::nullopt;
   const int year = std::stoi(m[1]), month = std::stoi(m[2]),
             day = std::stoi(m[3]);
   // Days since 1970-01-01 of a proleptic Gregorian date (the civil-date

@@ -167,8 +167,6 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
     sc.t_s = cut.t_s;
     sc.c_rad = cut.c_rad;
     sc.machine = est.MachineErrorsAt(cut.t_s);
-    for (int e = 0; e < 7; ++e)
-      sc.machine_sigma_um_or_urad[e] = est.ErrorSigmaAt(e, cut.t_s);
     sc.machine_linear = est.LinearErrorsAt(cut.t_s);
     sc.predicted = est.PredictedAt(cut.t_s);
     std::vector<double> extra;
@@ -189,7 +187,8 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
   return sim;
 }
 
-nlohmann::json SimulationToJson(const Simulation& sim) {
+nlohmann::json SimulationToJson(const Simulation& sim,
+                                const MachineErrorEstimator& estimator) {
   nlohmann::json j;
   j["estimator"] = sim.estimator_json;
   j["figures"] = FiguresToJson(sim.figures)["figures"];
@@ -203,7 +202,7 @@ nlohmann::json SimulationToJson(const Simulation& sim) {
     nlohmann::json machine, machine_u, linear, pred;
     for (int e = 0; e < 7; ++e) {
       machine[kErrorNames[e]] = m[e];
-      machine_u[kErrorNames[e]] = c.machine_sigma_um_or_urad[e];
+      machine_u[kErrorNames[e]] = estimator.ErrorSigmaAt(e, c.t_s);
       linear[kErrorNames[e]] = l[e];
       pred[kErrorNames[e]] = p[e];
     }

@@ -6,7 +6,6 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <array>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -69,9 +68,6 @@ struct SimulatedCut {
   double t_s = 0;
   double c_rad = 0;
   CAxisErrors machine;         // estimator (ARX smoother)
-  // Its standard uncertainty per error (ErrorSigmaAt), um or urad in the
-  // order of CAxisErrors::ToMicro.
-  std::array<double, 7> machine_sigma_um_or_urad{};
   CAxisErrors machine_linear;  // straight line between R-tests
   CAxisErrors predicted;       // compensation in force (zero if off)
   FeatureResult result, result_linear;
@@ -102,7 +98,11 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
                          const MachineErrorEstimator& estimator,
                          const SimulationOptions& options);
 
-nlohmann::json SimulationToJson(const Simulation& sim);
+// Per cut also the estimator's standard uncertainty of each machine error
+// (`machine_errors_u`, ErrorSigmaAt), computed here for the file only: the
+// simulations `ttp check` perturbs do not need it.
+nlohmann::json SimulationToJson(const Simulation& sim,
+                                const MachineErrorEstimator& estimator);
 std::string SimulationText(const Simulation& sim);
 
 }  // namespace ttp::thermal
