@@ -17,6 +17,7 @@ budget gives an RMS z near 1; much less is a budget wider than the error
 (evidence without power), much more one narrower (false alarms).
 
 Usage: estimator_coverage.py [--ttp build/app/ttp] [--runs 10] [--seed 7]
+                             [--rtest-noise-scale 1] [--machine-gain-scale 1]
 Python 3 standard library only.
 """
 import argparse
@@ -47,6 +48,7 @@ def main():
     ap.add_argument("--ttp", default="build/app/ttp")
     ap.add_argument("--runs", type=int, default=10, help="logs per spacing and compensation state")
     ap.add_argument("--seed", type=int, default=7)
+    generate.add_scale_args(ap)
     a = ap.parse_args()
     rng = random.Random(a.seed)
     work = tempfile.mkdtemp(prefix="ttp-estimator-coverage-")
@@ -59,7 +61,8 @@ def main():
                 z = {e: [] for e in generate.ERRS}
                 for _ in range(a.runs):
                     seed = rng.randrange(10 ** 6)
-                    sim = generate.simulate(seed, "none", 0.0, spacing, comp)
+                    sim = generate.simulate(seed, "none", 0.0, spacing, comp,
+                                            a.rtest_noise_scale, a.machine_gain_scale)
                     log = os.path.join(work, "talc.csv")
                     out = os.path.join(work, "sim.json")
                     generate.write_log(log, sim["rows"], comp)

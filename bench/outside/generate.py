@@ -7,9 +7,15 @@ measurements.md, diagnosis.md rev. 2) and the thesis (R-test noise of table
 Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300]
                    [--compensation off|on] [--measurement json|dial|cloud|dmis|probe]
                    [--probe-points FILE]
-                   [--points 20000] [--cloud-format auto|ply|xyz] [--pose auto|table|any] -o DIR
+                   [--points 20000] [--cloud-format auto|ply|xyz] [--pose auto|table|any]
+                   [--rtest-noise-scale 1] [--machine-gain-scale 1] -o DIR
 Writes DIR/talc.csv, DIR/piece.json, DIR/dial.csv, DIR/piece.ply,
 DIR/piece.xyz, DIR/piece.dmo or DIR/probe.csv, and DIR/truth.json.
+Robustness stresses (default 1: the R-test of table 5.4 and the machine as
+written): --rtest-noise-scale F multiplies the R-test noise by F,
+--machine-gain-scale F the machine's thermal error gains by F (the table's
+temperature, read from ER0T, and with it a workpiece expansion, grow by F
+too); the random draws are the same whatever F.
 Python 3 standard library only.
 """
 import argparse
@@ -69,9 +75,10 @@ class Machine:
     C-axis heat (linear and squared in speed), the spindle and the room.
     Each path is a first- or second-order lag; each error is a random mix
     of the paths. The state is integrated exactly for piecewise constant
-    inputs (10 s steps)."""
+    inputs (10 s steps). gain_scale multiplies every gain (a machine with
+    larger thermal errors); the random draws do not depend on it."""
 
-    def __init__(self, rng):
+    def __init__(self, rng, gain_scale=1.0):
         self.rng = rng
         # paths: (input, time constants)
         self.paths = [("c", (rng.uniform(600, 1500),)),
@@ -88,6 +95,7 @@ class Machine:
             self.gain[e] = [b * w[0] / sum(w), b * w[1] / sum(w),
                             base[e] * rng.uniform(-0.15, 0.15),
                             base[e] * rng.uniform(-0.5, 0.5)]
+            self.gain[e] = [g * gain_scale for g in self.gain[e]]
         self.c_lin = rng.uniform(0.2, 0.5)   # share of heat linear in speed
         # the machine did not start cold: a random earlier load
         self.state = []
@@ -202,9 +210,21 @@ class Effects:
 
 
 # --------------------------------------------------------------- one run
-def simulate(seed, effect, size, spacing_s, comp_on):
+def check_scale(name, f):
+    """A stress factor: finite and > 0."""
+    f = float(f)
+    if not (math.isfinite(f) and f > 0.0):
+        raise ValueError("%s must be finite and > 0, got %r" % (name, f))
+    return f
+
+
+def simulate(seed, effect, size, spacing_s, comp_on, rtest_noise_scale=1.0, machine_gain_scale=1.0):
+    """One run. rtest_noise_scale multiplies the R-test noise of table 5.4,
+    machine_gain_scale the Machine's thermal error gains (1: as written)."""
+    rtest_noise_scale = check_scale("rtest_noise_scale", rtest_noise_scale)
+    machine_gain_scale = check_scale("machine_gain_scale", machine_gain_scale)
     rng = random.Random(seed)
-    m = Machine(rng)
+    m = Machine(rng, machine_gain_scale)
     # "a+b": two effects at once, each of the given size (sizes "s1+s2")
     names = effect.split("+")
     sizes = [float(x) for x in str(size).split("+")] if isinstance(size, str) else [size] * len(names)
@@ -273,9 +293,10 @@ def simulate(seed, effect, size, spacing_s, comp_on):
         a = at(t)
         return {e: a[e] - ref[e] for e in ERRS}
 
-    # R-tests: noise of table 5.4 (sigma = U / 2); values relative to the
-    # first R-test, which carries its own noise into all of them
-    noise = [{e: rng.gauss(0, RTEST_U[e] / 2) for e in ERRS} for _ in rt]
+    # R-tests: noise of table 5.4 (sigma = U / 2, times rtest_noise_scale);
+    # values relative to the first R-test, which carries its own noise into
+    # all of them
+    noise = [{e: rng.gauss(0, RTEST_U[e] / 2 * rtest_noise_scale) for e in ERRS} for _ in rt]
     meas = []
     for i, r in enumerate(rt):
         tr = rel(r - RTEST_DUR_S / 2)
@@ -926,15 +947,17 @@ def noise_free_figures(features):
 
 
 def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cloud_format="auto",
-             pose="auto", wall_top_mm=1.0, probe_points=None):
+             pose="auto", wall_top_mm=1.0, probe_points=None, rtest_noise_scale=1.0,
+             machine_gain_scale=1.0):
     os.makedirs(out, exist_ok=True)
     eff_name = effect
     if effect in MISMATCH:
         eff_name = "none"
-    sim = simulate(seed, eff_name, size, spacing_s, comp_on)
+    sim = simulate(seed, eff_name, size, spacing_s, comp_on, rtest_noise_scale, machine_gain_scale)
     rows = sim["rows"]
     if effect == "other_log":
-        rows = simulate(seed + 7919, "none", 0.0, spacing_s, comp_on)["rows"]
+        rows = simulate(seed + 7919, "none", 0.0, spacing_s, comp_on, rtest_noise_scale,
+                        machine_gain_scale)["rows"]
     elif effect == "short_log":
         cut_at = CYCLE0_S + 5 * CYCLE_S + 600.0   # the log ends after cycle 5
         rows = [r for r in rows if r["t_s"] <= cut_at]
@@ -970,9 +993,32 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cl
                         for k, v in sorted(f.items()) if k.startswith("Z")}}
     if info:
         truth["cloud"] = info
+    # the stresses, when applied (absent at 1: the files as without them)
+    if rtest_noise_scale != 1.0:
+        truth["rtest_noise_scale"] = rtest_noise_scale
+    if machine_gain_scale != 1.0:
+        truth["machine_gain_scale"] = machine_gain_scale
     with open(os.path.join(out, "truth.json"), "w") as fh:
         json.dump(truth, fh, indent=1)
     return os.path.join(out, fname), os.path.join(out, "talc.csv")
+
+
+def scale_arg(text):
+    """argparse type of a stress factor: a finite number > 0."""
+    try:
+        return check_scale("the factor", text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("must be a finite number > 0, got %r" % text)
+
+
+def add_scale_args(ap):
+    """The two stress options (generate.py, run_battery.py,
+    estimator_coverage.py)."""
+    ap.add_argument("--rtest-noise-scale", type=scale_arg, default=1.0, metavar="F",
+                    help="R-test noise (thesis table 5.4) times F: a noisier R-test (default 1)")
+    ap.add_argument("--machine-gain-scale", type=scale_arg, default=1.0, metavar="F",
+                    help="the machine's thermal error gains (every path) times F: larger thermal "
+                         "errors (default 1)")
 
 
 def main():
@@ -998,6 +1044,7 @@ def main():
     ap.add_argument("--wall-top-mm", type=float, default=1.0,
                     help="cloud: the highest points on the facets and flanks, mm below the top face "
                          "(default 1: a CMM program's margin, as in the samples; a scanner sees up to the edge)")
+    add_scale_args(ap)
     ap.add_argument("-o", required=True)
     a = ap.parse_args()
     if any(n not in known for n in a.effect.split("+")):
@@ -1005,7 +1052,8 @@ def main():
     if "+" not in a.size:
         a.size = float(a.size)
     m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement,
-                    a.points, a.cloud_format, a.pose, a.wall_top_mm, a.probe_points)
+                    a.points, a.cloud_format, a.pose, a.wall_top_mm, a.probe_points,
+                    a.rtest_noise_scale, a.machine_gain_scale)
     print(m, l)
 
 

@@ -5,6 +5,7 @@ fed to `ttp diagnose`, scored against the outcome they call for.
 Usage: run_battery.py [--ttp build/app/ttp] [--seed 20261125] [--reps 2]
                       [--spacings 300,1800,3600,7200] [--json results.json]
                       [--only EFFECTS] [--no-clouds]
+                      [--rtest-noise-scale 1] [--machine-gain-scale 1]
        run_battery.py --check [--ttp ...]   (the small fixed set of the ctest)
 
 Right outcome: the cause named for a catalogue effect, `none` for a run
@@ -157,12 +158,15 @@ def probe_points(ttp, work, kind="probe"):
     return path
 
 
-def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0):
+def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0,
+            rtest_noise_scale=1.0, machine_gain_scale=1.0):
     d = os.path.join(work, "run")
     shutil.rmtree(d, ignore_errors=True)
     points = probe_points(ttp, work, kind) if kind in PROBE_PLANS else None
     meas, log = generate.generate(d, effect, size, seed, spacing, comp, "probe" if points else kind,
-                                  wall_top_mm=wall_top_mm, probe_points=points)
+                                  wall_top_mm=wall_top_mm, probe_points=points,
+                                  rtest_noise_scale=rtest_noise_scale,
+                                  machine_gain_scale=machine_gain_scale)
     # The point list goes with the results, as the user of a probing program
     # gives it.
     outcome, rc, detail, decision = diagnose(ttp, meas, log, os.path.join(d, "diag.json"),
@@ -174,7 +178,8 @@ def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0)
     return {"spacing_s": spacing, "compensation": "on" if comp else "off", "effect": effect,
             "size": size, "measurement": kind, "file": os.path.basename(meas), "seed": seed,
             "expected": expected(effect), "outcome": outcome, "exit": rc, "detail": detail,
-            "wall_top_mm": wall_top_mm, "decision": decision}
+            "wall_top_mm": wall_top_mm, "rtest_noise_scale": rtest_noise_scale,
+            "machine_gain_scale": machine_gain_scale, "decision": decision}
 
 
 def fmt(size):
@@ -183,6 +188,10 @@ def fmt(size):
 
 def command_for(r):
     extra = " --wall-top-mm %g" % r["wall_top_mm"] if r.get("wall_top_mm", 1.0) != 1.0 else ""
+    for key in ("rtest_noise_scale", "machine_gain_scale"):
+        if r.get(key, 1.0) != 1.0:
+            v = "%g" % r[key] if float("%g" % r[key]) == r[key] else repr(r[key])
+            extra += " --%s %s" % (key.replace("_", "-"), v)
     probed = r["measurement"] in PROBE_PLANS
     if probed:
         extra += " --probe-points out/points.csv"
@@ -399,7 +408,7 @@ LADDER = {
 }
 
 
-def detection(ttp, work, spacings, runs, seed):
+def detection(ttp, work, spacings, runs, seed, scales=(1.0, 1.0)):
     """Share of runs in which a cause alone is named right, per size, R-test
     spacing and measurement (json; dial too where a dial gauge can see the
     cause), compensation alternating; and the detection limit: the smallest
@@ -416,7 +425,8 @@ def detection(ttp, work, spacings, runs, seed):
                 for size in sizes:
                     right = 0
                     for k in range(runs):
-                        r = run_one(ttp, work, sp, k % 2 == 1, effect, size, kind, rng.randrange(1, 10 ** 6))
+                        r = run_one(ttp, work, sp, k % 2 == 1, effect, size, kind, rng.randrange(1, 10 ** 6),
+                                    1.0, *scales)
                         right += r["outcome"] == effect
                         n += 1
                     shares.append(right / runs)
@@ -461,7 +471,11 @@ def main():
     ap.add_argument("--dmis-cmm", choices=["stated", "default"], default="stated",
                     help="DMIS runs: read with the generator's CMM stated (MPE and touches, default) or with "
                          "ttp's defaults (the touches of ttp plan cmm at MPE 1.2 um + L/400)")
+    generate.add_scale_args(ap)
     a = ap.parse_args()
+    scales = (a.rtest_noise_scale, a.machine_gain_scale)
+    if a.check and scales != (1.0, 1.0):
+        ap.error("--check is the ctest's fixed set: without --rtest-noise-scale or --machine-gain-scale")
     DIAGNOSE_ARGS.extend(a.diagnose_args.split())
     if a.dmis_cmm == "default":
         del STATED_ARGS["dmis"]
@@ -472,7 +486,7 @@ def main():
             return check(a.ttp, work)
         spacings = [int(x) for x in a.spacings.split(",")]
         if a.detection:
-            return detection(a.ttp, work, spacings, a.detection, a.seed)
+            return detection(a.ttp, work, spacings, a.detection, a.seed, scales)
         rng = random.Random(a.seed)
         results = []
         t0 = time.time()
@@ -483,7 +497,8 @@ def main():
                         continue
                     if kind == "json":
                         kind = a.json_as
-                    results.append(run_one(a.ttp, work, sp, comp, e, s, kind, seed, a.cloud_wall_top_mm))
+                    results.append(run_one(a.ttp, work, sp, comp, e, s, kind, seed, a.cloud_wall_top_mm,
+                                           *scales))
         report(results, spacings)
         print("%d runs in %.0f s" % (len(results), time.time() - t0))
         if a.json:
