@@ -1973,11 +1973,13 @@ double MismatchSlope(const PreparedRun& run, double* sd) {
 }
 }  // namespace
 
-DiagnosisReport DiagnosePrepared(const PreparedRun& run,
-                                 const thermal::TalcLog& log,
-                                 const PartSpec& part,
-                                 const MeasuredPiece& measured,
-                                 const DiagnosisOptions& options) {
+// DiagnosePrepared without what every outcome carries (the estimator's
+// warnings).
+static DiagnosisReport DecidePrepared(const PreparedRun& run,
+                                      const thermal::TalcLog& log,
+                                      const PartSpec& part,
+                                      const MeasuredPiece& measured,
+                                      const DiagnosisOptions& options) {
   if (!run.refusal.empty()) return Refused(run.refusal);
   DiagnosisReport report =
       Diagnose(run.observations, run.context, part, options);
@@ -2069,6 +2071,16 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
   return report;
 }
 
+DiagnosisReport DiagnosePrepared(const PreparedRun& run,
+                                 const thermal::TalcLog& log,
+                                 const PartSpec& part,
+                                 const MeasuredPiece& measured,
+                                 const DiagnosisOptions& options) {
+  DiagnosisReport report = DecidePrepared(run, log, part, measured, options);
+  report.warnings = run.simulation.estimator_warnings;
+  return report;
+}
+
 nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
   nlohmann::json params = nlohmann::json::object();
   nlohmann::json uncertainty = nlohmann::json::object();
@@ -2134,6 +2146,7 @@ nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
       {"chi2_per_dof", r.chi2_per_dof},
       {"observations", r.observations},
       {"estimator", r.estimator},
+      {"warnings", r.warnings},
       {"candidates", candidates}};
   if (r.status != DiagnosisStatus::kRefused) j["cause"] = r.cause;
   if (r.status == DiagnosisStatus::kUnexplained) {
@@ -2173,6 +2186,7 @@ std::string DiagnosisText(const DiagnosisReport& r) {
   if (r.status != DiagnosisStatus::kRefused)
     s += fmt::format("cause: {}\n", r.cause);
   s += fmt::format("  ({})\n", r.reason);
+  for (const std::string& w : r.warnings) s += "warning: " + w + "\n";
   if (r.status == DiagnosisStatus::kRefused) return s;
   for (const auto& p : r.params)
     s += fmt::format("  {} = {:.4g} +- {:.2g}\n", p.name, p.value,

@@ -1,5 +1,6 @@
 // `ttp diagnose` and `ttp twin` end to end through the program: the sample
 // runs made outside the project, a twin round trip, and bad input.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -77,6 +78,54 @@ TEST(CliDiagnosis, SampleRunANamesWorkpieceExpansionWithItsParameters) {
               2 * u["gain_K_per_K"].get<double>());
   EXPECT_LT(d["extended"]["rms_um"], d["baseline"]["rms_um"]);
   EXPECT_GT(d["gain_pct"], 20.0);
+}
+
+// Sample run-a with a gross error written into one R-test (EX0C 3 um off,
+// fifteen times its noise: a chip on a sphere): the estimator leaves that
+// R-test out and says so, naming its line, in the text and the JSON, and
+// the diagnosis stays what the sample's truth says. The clean log leaves
+// nothing out.
+TEST(CliDiagnosis, SampleRunAWithAGrossErrorInOneRTest) {
+  const fs::path dir = test::TestDir("diag_gross");
+  const nlohmann::json clean = InspectAndDiagnose("run-a", "piece.ply", dir);
+  ASSERT_TRUE(clean["warnings"].is_array());
+  EXPECT_TRUE(clean["warnings"].empty()) << clean["warnings"].dump();
+  std::ifstream in(kSamples / "run-a/talc.csv");
+  std::ofstream out(dir / "talc.csv");
+  std::string line;
+  int line_no = 0, rtests = 0, gross_line = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find(",rtest,") != std::string::npos && ++rtests == 50) {
+      // t_s,event,T_env,T_ws,dT_cool,c_rpm,spindle_rpm,mwf,EX0C,...
+      std::vector<std::string> cells;
+      std::stringstream ss(line);
+      for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+      ASSERT_GT(cells.size(), 8u);
+      cells[8] = std::to_string(std::stod(cells[8]) + 3.0);
+      line.clear();
+      for (size_t k = 0; k < cells.size(); ++k)
+        line += (k ? "," : "") + cells[k];
+      line += ",";  // the row's last cell (phase) is empty
+      gross_line = line_no;
+    }
+    out << line << "\n";
+  }
+  out.close();
+  ASSERT_GT(gross_line, 0);
+  const auto r = test::RunTtp("diagnose --log " + (dir / "talc.csv").string() +
+                              " " + (dir / "m.json").string() + " --json " +
+                              (dir / "gross.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string named = fmt::format("R-test of line {} ", gross_line);
+  EXPECT_NE(r.output.find("warning: " + named), std::string::npos) << r.output;
+  const nlohmann::json d = test::ReadJson(dir / "gross.json");
+  ASSERT_EQ(d["warnings"].size(), 1u) << d["warnings"].dump();
+  EXPECT_NE(d["warnings"][0].get<std::string>().find(named + "(t_s"),
+            std::string::npos);
+  EXPECT_NE(d["warnings"][0].get<std::string>().find("EX0C"),
+            std::string::npos);
+  EXPECT_EQ(d["cause"], test::ReadJson(kSamples / "run-a/truth.json")["cause"]);
 }
 
 TEST(CliDiagnosis, SampleRunBNamesNone) {

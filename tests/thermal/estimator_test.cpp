@@ -280,6 +280,10 @@ struct SecondOrderPlant {
   std::array<double, 7> heat_gain = {1.2, -2.0, -9.0, 5.0, 3.0, -1.5, 4.0};
   std::array<double, 7> sun_gain = {0.3, 0.4, -0.6, 0.5, 0.8, -0.5, 0.6};
   std::array<double, 7> initial = {0.6, -0.4, -2.5, 1.5, 1.0, 0.5, -1.0};
+  // A gross error (a chip on a sphere): R-test `gross_rtest` (its index in
+  // the log, -1: none) reads `gross_amount` off in error `gross_error`.
+  int gross_rtest = -1, gross_error = 0;
+  double gross_amount = 0;
   std::vector<std::array<double, 7>> truth;  // per second
 
   static bool Stopped(double t, double interval) {
@@ -323,8 +327,10 @@ struct SecondOrderPlant {
     for (double t = 95; t <= kEnd; t += rtest_interval_s) rtest_t.push_back(t);
     // A production log closes with an R-test after the last cut.
     if (rtest_t.back() < kEnd - 60) rtest_t.push_back(kEnd);
-    for (double t : rtest_t) {
-      const auto e = At(t - 47.5);
+    for (size_t k = 0; k < rtest_t.size(); ++k) {
+      const double t = rtest_t[k];
+      auto e = At(t - 47.5);
+      if (static_cast<int>(k) == gross_rtest) e[gross_error] += gross_amount;
       std::string r = fmt::format("{},rtest,,,", t);
       for (int i = 0; i < 7; ++i)
         r += fmt::format(",{:.5f}", e[i] + noise[i] * gauss(rng));
@@ -360,9 +366,10 @@ struct SecondOrderPlant {
 struct CutTimeErrors {
   double rms_um = 0, rms_z = 0, largest_z = 0;
 };
-CutTimeErrors AtTheCuts(const SecondOrderPlant& plant) {
+CutTimeErrors AtTheCuts(const SecondOrderPlant& plant,
+                        const EstimatorOptions& options = {}) {
   const TalcLog log = ParseTalcLog(plant.Text(), "second-order.csv");
-  const auto est = MachineErrorEstimator::Fit(log);
+  const auto est = MachineErrorEstimator::Fit(log, options);
   CutTimeErrors out;
   int n = 0;
   for (const CutRecord& cut : log.cuts) {
@@ -431,6 +438,94 @@ TEST(Estimator, SecondOrderPlantWithAnUnloggedInput) {
             << sparse.rms_z << " max " << sparse.largest_z << "; 2 h "
             << two_hours.rms_um << " um z " << two_hours.rms_z << " max "
             << two_hours.largest_z << "\n";
+}
+
+// A gross error in one R-test (a chip on a sphere: 3-4 um on E_X0C or
+// E_R0T, 10-15 times their noise) is found against the estimate from the
+// other R-tests, named with its line, and left out: the estimate at its
+// time follows the machine, not the gross error. A clean log loses no R-test,
+// and the first R-test (every value's reference) is never left out.
+TEST(Estimator, LeavesOutAGrossErrorInOneRTest) {
+  SecondOrderPlant plant;
+  plant.Simulate();
+  for (double interval : {300.0, 1800.0}) {
+    plant.rtest_interval_s = interval;
+    plant.Simulate();
+    const TalcLog clean = ParseTalcLog(plant.Text(), "clean.csv");
+    EXPECT_TRUE(MachineErrorEstimator::Fit(clean).left_out_rtests().empty())
+        << interval;
+  }
+  struct Case {
+    double interval_s;
+    int rtest, error;
+    double amount;
+  };
+  for (const Case& c :
+       {Case{300, 40, 0, 3.0}, Case{300, 70, 3, -3.0}, Case{1800, 8, 0, 4.0}}) {
+    SCOPED_TRACE(fmt::format("interval {} s, R-test {}, error {}", c.interval_s,
+                             c.rtest, c.error));
+    plant.rtest_interval_s = c.interval_s;
+    plant.gross_rtest = c.rtest;
+    plant.gross_error = c.error;
+    plant.gross_amount = c.amount;
+    plant.Simulate();
+    const TalcLog log = ParseTalcLog(plant.Text(), "gross.csv");
+    const auto est = MachineErrorEstimator::Fit(log);
+    ASSERT_EQ(est.left_out_rtests().size(), 1u);
+    const LeftOutRTest& r = est.left_out_rtests()[0];
+    EXPECT_EQ(r.line, log.rtests[c.rtest].line);
+    EXPECT_EQ(r.error, c.error);
+    EXPECT_NEAR(r.deviation_um_or_urad, c.amount, 1.0);
+    EXPECT_GT(r.z, 6.0);
+    ASSERT_EQ(est.Warnings().size(), 1u);
+    EXPECT_NE(est.Warnings()[0].find(fmt::format("line {}", r.line)),
+              std::string::npos);
+    EXPECT_NE(est.ToJson().dump().find("rtests_left_out"), std::string::npos);
+    // At the R-test's time the estimate follows the truth, not the gross
+    // error it would have passed through; the cuts keep their budget.
+    EstimatorOptions keep_all;
+    keep_all.rtest_gross_error_z = 0;
+    const auto kept = MachineErrorEstimator::Fit(log, keep_all);
+    const double t = log.rtests[c.rtest].t_ref_s;
+    const double truth = plant.At(t)[c.error];
+    const double off_screened =
+        std::abs(est.MachineErrorsAt(t).ToMicro()[c.error] - truth);
+    const double off_kept =
+        std::abs(kept.MachineErrorsAt(t).ToMicro()[c.error] - truth);
+    std::cout << "off the truth at the R-test: screened " << off_screened
+              << " kept " << off_kept << " um\n";
+    EXPECT_LT(off_screened, 0.1 * std::abs(c.amount));
+    EXPECT_GT(off_kept, 3 * off_screened);
+    EXPECT_LT(AtTheCuts(plant).rms_z, 1.5);
+  }
+  // The reference R-test: every value is relative to it; a gross error
+  // there moves all others alike and is not left out.
+  plant.rtest_interval_s = 300;
+  plant.gross_rtest = 0;
+  plant.gross_error = 0;
+  plant.gross_amount = 3.0;
+  plant.Simulate();
+  for (const LeftOutRTest& r :
+       MachineErrorEstimator::Fit(ParseTalcLog(plant.Text(), "first.csv"))
+           .left_out_rtests())
+    EXPECT_NE(r.line, ParseTalcLog(plant.Text(), "first.csv").rtests[0].line);
+}
+
+TEST(Estimator, GrossErrorOptionsAreChecked) {
+  std::string error;
+  EstimatorOptions o;
+  EXPECT_TRUE(o.IsValid(&error));
+  o.rtest_gross_error_z = -1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("rtest_gross_error_z"), std::string::npos);
+  o = EstimatorOptions{};
+  o.rtest_gross_error_max_fraction = 1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("rtest_gross_error_max_fraction"), std::string::npos);
+  o = EstimatorOptions{};
+  o.rtest_gross_error_min_rtests = 2;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("rtest_gross_error_min_rtests"), std::string::npos);
 }
 
 // R-tests an hour apart resolve no lag of a minute: such a lag's gain

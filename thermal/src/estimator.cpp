@@ -197,16 +197,112 @@ bool EstimatorOptions::IsValid(std::string* error) const {
     return fail("model_shape_error_fraction: must be >= 0");
   for (double s : rtest_noise_um_or_urad)
     if (!(s >= 0)) return fail("rtest_noise_um_or_urad: every value >= 0");
+  if (!(rtest_gross_error_z >= 0) || !std::isfinite(rtest_gross_error_z))
+    return fail("rtest_gross_error_z: must be >= 0 and finite");
+  if (rtest_gross_error_min_rtests < 4)
+    return fail("rtest_gross_error_min_rtests: must be >= 4");
+  if (!(rtest_gross_error_max_fraction >= 0 &&
+        rtest_gross_error_max_fraction < 1))
+    return fail("rtest_gross_error_max_fraction: must be in [0, 1)");
   return true;
 }
 
 MachineErrorEstimator MachineErrorEstimator::Fit(
     const TalcLog& log, const EstimatorOptions& options) {
-  return FitWithout(log, -1, options);
+  std::vector<int> skipped;
+  MachineErrorEstimator est = FitExcluding(log, skipped, options, true);
+  if (!(options.rtest_gross_error_z > 0) ||
+      static_cast<int>(log.rtests.size()) <
+          options.rtest_gross_error_min_rtests)
+    return est;
+  // (one at least: a log of 12 to 19 R-tests can hold a gross error too)
+  const int max_left_out = std::max(
+      1, static_cast<int>(std::floor(options.rtest_gross_error_max_fraction *
+                                     log.rtests.size())));
+  std::vector<LeftOutRTest> left_out;
+  while (static_cast<int>(skipped.size()) < max_left_out) {
+    // The candidate: the R-test whose cross-validation error lies farthest
+    // from the others' (their median; the median absolute deviation from
+    // it as the scale, never below the R-test's own noise), for any error.
+    // A gross error in the fit shifts every other R-test's error alike:
+    // the median follows that shift, zero would not. The refit without it
+    // confirms (a clean log costs no refit).
+    const int n = static_cast<int>(est.rtest_t_.size());
+    if (n < 4 || static_cast<int>(est.cv_error_.size()) != n) break;
+    const auto median = [](std::vector<double> a) {
+      std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
+      return a[a.size() / 2];
+    };
+    std::array<double, 7> centre{}, scale{};
+    for (int e = 0; e < 7; ++e) {
+      std::vector<double> a;
+      for (int k = 0; k < n; ++k)
+        if (std::isfinite(est.cv_error_[k][e]))
+          a.push_back(est.cv_error_[k][e]);
+      if (a.empty()) continue;
+      centre[e] = median(a);
+      for (double& v : a) v = std::abs(v - centre[e]);
+      scale[e] =
+          std::max(1.4826 * median(a), options.rtest_noise_um_or_urad[e]);
+    }
+    int candidate = -1;
+    double worst = options.rtest_gross_error_z;
+    for (int k = 0; k < n; ++k) {
+      if (est.rtest_log_index_[k] == 0) continue;  // the reference
+      for (int e = 0; e < 7; ++e) {
+        if (!(scale[e] > 0)) continue;
+        const double z = std::abs(est.cv_error_[k][e] - centre[e]) / scale[e];
+        if (std::isfinite(z) && z > worst) {
+          worst = z;
+          candidate = k;
+        }
+      }
+    }
+    if (candidate < 0) break;
+    // Confirmed against the estimate without it, with that estimate's
+    // budget at the R-test's time and the R-test's own noise.
+    std::vector<int> without = skipped;
+    without.push_back(est.rtest_log_index_[candidate]);
+    MachineErrorEstimator refit = FitExcluding(log, without, options, true);
+    const double t = est.rtest_t_[candidate];
+    const std::array<double, 7> value = est.rtest_y_[candidate].ToMicro();
+    const std::array<double, 7> estimate = refit.MachineErrorsAt(t).ToMicro();
+    LeftOutRTest worst_error;
+    for (int e = 0; e < 7; ++e) {
+      const double d = value[e] - estimate[e];
+      const double sigma = std::hypot(refit.ErrorSigmaAt(e, t),
+                                      options.rtest_noise_um_or_urad[e]);
+      const double z = sigma > 0 ? std::abs(d) / sigma : 0.0;
+      if (z > worst_error.z) {
+        worst_error.error = e;
+        worst_error.deviation_um_or_urad = d;
+        worst_error.z = z;
+      }
+    }
+    if (!(worst_error.z > options.rtest_gross_error_z)) break;
+    worst_error.line = log.rtests[est.rtest_log_index_[candidate]].line;
+    worst_error.t_s = t;
+    left_out.push_back(worst_error);
+    skipped = std::move(without);
+    est = std::move(refit);
+  }
+  std::sort(left_out.begin(), left_out.end(),
+            [](const LeftOutRTest& a, const LeftOutRTest& b) {
+              return a.t_s < b.t_s;
+            });
+  est.left_out_ = std::move(left_out);
+  return est;
 }
 
 MachineErrorEstimator MachineErrorEstimator::FitWithout(
     const TalcLog& log, int skip, const EstimatorOptions& options) {
+  // (a fit for one leave-one-out check needs no budget)
+  return FitExcluding(log, std::vector<int>{skip}, options, skip < 0);
+}
+
+MachineErrorEstimator MachineErrorEstimator::FitExcluding(
+    const TalcLog& log, const std::vector<int>& skipped,
+    const EstimatorOptions& options, bool cross_validate) {
   std::string invalid;
   if (!options.IsValid(&invalid))
     throw std::invalid_argument("EstimatorOptions." + invalid);
@@ -237,7 +333,7 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
 
   // Machine errors at the R-tests (log units for the fit).
   for (int k = 0; k < static_cast<int>(log.rtests.size()); ++k) {
-    if (k == skip) continue;
+    if (std::find(skipped.begin(), skipped.end(), k) != skipped.end()) continue;
     const RTestRecord& r = log.rtests[k];
     CAxisErrors y = r.measured;
     if (log.compensation) y = y + est.PredictedAt(r.t_ref_s);
@@ -247,6 +343,7 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     }
     est.rtest_t_.push_back(r.t_ref_s);
     est.rtest_y_.push_back(y);
+    est.rtest_log_index_.push_back(k);
   }
 
   switch (options.compensation_fit) {
@@ -356,7 +453,7 @@ MachineErrorEstimator MachineErrorEstimator::FitWithout(
     }
     est.models_[e].bandwidth_s = best_bandwidth;
   }
-  if (skip < 0) est.CrossValidate();
+  if (cross_validate) est.CrossValidate();
   return est;
 }
 
@@ -514,6 +611,9 @@ void MachineErrorEstimator::CrossValidate() {
   const int n = static_cast<int>(rtest_t_.size());
   const int block = CvBlock();
   const bool reselect = n <= kReselectBelowRTests;
+  cv_error_.assign(n, {});
+  for (auto& row : cv_error_)
+    row.fill(std::numeric_limits<double>::quiet_NaN());
   for (int e = 0; e < 7; ++e) {
     std::vector<double> y(n);
     for (int k = 0; k < n; ++k)
@@ -553,6 +653,7 @@ void MachineErrorEstimator::CrossValidate() {
         const double pred =
             Row(c, t).dot(c.beta) + Smooth(tk, rk, models_[e].bandwidth_s, t);
         ss += (pred - y[k]) * (pred - y[k]);
+        cv_error_[k][e] = y[k] - pred;
         ++count;
       }
     }
@@ -705,7 +806,22 @@ std::string MachineErrorEstimator::Describe() const {
             "it (pred_ jumps at the R-tests)"
           : "; machine error = R-test residual + pred_, the model fitted to "
             "the residual (pred_ continuous)");
+  for (const std::string& w : Warnings()) s += "; " + w;
   return s;
+}
+
+std::vector<std::string> MachineErrorEstimator::Warnings() const {
+  std::vector<std::string> out;
+  for (const LeftOutRTest& r : left_out_) {
+    const bool angle = r.error >= 4;
+    out.push_back(fmt::format(
+        "R-test of line {} (t_s {:.0f}) left out as a gross error: its {} "
+        "lies {:+.2f} {} off the estimate from the other R-tests ({:.1f} "
+        "standard deviations, limit {:g})",
+        r.line, r.t_s, kErrorNames[r.error], r.deviation_um_or_urad,
+        angle ? "urad" : "um", r.z, options_.rtest_gross_error_z));
+  }
+  return out;
 }
 
 nlohmann::json MachineErrorEstimator::ToJson() const {
@@ -740,6 +856,15 @@ nlohmann::json MachineErrorEstimator::ToJson() const {
         {"cv_rms_" + m.unit, m.cv_rms_um_or_urad}};
   }
   j["models"] = models;
+  nlohmann::json left_out = nlohmann::json::array();
+  for (const LeftOutRTest& r : left_out_)
+    left_out.push_back({{"line", r.line},
+                        {"t_s", r.t_s},
+                        {"error", kErrorNames[r.error]},
+                        {"deviation", r.deviation_um_or_urad},
+                        {"unit", r.error < 4 ? "um" : "urad"},
+                        {"z", r.z}});
+  j["rtests_left_out"] = left_out;
   return j;
 }
 

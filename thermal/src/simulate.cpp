@@ -138,6 +138,7 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
                          const SimulationOptions& options) {
   Simulation sim;
   sim.estimator_description = est.Describe();
+  sim.estimator_warnings = est.Warnings();
   sim.estimator_json = est.ToJson();
   if (log.cuts.empty()) {
     throw InputError(log.source, 0, "cut", "the log has no cut rows");

@@ -282,6 +282,9 @@ struct DiagnosisReport {
   // offsets), in Observations' figure order, um.
   std::vector<double> figure_after_um;
   std::string estimator;
+  // What the result rests on that the user should know (R-tests the
+  // estimator left out as gross errors), one sentence each.
+  std::vector<std::string> warnings;
   // Unexplained runs: the slope of the measured E_X, E_Y over the
   // simulated ones (1 when the log describes the piece's run; NaN when not
   // computed).

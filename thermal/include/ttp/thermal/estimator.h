@@ -91,6 +91,20 @@ struct EstimatorOptions {
   std::vector<double> bandwidth_grid_s = {
       0,    300,  600,  1200,
       2400, 4800, 9600, std::numeric_limits<double>::infinity()};
+  // Gross errors among the R-tests (a chip or coolant on a sphere, a probe
+  // that slipped): an R-test whose value of some error lies this many
+  // standard deviations off the estimate from the other R-tests (the
+  // estimator's budget there plus the R-test's own noise) is left out, one
+  // at a time, the most deviating first, and named in the results. The
+  // first R-test (the reference of every value) is never left out. 0
+  // keeps every R-test.
+  double rtest_gross_error_z = 6.0;
+  // At most this share of the log's R-tests is left out so (one at least).
+  double rtest_gross_error_max_fraction = 0.1;
+  // Only a log of this many R-tests is screened: fewer (R-tests an hour or
+  // more apart over the 8-hour test) leave the estimate between them too
+  // uncertain to tell a gross error from the machine's own dynamics.
+  int rtest_gross_error_min_rtests = 12;
 
   // False with a message naming the field when the options cannot be used.
   bool IsValid(std::string* error) const;
@@ -98,6 +112,15 @@ struct EstimatorOptions {
 
 // One error's fitted model. Values are in the error's unit: um for EX0C,
 // EY0C, EZ0T, ER0T and urad (= um/m) for EA0C, EB0C, EC0C (`unit`).
+// An R-test the estimator left out as a gross error (rtest_gross_error_z).
+struct LeftOutRTest {
+  int line = 0;    // in the log
+  double t_s = 0;  // the time its values describe
+  int error = 0;   // the error that deviates most (0..6: EX0C..EC0C)
+  double deviation_um_or_urad = 0;  // its value - the estimate without it
+  double z = 0;  // deviation / (budget there (+) R-test noise)
+};
+
 struct ErrorModel {
   std::string unit;  // "um" or "urad"
   std::vector<std::string> inputs;
@@ -119,13 +142,20 @@ struct ErrorModel {
 
 class MachineErrorEstimator {
  public:
-  // Fits on every R-test of the log. Throws InputError if the log has fewer
-  // than two R-tests, or compensation on without pred_ values.
+  // Fits on the R-tests of the log, gross errors left out
+  // (rtest_gross_error_z; left_out_rtests()). Throws InputError if the log
+  // has fewer than two R-tests, or compensation on without pred_ values.
   static MachineErrorEstimator Fit(const TalcLog& log,
                                    const EstimatorOptions& options = {});
-  // Same inputs, R-test `skip` left out (for leave-one-out checks).
+  // Every R-test but `skip` (for leave-one-out checks; no gross-error
+  // screening).
   static MachineErrorEstimator FitWithout(const TalcLog& log, int skip,
                                           const EstimatorOptions& options);
+
+  // The R-tests left out as gross errors, in the log's order.
+  const std::vector<LeftOutRTest>& left_out_rtests() const { return left_out_; }
+  // One sentence per R-test left out, naming its line, for the results.
+  std::vector<std::string> Warnings() const;
 
   // Standard uncertainty of MachineErrorsAt(t) for error e (um or urad):
   // the blocked cross-validation error with the held-out R-test's own
@@ -188,6 +218,12 @@ class MachineErrorEstimator {
   void SelectModel(int e, const Eigen::VectorXd& y,
                    const std::vector<int>& rows);
   void CrossValidate();
+  // Every R-test of the log but those in `skipped` (log indices); the
+  // budget's cross-validation when `cross_validate`.
+  static MachineErrorEstimator FitExcluding(const TalcLog& log,
+                                            const std::vector<int>& skipped,
+                                            const EstimatorOptions& options,
+                                            bool cross_validate);
 
   // What the model's fit takes away from the machine error at t: pred_
   // when it fits the residual, zero when it fits the machine's own error.
@@ -202,6 +238,11 @@ class MachineErrorEstimator {
   std::vector<CAxisErrors> pred_;
   std::vector<double> rtest_t_;
   std::vector<CAxisErrors> rtest_y_;
+  std::vector<int> rtest_log_index_;  // index into the log's R-tests
+  // Per R-test (like rtest_t_): the cross-validation's error there, the
+  // model refitted without its block (log units).
+  std::vector<std::array<double, 7>> cv_error_;
+  std::vector<LeftOutRTest> left_out_;
   // The log's cut times: a candidate model whose prediction there leaves
   // the range it predicts at the R-tests (widened by half of it, at least
   // by twice its residual RMS, on each side) is not used. Inputs that are
