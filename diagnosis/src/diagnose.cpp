@@ -409,6 +409,16 @@ struct Fit {
   std::string note;  // why the fit is no result (empty: it is one)
 };
 
+// The time constant a fit's columns are built at: its workpiece
+// expansion's fitted lag, 0 without one.
+double FittedTauS(const Fit& fit) {
+  double tau_s = 0;
+  for (size_t k = 0; k < fit.spec.causes.size(); ++k)
+    if (fit.spec.causes[k] == Cause::kWorkpieceExpansion)
+      tau_s = fit.params[k][0];
+  return tau_s;
+}
+
 class Fitter {
  public:
   Fitter(const ColumnCache& cache, const Problem& problem,
@@ -512,6 +522,12 @@ class Fitter {
     for (const Column& col : CauseColumns(spec, tau_s, cache_, &first))
       columns.push_back(problem_.Whiten(col));
   }
+  // A fitted model's whitened columns and base, at its fitted lag.
+  void Columns(const Fit& fit, std::vector<Eigen::VectorXd>* columns_out,
+               Eigen::VectorXd* base_out) const {
+    std::vector<int> first;
+    Columns(fit.spec, FittedTauS(fit), columns_out, base_out, &first);
+  }
 
   Fit Linear(const ModelSpec& spec, double tau_s,
              const std::vector<Eigen::VectorXd>& extra = {}) const {
@@ -608,11 +624,7 @@ Column PredictionVariance(const Fit& fit, const ColumnCache& cache,
   const int n = static_cast<int>(obs.size());
   if (!fit.ok || fit.covariance_all.rows() == 0) return Column::Zero(n);
   // (a workpiece expansion's columns at its fitted tau)
-  double tau_s = 0;
-  for (size_t k = 0; k < fit.spec.causes.size(); ++k)
-    if (fit.spec.causes[k] == Cause::kWorkpieceExpansion)
-      tau_s = fit.params[k][0];
-  std::vector<Column> cols = CauseColumns(fit.spec, tau_s, cache);
+  std::vector<Column> cols = CauseColumns(fit.spec, FittedTauS(fit), cache);
   for (int g : fit.offset_kinds) cols.push_back(OffsetColumn(obs, g));
   const int p = static_cast<int>(cols.size());
   Eigen::MatrixXd g(n, p);
@@ -713,14 +725,9 @@ TrendTest FigureTrend(const Fitter& fitter, const Fit& fit,
                       const Problem& problem) {
   TrendTest out;
   if (!fit.ok) return out;
-  double tau = 0;
-  for (size_t c = 0; c < fit.spec.causes.size(); ++c)
-    if (fit.spec.causes[c] == Cause::kWorkpieceExpansion)
-      tau = fit.params[c][0];
   std::vector<Eigen::VectorXd> columns;
-  std::vector<int> first;
   Eigen::VectorXd base;
-  fitter.Columns(fit.spec, tau, &columns, &base, &first);
+  fitter.Columns(fit, &columns, &base);
   const Observations& obs = problem.obs();
   const std::vector<int> kinds = problem.RowKinds();
   for (int g = 0; g < kFigureKinds; ++g) {
@@ -940,20 +947,15 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   // chosen model: a cause that explains the data leaves nothing a step
   // explains better than chance (an effect that starts at one cycle, a
   // changed set-up, is no catalogue cause).
-  double step_pooled_z = kInf;
+  double step_pooled_z = kInf, cycle_pooled_z = kInf;
   {
-    double tau = 0;
-    for (size_t c = 0; c < f.spec.causes.size(); ++c)
-      if (f.spec.causes[c] == Cause::kWorkpieceExpansion && f.ok)
-        tau = f.params[c][0];
     const Observations& obs = problem.obs();
     int max_cycle = 0;
     for (size_t i = 0; i < obs.figures(); ++i)
       max_cycle = std::max(max_cycle, obs.figure_cycle[i]);
     std::vector<Eigen::VectorXd> columns;
-    std::vector<int> first;
     Eigen::VectorXd base;
-    if (f.ok) fitter.Columns(f.spec, tau, &columns, &base, &first);
+    if (f.ok) fitter.Columns(f, &columns, &base);
     for (int g = 0; g < kFigureKinds && f.ok; ++g) {
       if (std::count(kinds.begin(), kinds.end(), g) < 4) continue;
       for (int from = 2; from <= max_cycle; ++from) {
@@ -978,6 +980,60 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
         }
       }
     }
+    // One cycle's figures off the rest, each freed along with every
+    // candidate's fit (a gross error draws the chosen model to itself, a
+    // pair where one cause fits the rest): a gross error in one measured
+    // feature (a misread dial, a CMM glitch) or a defect of one cycle's cut
+    // moves that cycle's E_X or E_Y (and E_TTP, E_OV) alone, one in the
+    // reference cycle's features every cycle's alike (an offset per kind),
+    // while another run's log misplaces the machine errors in every cycle
+    // differently. The deviate of E_X, E_Y and E_Z after it counts the
+    // freed parameters off its degrees of freedom.
+    const auto one_cycle_freed = [&](const Fit& fit) {
+      if (!fit.ok) return;
+      std::vector<Eigen::VectorXd> fit_columns;
+      Eigen::VectorXd fit_base;
+      fitter.Columns(fit, &fit_columns, &fit_base);
+      for (int cycle = 0; cycle <= max_cycle; ++cycle) {
+        std::vector<Eigen::VectorXd> with_pulse = fit_columns;
+        int freed = 0;
+        for (int g = 0; g < kFigureKinds; ++g) {
+          if (std::count(kinds.begin(), kinds.end(), g) == 0) continue;
+          if (cycle == 0) {
+            // The reference cycle (every figure is a difference to it):
+            // one offset per figure kind it anchors.
+            if (FreeOffset(obs, g)) continue;
+            with_pulse.push_back(problem.Whiten(OffsetColumn(obs, g)));
+            if (g <= 2) ++freed;
+            continue;
+          }
+          Column pulse = Column::Zero(obs.size());
+          int on = 0;
+          for (size_t i = 0; i < obs.figures(); ++i)
+            if (obs.figure_kind[i] == g && obs.figure_cycle[i] == cycle) {
+              pulse[i] = 1;
+              ++on;
+            }
+          if (on == 0) continue;
+          with_pulse.push_back(problem.Whiten(pulse));
+          if (g <= 2) freed += on;
+        }
+        if (freed == 0) continue;
+        const Problem::Solution with = problem.Solve(with_pulse, fit_base);
+        if (!with.ok) continue;
+        double chi2 = 0;
+        int rows = -freed;
+        for (size_t r = 0; r < kinds.size(); ++r)
+          if (kinds[r] <= 2) {
+            chi2 += with.residual[r] * with.residual[r];
+            ++rows;
+          }
+        if (rows >= 3)
+          cycle_pooled_z =
+              std::min(cycle_pooled_z, ChiSquareDeviate(chi2, rows));
+      }
+    };
+    for (const Fit& candidate : sel.fits) one_cycle_freed(candidate);
   }
   // The same step as an alternative to the chosen cause (the step's
   // height and the cycle it starts at are its two parameters): a cause
@@ -1050,12 +1106,14 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     sel.trend_um = t.drift_um;
     // E_X, E_Y and E_Z pooled under the least of the alternatives to
     // another run's log: the best drift or step of one figure kind fitted
-    // along, or any candidate's fit, its parameters a result or not (an
+    // along, one cycle's figures freed, or any candidate's fit, its
+    // parameters a result or not (an
     // effect whose fit ends at a bound, a piece's lag at the shortest time
     // constant tried, still shows that the piece's E_X, E_Y and E_Z can
     // follow this log's machine errors).
     sel.machine_pooled_z_one_kind =
-        std::min({sel.machine_pooled_z, t.machine_pooled_z, step_pooled_z});
+        std::min({sel.machine_pooled_z, t.machine_pooled_z, step_pooled_z,
+                  cycle_pooled_z});
     for (const Fit& candidate : sel.fits)
       if (candidate.ok)
         sel.machine_pooled_z_one_kind =
