@@ -391,6 +391,14 @@ std::string DiagnosisSection(const json& data) {
     html += "<p id=\"diagnosis-summary\">" +
             Escape((*d)["summary"].get<std::string>()) + "</p>\n";
   }
+  // What the diagnosis rests on that the reader should know (R-tests the
+  // estimator left out as gross errors).
+  if (d->contains("warnings") && !(*d)["warnings"].empty()) {
+    html += "<ul class=\"warnings\" id=\"diagnosis-warnings\">";
+    for (const json& w : (*d)["warnings"])
+      html += "<li>" + Escape(w.get<std::string>()) + "</li>";
+    html += "</ul>\n";
+  }
   if (d->contains("gain") && (*d)["gain"].contains("method")) {
     html += "<p class=\"note\">Gain: " +
             Escape((*d)["gain"]["method"].get<std::string>()) + ".</p>\n";

@@ -227,12 +227,14 @@ void CheckResiduals(const Checker& c, const json& r, const std::string& path) {
 // "threshold" and "residuals" added by AssembleReportData.
 void CheckDiagnosis(const Checker& c, const json& d) {
   c.Object(d, "diagnosis");
-  c.OnlyKeys(
-      d, "diagnosis",
-      {"status", "reason", "cause", "summary", "baseline", "extended",
-       "gain_pct", "gain", "evidence", "threshold", "chi2_per_dof",
-       "observations", "estimator", "candidates", "residuals", "unexplained",
-       "residual_by_location", "simulation_slope", "decision"});
+  c.OnlyKeys(d, "diagnosis",
+             {"status",           "reason",       "cause",
+              "summary",          "baseline",     "extended",
+              "gain_pct",         "gain",         "evidence",
+              "threshold",        "chi2_per_dof", "observations",
+              "estimator",        "warnings",     "candidates",
+              "residuals",        "unexplained",  "residual_by_location",
+              "simulation_slope", "decision"});
   c.String(c.Required(d, "diagnosis", "status"), "diagnosis.status");
   // No cause when refused (diagnosis.md section 3).
   if (d["status"] != "refused")
@@ -240,6 +242,10 @@ void CheckDiagnosis(const Checker& c, const json& d) {
   if (d.contains("unexplained"))
     c.Array(d["unexplained"], "diagnosis.unexplained");
   if (d.contains("decision")) c.Object(d["decision"], "diagnosis.decision");
+  if (d.contains("warnings")) {
+    c.Array(d["warnings"], "diagnosis.warnings");
+    for (const json& w : d["warnings"]) c.String(w, "diagnosis.warnings[]");
+  }
   for (const char* key : {"summary", "evidence", "estimator", "reason"}) {
     if (d.contains(key)) c.String(d[key], Checker::Join("diagnosis", key));
   }

@@ -126,6 +126,19 @@ TEST(CliDiagnosis, SampleRunAWithAGrossErrorInOneRTest) {
   EXPECT_NE(d["warnings"][0].get<std::string>().find("EX0C"),
             std::string::npos);
   EXPECT_EQ(d["cause"], test::ReadJson(kSamples / "run-a/truth.json")["cause"]);
+  // The HTML report's diagnosis says it too.
+  const auto report = test::RunTtp(
+      "report --log " + (dir / "talc.csv").string() + " " +
+      (dir / "m.json").string() + " -o " + (dir / "report.html").string());
+  // (exit 1: the sample piece fails its tolerances, a judged outcome)
+  ASSERT_TRUE(report.exit_code == 0 || report.exit_code == 1) << report.output;
+  std::ifstream html_file(dir / "report.html");
+  std::stringstream html;
+  html << html_file.rdbuf();
+  const std::string page = html.str();
+  const size_t list = page.find("id=\"diagnosis-warnings\"");
+  ASSERT_NE(list, std::string::npos);
+  EXPECT_NE(page.find(named, list), std::string::npos);
 }
 
 // Sample run-a's inspection with one facet's distance 8 um off (a CMM
