@@ -505,10 +505,10 @@ TEST(Estimator, LeavesOutAGrossErrorInOneRTest) {
   plant.gross_error = 0;
   plant.gross_amount = 3.0;
   plant.Simulate();
-  for (const LeftOutRTest& r :
-       MachineErrorEstimator::Fit(ParseTalcLog(plant.Text(), "first.csv"))
-           .left_out_rtests())
-    EXPECT_NE(r.line, ParseTalcLog(plant.Text(), "first.csv").rtests[0].line);
+  const TalcLog first = ParseTalcLog(plant.Text(), "first.csv");
+  const auto est = MachineErrorEstimator::Fit(first);
+  for (const LeftOutRTest& r : est.left_out_rtests())
+    EXPECT_NE(r.line, first.rtests[0].line);
 }
 
 TEST(Estimator, GrossErrorOptionsAreChecked) {
