@@ -92,12 +92,14 @@ struct EstimatorOptions {
       0,    300,  600,  1200,
       2400, 4800, 9600, std::numeric_limits<double>::infinity()};
   // Gross errors among the R-tests (a chip or coolant on a sphere, a probe
-  // that slipped): an R-test whose value of some error lies this many
-  // standard deviations off the estimate from the other R-tests (the
-  // estimator's budget there plus the R-test's own noise) is left out, one
-  // at a time, the most deviating first, and named in the results. The
-  // first R-test (the reference of every value) is never left out. 0
-  // keeps every R-test.
+  // that slipped): the R-test whose cross-validation error lies farthest
+  // from the others' (in units of their median absolute deviation) is a
+  // candidate beyond this many; it is left out when its value of some
+  // error lies this many standard deviations off the estimate from the
+  // other R-tests (that estimate's budget there plus the R-test's own
+  // noise); then the next, and each is named in the results. The first
+  // R-test (the reference of every value) is never left out. 0 keeps
+  // every R-test.
   double rtest_gross_error_z = 6.0;
   // At most this share of the log's R-tests is left out so (one at least).
   double rtest_gross_error_max_fraction = 0.1;
@@ -110,8 +112,6 @@ struct EstimatorOptions {
   bool IsValid(std::string* error) const;
 };
 
-// One error's fitted model. Values are in the error's unit: um for EX0C,
-// EY0C, EZ0T, ER0T and urad (= um/m) for EA0C, EB0C, EC0C (`unit`).
 // An R-test the estimator left out as a gross error (rtest_gross_error_z).
 struct LeftOutRTest {
   int line = 0;    // in the log
@@ -121,6 +121,8 @@ struct LeftOutRTest {
   double z = 0;  // deviation / (budget there (+) R-test noise)
 };
 
+// One error's fitted model. Values are in the error's unit: um for EX0C,
+// EY0C, EZ0T, ER0T and urad (= um/m) for EA0C, EB0C, EC0C (`unit`).
 struct ErrorModel {
   std::string unit;  // "um" or "urad"
   std::vector<std::string> inputs;

@@ -84,8 +84,8 @@ struct SimulationOptions {
 
 struct Simulation {
   std::string estimator_description;
-  std::vector<std::string>
-      estimator_warnings;  // MachineErrorEstimator::Warnings
+  // MachineErrorEstimator::Warnings (R-tests left out as gross errors).
+  std::vector<std::string> estimator_warnings;
   nlohmann::json estimator_json;
   std::vector<SimulatedCut> cuts;
   FeatureResults results, results_linear;
