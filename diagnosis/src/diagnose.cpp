@@ -1994,13 +1994,14 @@ DiagnosisReport Refused(const std::string& reason) {
   return r;
 }
 
-// The slope of the measured E_X, E_Y changes over the simulated ones (per
-// kind offsets removed): 1 when the log describes the run that cut the
-// piece. NaN when the simulation barely varies (nothing to compare).
-double MismatchSlope(const PreparedRun& run, double* sd) {
+// The slope of the measured figure changes over the simulated ones (per
+// kind offsets removed), over the first `kinds` figure kinds (2: E_X and
+// E_Y; 3: E_Z too): 1 when the log describes the run that cut the piece.
+// NaN when the simulation barely varies (nothing to compare).
+double MismatchSlope(const PreparedRun& run, double* sd, int kinds = 2) {
   const Observations& obs = run.observations;
   double sxx = 0, sxy = 0, var_ref = 0;
-  for (int g = 0; g < 2; ++g) {
+  for (int g = 0; g < kinds; ++g) {
     std::vector<double> x, y, w;
     for (size_t i = 0; i < obs.figures(); ++i) {
       if (obs.figure_kind[i] != g) continue;
@@ -2042,9 +2043,26 @@ static DiagnosisReport DecidePrepared(const PreparedRun& run,
   DiagnosisReport report =
       Diagnose(run.observations, run.context, part, options);
   report.estimator = run.simulation.estimator_description;
+  // A measurement whose E_X, E_Y and E_Z follow the simulated ones
+  // mirrored (slope near -1) was most likely read with the wrong sign
+  // convention: the refusal says so.
+  const auto sign_hint = [&run]() -> std::string {
+    double sd = 0;
+    const double slope = MismatchSlope(run, &sd, 3);
+    if (!std::isfinite(slope) || slope > -0.5 ||
+        std::abs(slope + 1) > std::max(0.3, 3 * sd))
+      return "";
+    return fmt::format(
+        " (its E_X, E_Y and E_Z follow the simulated ones with slope {:.2f} "
+        "+- {:.2f}, mirrored: a reading of the wrong sign? measurements.md: "
+        "dial readings of facets positive towards the axis, of strips "
+        "positive downwards)",
+        slope, sd);
+  };
   // A refusal that keeps the evidence it was decided on.
-  const auto refuse_keeping_evidence = [&report](const std::string& reason) {
-    DiagnosisReport refused = Refused(reason);
+  const auto refuse_keeping_evidence = [&report,
+                                        &sign_hint](const std::string& reason) {
+    DiagnosisReport refused = Refused(reason + sign_hint());
     refused.candidates = report.candidates;
     refused.observations = report.observations;
     refused.estimator = report.estimator;
@@ -2117,9 +2135,9 @@ static DiagnosisReport DecidePrepared(const PreparedRun& run,
       DiagnosisReport refused = Refused(fmt::format(
           "the measured E_X and E_Y of {} follow the ones simulated from {} "
           "with slope {:.2f} +- {:.2f} instead of 1 (and no model fits: {}): "
-          "the measurement and the log do not belong together",
+          "the measurement and the log do not belong together{}",
           measured.source.empty() ? "the piece" : measured.source, log.source,
-          slope, sd, report.reason));
+          slope, sd, report.reason, sign_hint()));
       refused.candidates = report.candidates;
       refused.observations = report.observations;
       refused.estimator = report.estimator;

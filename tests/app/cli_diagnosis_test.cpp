@@ -177,6 +177,35 @@ TEST(CliDiagnosis, SampleRunAWithAGrossErrorInOneFacet) {
   }
 }
 
+// Sample run-a's inspection mirrored (every facet distance and strip
+// depth with its deviation's sign reversed, as a reading convention of the
+// wrong sign gives): refused, and the refusal says the figures follow the
+// simulated ones mirrored. The piece as measured gets no such hint.
+TEST(CliDiagnosis, SampleRunAMirroredIsRefusedWithASignHint) {
+  const fs::path dir = test::TestDir("diag_mirrored");
+  const nlohmann::json d = InspectAndDiagnose("run-a", "piece.ply", dir);
+  EXPECT_EQ(d["reason"].get<std::string>().find("wrong sign"),
+            std::string::npos);
+  nlohmann::json m = test::ReadJson(dir / "m.json");
+  const double facet_mm = 97.3, strip_mm = 12.1;  // test-piece.md nominal
+  for (auto& [name, f] : m["facets"].items())
+    f["distance_mm"] = 2 * facet_mm - f["distance_mm"].get<double>();
+  for (auto& [name, z] : m["strips"].items())
+    z["depth_mm"] = 2 * strip_mm - z["depth_mm"].get<double>();
+  m.erase("figures");
+  std::ofstream(dir / "mirrored.json") << m.dump();
+  const auto r =
+      test::RunTtp("diagnose --log " + (kSamples / "run-a/talc.csv").string() +
+                   " " + (dir / "mirrored.json").string() + " --json " +
+                   (dir / "mirrored_d.json").string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  const nlohmann::json mirrored = test::ReadJson(dir / "mirrored_d.json");
+  EXPECT_EQ(mirrored["status"], "refused");
+  EXPECT_NE(mirrored["reason"].get<std::string>().find("wrong sign"),
+            std::string::npos)
+      << mirrored["reason"];
+}
+
 TEST(CliDiagnosis, SampleRunBNamesNone) {
   const fs::path dir = test::TestDir("diag_b");
   const nlohmann::json d = InspectAndDiagnose("run-b", "piece.xyz", dir);
