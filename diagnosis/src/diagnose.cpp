@@ -989,40 +989,46 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
     // while another run's log misplaces the machine errors in every cycle
     // differently. The deviate of E_X, E_Y and E_Z after it counts the
     // freed parameters off its degrees of freedom.
-    const auto one_cycle_freed = [&](const Fit& fit) {
-      if (!fit.ok) return;
+    // Per cycle (0: the reference) the whitened columns it frees and how
+    // many of them are E_X, E_Y or E_Z parameters; the same for every fit.
+    struct Freed {
+      std::vector<Eigen::VectorXd> columns;
+      int machine = 0;
+    };
+    std::vector<Freed> freed(max_cycle + 1);
+    for (int g = 0; g < kFigureKinds; ++g) {
+      if (std::count(kinds.begin(), kinds.end(), g) == 0) continue;
+      if (!FreeOffset(obs, g)) {
+        freed[0].columns.push_back(problem.Whiten(OffsetColumn(obs, g)));
+        if (g <= 2) ++freed[0].machine;
+      }
+      for (int cycle = 1; cycle <= max_cycle; ++cycle) {
+        Column pulse = Column::Zero(obs.size());
+        int on = 0;
+        for (size_t i = 0; i < obs.figures(); ++i)
+          if (obs.figure_kind[i] == g && obs.figure_cycle[i] == cycle) {
+            pulse[i] = 1;
+            ++on;
+          }
+        if (on == 0) continue;
+        freed[cycle].columns.push_back(problem.Whiten(pulse));
+        if (g <= 2) freed[cycle].machine += on;
+      }
+    }
+    for (const Fit& fit : sel.fits) {
+      if (!fit.ok) continue;
       std::vector<Eigen::VectorXd> fit_columns;
       Eigen::VectorXd fit_base;
       fitter.Columns(fit, &fit_columns, &fit_base);
-      for (int cycle = 0; cycle <= max_cycle; ++cycle) {
-        std::vector<Eigen::VectorXd> with_pulse = fit_columns;
-        int freed = 0;
-        for (int g = 0; g < kFigureKinds; ++g) {
-          if (std::count(kinds.begin(), kinds.end(), g) == 0) continue;
-          if (cycle == 0) {
-            // The reference cycle (every figure is a difference to it):
-            // one offset per figure kind it anchors.
-            if (FreeOffset(obs, g)) continue;
-            with_pulse.push_back(problem.Whiten(OffsetColumn(obs, g)));
-            if (g <= 2) ++freed;
-            continue;
-          }
-          Column pulse = Column::Zero(obs.size());
-          int on = 0;
-          for (size_t i = 0; i < obs.figures(); ++i)
-            if (obs.figure_kind[i] == g && obs.figure_cycle[i] == cycle) {
-              pulse[i] = 1;
-              ++on;
-            }
-          if (on == 0) continue;
-          with_pulse.push_back(problem.Whiten(pulse));
-          if (g <= 2) freed += on;
-        }
-        if (freed == 0) continue;
-        const Problem::Solution with = problem.Solve(with_pulse, fit_base);
+      for (const Freed& cycle : freed) {
+        if (cycle.machine == 0) continue;
+        std::vector<Eigen::VectorXd> with_freed = fit_columns;
+        with_freed.insert(with_freed.end(), cycle.columns.begin(),
+                          cycle.columns.end());
+        const Problem::Solution with = problem.Solve(with_freed, fit_base);
         if (!with.ok) continue;
         double chi2 = 0;
-        int rows = -freed;
+        int rows = -cycle.machine;
         for (size_t r = 0; r < kinds.size(); ++r)
           if (kinds[r] <= 2) {
             chi2 += with.residual[r] * with.residual[r];
@@ -1032,8 +1038,7 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
           cycle_pooled_z =
               std::min(cycle_pooled_z, ChiSquareDeviate(chi2, rows));
       }
-    };
-    for (const Fit& candidate : sel.fits) one_cycle_freed(candidate);
+    }
   }
   // The same step as an alternative to the chosen cause (the step's
   // height and the cycle it starts at are its two parameters): a cause

@@ -127,6 +127,12 @@ void Subsets(int n, int max_size, int first, std::vector<int>& current,
   }
 }
 
+// The median of a non-empty set (the upper one of an even count).
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
 // Whether the prediction in force jumps at the R-tests (the controller
 // re-anchors or updates its model with each measurement) rather than
 // changing smoothly: the change of pred_ across each R-test row (from the
@@ -160,11 +166,7 @@ bool PredictionReanchorsAtRTests(const TalcLog& log,
   for (size_t i = 1; i < pred_t.size(); ++i)
     if (!at_rtest[i]) steps.push_back(step(i - 1, i));
   if (jumps.size() < 2 || steps.empty()) return false;
-  auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
-  const double jump = median(jumps), typical = median(steps);
+  const double jump = Median(jumps), typical = Median(steps);
   return jump > 0.5 && jump > 5 * typical;
 }
 
@@ -229,10 +231,6 @@ MachineErrorEstimator MachineErrorEstimator::Fit(
     // confirms (a clean log costs no refit).
     const int n = static_cast<int>(est.rtest_t_.size());
     if (n < 4 || static_cast<int>(est.cv_error_.size()) != n) break;
-    const auto median = [](std::vector<double> a) {
-      std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
-      return a[a.size() / 2];
-    };
     std::array<double, 7> centre{}, scale{};
     for (int e = 0; e < 7; ++e) {
       std::vector<double> a;
@@ -240,10 +238,10 @@ MachineErrorEstimator MachineErrorEstimator::Fit(
         if (std::isfinite(est.cv_error_[k][e]))
           a.push_back(est.cv_error_[k][e]);
       if (a.empty()) continue;
-      centre[e] = median(a);
+      centre[e] = Median(a);
       for (double& v : a) v = std::abs(v - centre[e]);
       scale[e] =
-          std::max(1.4826 * median(a), options.rtest_noise_um_or_urad[e]);
+          std::max(1.4826 * Median(a), options.rtest_noise_um_or_urad[e]);
     }
     int candidate = -1;
     double worst = options.rtest_gross_error_z;
@@ -813,13 +811,12 @@ std::string MachineErrorEstimator::Describe() const {
 std::vector<std::string> MachineErrorEstimator::Warnings() const {
   std::vector<std::string> out;
   for (const LeftOutRTest& r : left_out_) {
-    const bool angle = r.error >= 4;
     out.push_back(fmt::format(
         "R-test of line {} (t_s {:.0f}) left out as a gross error: its {} "
         "lies {:+.2f} {} off the estimate from the other R-tests ({:.1f} "
         "standard deviations, limit {:g})",
         r.line, r.t_s, kErrorNames[r.error], r.deviation_um_or_urad,
-        angle ? "urad" : "um", r.z, options_.rtest_gross_error_z));
+        models_[r.error].unit, r.z, options_.rtest_gross_error_z));
   }
   return out;
 }
@@ -862,7 +859,7 @@ nlohmann::json MachineErrorEstimator::ToJson() const {
                         {"t_s", r.t_s},
                         {"error", kErrorNames[r.error]},
                         {"deviation", r.deviation_um_or_urad},
-                        {"unit", r.error < 4 ? "um" : "urad"},
+                        {"unit", models_[r.error].unit},
                         {"z", r.z}});
   j["rtests_left_out"] = left_out;
   return j;
