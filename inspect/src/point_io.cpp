@@ -760,8 +760,18 @@ PointCloud ReadPcd(std::string_view data, const std::string& source,
     unsigned int data_idx = 0;
     MemoryBuffer header_buffer(data.data(), data.data() + h.body);
     std::istream header_stream(&header_buffer);
-    if (reader.readHeader(header_stream, pc, origin, orientation, version,
-                          data_type, data_idx) != 0)
+    // PCL's header reader indexes its fields unchecked (std::vector::at):
+    // a header whose lines disagree with each other throws out of it.
+    int header_rc = -1;
+    try {
+      header_rc = reader.readHeader(header_stream, pc, origin, orientation,
+                                    version, data_type, data_idx);
+    } catch (const std::exception& e) {
+      throw InputError(
+          source, 0, "header",
+          std::string("PCL cannot read the PCD header (") + e.what() + ")");
+    }
+    if (header_rc != 0)
       throw InputError(source, 0, "header", "PCL cannot read the PCD header");
     int rc = 0;
     if (data_type == 0) {
