@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How well the machine-error estimator's uncertainty describes its error
 on the outside generator: per run (no effect; compensation off and on in
-turn; R-tests every 300, 1800, 3600 and 7200 s) the log is written by
+turn; R-tests every 300, 1800, 3600 and 7200 s, or adaptive: --spacings) the log is written by
 generate.py, `ttp simulate --log LOG --json` gives the estimator's machine
 errors and their standard uncertainties (`machine_errors`,
 `machine_errors_u`) at every cut, and the generator's own machine errors
@@ -17,6 +17,7 @@ budget gives an RMS z near 1; much less is a budget wider than the error
 (evidence without power), much more one narrower (false alarms).
 
 Usage: estimator_coverage.py [--ttp build/app/ttp] [--runs 10] [--seed 7]
+                             [--spacings 300,1800,3600,7200|adaptive]
                              [--rtest-noise-scale 1] [--machine-gain-scale 1]
 Python 3 standard library only.
 """
@@ -34,7 +35,7 @@ sys.dont_write_bytecode = True
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import generate  # noqa: E402
 
-SPACINGS = (300, 1800, 3600, 7200)
+SPACINGS = "300,1800,3600,7200"
 
 
 def machine_at_cuts(sim):
@@ -48,6 +49,8 @@ def main():
     ap.add_argument("--ttp", default="build/app/ttp")
     ap.add_argument("--runs", type=int, default=10, help="logs per spacing and compensation state")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--spacings", default=SPACINGS,
+                    help="R-test spacings, s, or 'adaptive' (generate.py --spacing-s; default %s)" % SPACINGS)
     generate.add_scale_args(ap)
     a = ap.parse_args()
     rng = random.Random(a.seed)
@@ -56,7 +59,7 @@ def main():
         print("RMS z per error (dev against the reference cut over the budget's u), "
               f"{a.runs} logs per row; share of |z| <= 2 in brackets")
         print(f"{'spacing':>8} {'comp':>4}  " + "  ".join(f"{e:>12}" for e in generate.ERRS))
-        for spacing in SPACINGS:
+        for spacing in [generate.parse_spacing(x) for x in a.spacings.split(",")]:
             for comp in (False, True):
                 z = {e: [] for e in generate.ERRS}
                 for _ in range(a.runs):

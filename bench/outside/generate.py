@@ -4,7 +4,7 @@ customer's specs alone (../shared/spec/test-piece.md, talc-log.md,
 measurements.md, diagnosis.md rev. 2) and the thesis (R-test noise of table
 5.4). It shares no code and no parameterisation with the project's sim/.
 
-Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300]
+Usage: generate.py --effect NAME[+NAME] [--size S[+S]] --seed N [--spacing-s 300|adaptive]
                    [--compensation off|on] [--measurement json|dial|cloud|dmis|probe]
                    [--probe-points FILE]
                    [--points 20000] [--cloud-format auto|ply|xyz] [--pose auto|table|any]
@@ -218,6 +218,62 @@ def check_scale(name, f):
     return f
 
 
+# An adaptive TALC (thesis 6.2-6.3) measures often while the machine
+# changes fast and seldom while it settles: every 30 min for the 2 h after a
+# load change (the C axis starts turning at cycle 0; the cool-down starts at
+# cycle 4), every 2 h otherwise, but no later than 30 min after a load
+# change that falls inside a long interval; never during a cut (a
+# measuring cycle that would overlap one starts when the cut has ended).
+# The controller knows the load changes from the program, not from the
+# machine's response.
+ADAPTIVE_DENSE_S = 1800.0
+ADAPTIVE_SPARSE_S = 7200.0
+ADAPTIVE_SETTLE_S = 7200.0
+
+
+def parse_spacing(text):
+    """--spacing-s: seconds between R-tests, or 'adaptive'."""
+    if str(text) == "adaptive":
+        return "adaptive"
+    return check_scale("spacing_s", text)
+
+
+def rtest_times(spacing_s, last_cut):
+    """R-test row times (the end of each measurement cycle): the first at
+    95 s, then every spacing_s (or the adaptive schedule) while before the
+    last cut, and one 150 s after the last cut (production closes the log
+    with an R-test)."""
+    rt = [95.0]
+    if spacing_s == "adaptive":
+        changes = [CYCLE0_S, CYCLE0_S + 4 * CYCLE_S]
+        cycle_starts = [CYCLE0_S + k * CYCLE_S for k in range(9)]
+        t = rt[0]
+        while True:
+            if any(c <= t < c + ADAPTIVE_SETTLE_S for c in changes):
+                t_next = t + ADAPTIVE_DENSE_S
+            else:
+                t_next = t + ADAPTIVE_SPARSE_S
+                inside = [c for c in changes if t < c < t_next]
+                if inside:
+                    t_next = min(t_next, inside[0] + ADAPTIVE_DENSE_S)
+            # the controller measures between cuts: a cycle that would
+            # overlap a cut starts when the cut has ended
+            for c in cycle_starts:
+                if t_next - RTEST_DUR_S - 10.0 < c + 45.0 and t_next + 5.0 > c - 20.0:
+                    t_next = c + 45.0 + RTEST_DUR_S + 10.0
+            if t_next >= last_cut:
+                break
+            rt.append(t_next)
+            t = t_next
+    else:
+        t = 95.0 + spacing_s
+        while t < last_cut:
+            rt.append(t)
+            t += spacing_s
+    rt.append(last_cut + 150.0)
+    return rt
+
+
 def simulate(seed, effect, size, spacing_s, comp_on, rtest_noise_scale=1.0, machine_gain_scale=1.0):
     """One run. rtest_noise_scale multiplies the R-test noise of table 5.4,
     machine_gain_scale the Machine's thermal error gains (1: as written)."""
@@ -233,12 +289,7 @@ def simulate(seed, effect, size, spacing_s, comp_on, rtest_noise_scale=1.0, mach
     cuts = cut_schedule()
     last_cut = cuts[-1][0]
     # R-test times (row time = end of the cycle)
-    rt = [95.0]
-    t = 95.0 + spacing_s
-    while t < last_cut:
-        rt.append(t)
-        t += spacing_s
-    rt.append(last_cut + 150.0)
+    rt = rtest_times(spacing_s, last_cut)
     t_end = rt[-1] + 60.0
     cut_windows = [(CYCLE0_S + k * CYCLE_S - 20.0, CYCLE0_S + k * CYCLE_S + 45.0) for k in range(9)]
 
@@ -1028,7 +1079,9 @@ def main():
                     help="one of %s, or two joined by + (e.g. tool_wear+clamping_distortion)" % ", ".join(known))
     ap.add_argument("--size", default="0", help="effect size; for two effects S1+S2")
     ap.add_argument("--seed", type=int, required=True)
-    ap.add_argument("--spacing-s", type=float, default=300.0)
+    ap.add_argument("--spacing-s", type=parse_spacing, default=300.0,
+                    help="seconds between R-tests (default 300), or 'adaptive': every 30 min for 2 h "
+                         "after a load change, every 2 h otherwise")
     ap.add_argument("--compensation", choices=["on", "off"], default="off")
     ap.add_argument("--measurement", choices=["json", "dial", "cloud", "dmis", "probe"], default="json",
                     help="json: per-feature CMM report; dial: dial-gauge CSV; cloud: CMM point cloud; "

@@ -182,6 +182,16 @@ def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0,
             "machine_gain_scale": machine_gain_scale, "decision": decision}
 
 
+def parse_spacing(text):
+    """A spacing of --spacings: seconds (an integer) or 'adaptive'."""
+    return "adaptive" if text == "adaptive" else int(text)
+
+
+def every(spacing):
+    return ("adaptive (30 min after a load change, 2 h otherwise)" if spacing == "adaptive"
+            else "every %d s" % spacing)
+
+
 def fmt(size):
     return size if isinstance(size, str) else "%g" % size
 
@@ -197,7 +207,7 @@ def command_for(r):
         extra += " --probe-points out/points.csv"
     return (("ttp plan probe -o out/probe.nc --points-csv out/points.csv%s && " %
              "".join(" " + a for a in PROBE_PLANS[r["measurement"]]) if probed else "") +
-            "python3 bench/outside/generate.py --effect %s --size %s --seed %d --spacing-s %d "
+            "python3 bench/outside/generate.py --effect %s --size %s --seed %d --spacing-s %s "
             "--compensation %s --measurement %s%s -o out/r && ttp diagnose --log out/r/talc.csv out/r/%s%s" %
             (r["effect"], fmt(r["size"]), r["seed"], r["spacing_s"], r["compensation"],
              "probe" if probed else r["measurement"], extra,
@@ -226,8 +236,8 @@ def report(results, spacings):
         belong = [r for r in rs if r["expected"] != "refused"]
         total_right += right
         total += len(rs)
-        print("R-tests every %d s: right %d/%d (%.0f %%), false names %d/%d, refused belonging pairs %d/%d"
-              % (sp, right, len(rs), 100.0 * right / max(1, len(rs)), len(false_names), len(no_cause),
+        print("R-tests %s: right %d/%d (%.0f %%), false names %d/%d, refused belonging pairs %d/%d"
+              % (every(sp), right, len(rs), 100.0 * right / max(1, len(rs)), len(false_names), len(no_cause),
                  len(belong_refused), len(belong)))
         print("  %-9s" % "expected" + "".join("%8s" % short[c] for c in cols))
         for e in rows:
@@ -267,7 +277,7 @@ def report(results, spacings):
             er = [r for r in kr if (r["expected"] == e) or (e == "pair" and "+" in r["expected"])]
             if er:
                 print("    %-20s %d/%d" % (e, sum(r["outcome"] == r["expected"] for r in er), len(er)))
-    print("right per effect and size (R-tests every %s s):" % " / ".join(str(s) for s in spacings))
+    print("right per effect and size (R-tests every %s):" % " / ".join(str(s) for s in spacings))
     keys = []
     for r in results:
         k = (r["effect"], fmt(r["size"]))
@@ -282,7 +292,7 @@ def report(results, spacings):
     print("misses (reproduce from the repository root with ttp on PATH):")
     for r in results:
         if r["outcome"] != r["expected"]:
-            print("  %-5d %-3s %-20s %-5s %-4s -> %-20s %s" % (
+            print("  %-5s %-3s %-20s %-5s %-4s -> %-20s %s" % (
                 r["spacing_s"], r["compensation"], r["effect"], fmt(r["size"]), r["measurement"],
                 r["outcome"], r["detail"][:130]))
             print("        " + command_for(r))
@@ -435,8 +445,8 @@ def detection(ttp, work, spacings, runs, seed, scales=(1.0, 1.0)):
                     if shares[i] < 0.9:
                         break
                     limit = sizes[i]
-                print("  %-20s %-4s %5d s: %s -> %s" % (
-                    effect, kind, sp,
+                print("  %-20s %-4s %7s: %s -> %s" % (
+                    effect, kind, "%s s" % sp if sp != "adaptive" else sp,
                     "  ".join("%g:%d%%" % (z, round(100 * f)) for z, f in zip(sizes, shares)),
                     "90 %% at %g" % limit if limit is not None else "90 %% at > %g" % sizes[-1]))
     print("%d runs in %.0f s" % (n, time.time() - t0))
@@ -484,7 +494,7 @@ def main():
     try:
         if a.check:
             return check(a.ttp, work)
-        spacings = [int(x) for x in a.spacings.split(",")]
+        spacings = [parse_spacing(x) for x in a.spacings.split(",")]
         if a.detection:
             return detection(a.ttp, work, spacings, a.detection, a.seed, scales)
         rng = random.Random(a.seed)
