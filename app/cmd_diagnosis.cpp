@@ -162,7 +162,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
           try {
             sim::SetEffect(&o, *effect, *size);
           } catch (const std::invalid_argument& e) {
-            throw CLI::ValidationError("--effect", e.what());
+            const std::string what = e.what();
+            throw CLI::ValidationError(
+                what.rfind("size", 0) == 0 ? "--size" : "--effect", what);
           }
           std::string invalid;
           if (!o.IsValid(&invalid)) throw CLI::ValidationError("twin", invalid);

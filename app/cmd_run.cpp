@@ -53,6 +53,26 @@ struct RunArgs {
 
 // Sizes well inside the range the battery shows is diagnosable, in each
 // cause's own unit (sim/twin.h).
+// The effect hidden in the twin run: the one asked for, or one drawn from
+// the seed (possibly none).
+diagnosis::Cause HiddenCause(const RunArgs& args) {
+  if (args.cause) return *args.cause;
+  std::mt19937_64 rng(args.seed);
+  return diagnosis::kAllCauses[rng() % 5];
+}
+
+double ClearSize(diagnosis::Cause cause);
+
+void SetHiddenEffect(const RunArgs& args, diagnosis::Cause cause,
+                     sim::TwinOptions* options) {
+  try {
+    sim::SetEffect(options, diagnosis::CauseName(cause),
+                   args.size > 0 ? args.size : ClearSize(cause));
+  } catch (const std::invalid_argument& e) {
+    throw InputError("--size", 0, "size", e.what());
+  }
+}
+
 double ClearSize(diagnosis::Cause cause) {
   switch (cause) {
     case diagnosis::Cause::kNone:
@@ -211,15 +231,8 @@ void MeshStage(RunContext& ctx) {
 void TwinStage(RunContext& ctx) {
   sim::TwinOptions options;
   options.seed = ctx.args.seed;
-  diagnosis::Cause cause;
-  if (ctx.args.cause) {
-    cause = *ctx.args.cause;
-  } else {  // a cause drawn from the seed (possibly none)
-    std::mt19937_64 rng(ctx.args.seed);
-    cause = diagnosis::kAllCauses[rng() % 5];
-  }
-  sim::SetEffect(&options, diagnosis::CauseName(cause),
-                 ctx.args.size > 0 ? ctx.args.size : ClearSize(cause));
+  const diagnosis::Cause cause = HiddenCause(ctx.args);
+  SetHiddenEffect(ctx.args, cause, &options);
   ctx.hidden = cause;
   ctx.twin = sim::RunTwin(ctx.config, options);
   // As `ttp twin` writes it: the log, the truth (without the pose, which the
@@ -386,6 +399,10 @@ void Register(CLI::App& root, GlobalOptions& global) {
     if (cmd->get_option("--size")->count() > 0 && !(args->size > 0))
       throw InputError("--size", 0, "size",
                        "must be > 0 (leave --size out for a clear size)");
+    {  // a size beyond the effect's range is refused before any stage
+      sim::TwinOptions checked;
+      SetHiddenEffect(ctx.args, HiddenCause(ctx.args), &checked);
+    }
     // Every stage writes into a staging folder; its files move into the
     // output folder only when all stages are done (all or none).
     StagedFolder staged(args->out_dir);

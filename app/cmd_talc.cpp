@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -61,6 +62,13 @@ void Register(CLI::App& root, GlobalOptions& global) {
                                   "calibration phase (other fields default)")
                       ->check(CLI::PositiveNumber);
     s_opt->excludes(i_opt);
+    auto calibration = std::make_shared<double>(-1.0);
+    auto* c_opt =
+        cmd->add_option("--calibration-s", *calibration,
+                        "with --interval-s: length of the calibration phase "
+                        "from the log's start (s; default 30600, 8.5 h)")
+            ->check(CLI::NonNegativeNumber);
+    c_opt->excludes(s_opt);
     cmd->add_option("--json", *json_out, "also write the result as JSON");
     auto ro = std::make_shared<talc::ReplayOptions>();
     cmd->add_option("--static-from-s", ro->static_window_from_s,
@@ -69,12 +77,14 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("--static-to-s", ro->static_window_to_s,
                     "... up to this time (s; default: the log's end, i.e. "
                     "in-sample)");
-    cmd->callback([&global, log, strategy, interval, json_out, ro] {
+    cmd->callback([&global, log, strategy, interval, calibration, json_out,
+                   ro] {
       talc::Strategy s;
       if (!strategy->empty()) {
         s = talc::ReadStrategy(*strategy);
       } else if (*interval > 0) {
         s.interval_s = *interval;
+        if (*calibration >= 0) s.calibration_s = *calibration;
       } else {
         throw InputError("talc replay", 0, "--strategy",
                          "give --strategy FILE or --interval-s N");
@@ -83,6 +93,30 @@ void Register(CLI::App& root, GlobalOptions& global) {
       if (!(ro->static_window_to_s > ro->static_window_from_s))
         throw InputError("talc replay", 0, "--static-to-s",
                          "must be after --static-from-s");
+      // A replay that compensates nothing has no figures to report: say
+      // why instead of printing zeros that read as perfect compensation.
+      if (series.rows() > 0) {
+        const double t0 = series.t_s.front(), t1 = series.t_s.back();
+        if (t0 + s.calibration_s >= t1)
+          throw InputError(
+              strategy->empty() ? std::string("talc replay") : *strategy, 0,
+              strategy->empty() ? "--calibration-s" : "calibration_s",
+              fmt::format("the calibration phase ({:g} s from the log's "
+                          "start) reaches past the log's end ({:g} s after "
+                          "its start): no sample is compensated; shorten it",
+                          s.calibration_s, t1 - t0));
+        const bool window_has_sample =
+            std::any_of(series.t_s.begin(), series.t_s.end(), [&](double t) {
+              return t >= ro->static_window_from_s &&
+                     t <= ro->static_window_to_s;
+            });
+        if (!window_has_sample)
+          throw InputError("talc replay", 0, "--static-from-s",
+                           fmt::format("the static window {:g} .. {:g} s "
+                                       "holds no sample of {}",
+                                       ro->static_window_from_s,
+                                       ro->static_window_to_s, *log));
+      }
       const talc::ReplayResult r = talc::Replay(series, s, *ro);
       if (!global.quiet || json_out->empty())
         WriteText("-", talc::ReplayText(r, s));

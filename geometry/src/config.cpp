@@ -375,10 +375,12 @@ void ValidateTool(const ToolSpec& t, const std::string& source,
           "must be positive");
   Require(t.tip_angle_deg >= 0 && t.tip_angle_deg < 180, source,
           f + "tip_angle_deg", "must be in [0, 180)");
-  Require(t.spindle_rpm > 0 && t.spindle_rpm <= m.max_spindle_rpm, source,
-          f + "spindle_rpm", "must be in (0, machine.max_spindle_rpm]");
-  Require(t.feed_mm_min > 0 && t.feed_mm_min <= m.max_feed_mm_min, source,
-          f + "feed_mm_min", "must be in (0, machine.max_feed_mm_min]");
+  // The programs write S and F to a tenth at most: below 1 they would read
+  // S0 / F0.0, which no controller runs.
+  Require(t.spindle_rpm >= 1 && t.spindle_rpm <= m.max_spindle_rpm, source,
+          f + "spindle_rpm", "must be in [1, machine.max_spindle_rpm]");
+  Require(t.feed_mm_min >= 1 && t.feed_mm_min <= m.max_feed_mm_min, source,
+          f + "feed_mm_min", "must be in [1, machine.max_feed_mm_min]");
   Require(t.stick_out_mm >= t.flute_length_mm && t.stick_out_mm < t.length_mm,
           source, f + "stick_out_mm",
           "must be in [flute_length_mm, length_mm): the holder holds the "
@@ -585,9 +587,10 @@ void ValidateConfig(const Config& c, const std::string& source) {
           "must be positive (stylus ball diameter)");
   Require(pr.probe.length_mm > 0, source, "process.probe.length_mm",
           "must be positive");
-  Require(pr.probe.feed_mm_min > 0 && pr.probe.feed_mm_min <= m.max_feed_mm_min,
-          source, "process.probe.feed_mm_min",
-          "must be in (0, machine.max_feed_mm_min]");
+  Require(
+      pr.probe.feed_mm_min >= 1 && pr.probe.feed_mm_min <= m.max_feed_mm_min,
+      source, "process.probe.feed_mm_min",
+      "must be in [1, machine.max_feed_mm_min]");
   Require(pr.notch.diameter_mm <= 2 * p.small_notch_half_width_mm + 1e-9,
           source, "process.notch.diameter_mm",
           "tool larger than the small notch");
@@ -598,20 +601,26 @@ void ValidateConfig(const Config& c, const std::string& source) {
           "must equal part.strip_width_mm (a strip is one cutter wide)");
   Require(pr.finishing.flute_length_mm >= -p.facet_bottom_z_mm, source,
           "process.finishing.flute_length_mm", "shorter than the facet height");
-  Require(pr.roughing_step_down_mm > 0, source, "process.roughing_step_down_mm",
-          "must be positive");
+  // Below 0.05 mm a roughing pass is not roughing, and the pass count of
+  // the big notch (its depth over the step) grows without bound.
+  Require(pr.roughing_step_down_mm >= 0.05, source,
+          "process.roughing_step_down_mm", "must be at least 0.05 mm");
   Require(pr.finish_allowance_mm >= 0, source, "process.finish_allowance_mm",
           "must not be negative");
   Require(pr.turning_c_rpm > 0 && pr.turning_c_rpm <= m.c_max_rpm, source,
           "process.turning_c_rpm", "must be in (0, machine.c_max_rpm]");
-  Require(pr.nc_hold_after_pre_min >= 0, source,
-          "process.nc_hold_after_pre_min", "must not be negative");
-  Require(pr.cycle_period_s >= 600, source, "process.cycle_period_s",
-          "must be at least 600 s (one cycle must fit)");
+  Require(pr.nc_hold_after_pre_min >= 0 && pr.nc_hold_after_pre_min <= 1440,
+          source, "process.nc_hold_after_pre_min",
+          "must be in [0, 1440] min (at most a day)");
+  Require(pr.cycle_period_s >= 600 && pr.cycle_period_s <= 86400, source,
+          "process.cycle_period_s",
+          "must be in [600, 86400] s (one cycle must fit; at most a day)");
   Require(pr.warmup_cycles >= 0 && pr.warmup_cycles <= p.cycles(), source,
           "process.warmup_cycles", "must be in [0, cycles]");
-  Require(pr.rtest_interval_s == 0 || pr.rtest_interval_s >= 60, source,
-          "process.rtest_interval_s", "must be 0 (no R-test) or >= 60 s");
+  Require(pr.rtest_interval_s == 0 ||
+              (pr.rtest_interval_s >= 60 && pr.rtest_interval_s <= 86400),
+          source, "process.rtest_interval_s",
+          "must be 0 (no R-test) or in [60, 86400] s");
   Require(pr.rtest_measure_s >= 0 && pr.rtest_measure_s <= 600, source,
           "process.rtest_measure_s", "must be in [0, 600] s");
   Require(pr.safe_z_w_mm > 0, source, "process.safe_z_w_mm",
@@ -659,10 +668,10 @@ void ValidateConfig(const Config& c, const std::string& source) {
     Require(m.rapid_axis_mm_min[a] > 0, source,
             "machine.rapid_axis_mm_min[" + std::to_string(a) + "]",
             "must be positive");
-  Require(m.positioning_feed_mm_min > 0 &&
+  Require(m.positioning_feed_mm_min >= 1 &&
               m.positioning_feed_mm_min <= m.max_feed_mm_min,
           source, "machine.positioning_feed_mm_min",
-          "must be in (0, max_feed_mm_min]");
+          "must be in [1, max_feed_mm_min]");
   Require(m.sphere_radius_mm > 0, source, "machine.sphere_radius_mm",
           "must be positive");
   Require(m.sphere_stem_diameter_mm > 0 &&

@@ -188,15 +188,22 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
                             limits::kMaxFeatureAngleRad * 1e6, source,
                             where + "." + a_key, "urad");
     fr.angle_rad = a * 1e-6;  // NaN stays NaN: that figure is missing
-    // U in um (k = 2) -> variance in mm^2.
-    fr.var_d_mm2 = VarFromU(Uncertainty(NumberOrNaN(v, ud_key, source, where),
-                                        source, where + "." + ud_key)) *
-                   1e6;
+    // U in um (k = 2) -> variance in mm^2. A value without its U would be
+    // taken as exact: every judgement on it (a grade, a diagnosis) would
+    // claim more than the measurement shows.
+    auto required_u = [&](const char* key, const char* value_key) {
+      const double u = Uncertainty(NumberOrNaN(v, key, source, where), source,
+                                   where + "." + key);
+      if (std::isnan(u))
+        throw InputError(source, 0, where + "." + key,
+                         fmt::format("missing: {} needs its expanded "
+                                     "uncertainty (k = 2)",
+                                     value_key));
+      return u;
+    };
+    fr.var_d_mm2 = VarFromU(required_u(ud_key, d_key)) * 1e6;
     fr.var_angle_rad2 =
-        std::isfinite(a)
-            ? VarFromU(Uncertainty(NumberOrNaN(v, ua_key, source, where),
-                                   source, where + "." + ua_key))
-            : kNaN;
+        std::isfinite(a) ? VarFromU(required_u(ua_key, a_key)) : kNaN;
     const double tilt = Within(NumberOrNaN(v, "tilt_urad", source, where),
                                limits::kMaxFeatureAngleRad * 1e6, source,
                                where + ".tilt_urad", "urad");

@@ -204,6 +204,18 @@ Data PrepareData(const TimeSeries& fit, int output,
     const double f = t1 > t0 ? (fit.t_s[i] - t0) / (t1 - t0) : 0.0;
     d.block[k] = std::min(o.cv_blocks - 1, static_cast<int>(f * o.cv_blocks));
   }
+  // WLSE: a half-life short against the span leaves only the newest
+  // samples with weight; below 10 effective samples nothing can be fitted.
+  const double effective = d.w.sum() * d.w.sum() / d.w.squaredNorm();
+  if (!(effective >= 10)) {
+    throw InputError(
+        fit.source, 0, "--weight-half-life-s",
+        fmt::format("a half-life of {:g} s leaves {:.1f} effective samples "
+                    "of {} in the fitted span of {:g} s for {} (at least 10 "
+                    "needed): give a longer half-life",
+                    o.weight_half_life_s, effective, n, t1 - t0,
+                    fit.output_names[output]));
+  }
   d.mean = d.z.colwise().mean().transpose();
   d.scale.resize(p);
   for (Eigen::Index j = 0; j < p; ++j) {

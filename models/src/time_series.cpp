@@ -14,6 +14,7 @@
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::models {
 namespace {
@@ -192,6 +193,17 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
     }
     std::vector<double> in(ts.input_names.size()), out(ts.output_names.size());
     double t = 0;
+    // Values far beyond any machine's are refused with the limit named
+    // (1e300 is finite, and a fit on it gives a model of 1e301 um that
+    // reports zero error).
+    auto bounded = [&](double v, double limit, const char* unit,
+                       const std::string& name) {
+      if (std::abs(v) > limit)
+        throw InputError(
+            source, line_no, name,
+            fmt::format("{:g} is beyond the limit of {:g} {}", v, limit, unit));
+      return v;
+    };
     for (const Column& c : columns) {
       const std::string& cell = cells[c.position];
       const std::string& name = names[c.position];
@@ -199,18 +211,27 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
         case ColumnKind::kTime:
           if (cell.empty())
             throw InputError(source, line_no, name, "empty time cell");
-          t = ParseFiniteNumber(cell, source, line_no, name);
+          t = bounded(ParseFiniteNumber(cell, source, line_no, name),
+                      limits::kMaxLogTimeS, "s", name);
           break;
         case ColumnKind::kInput:
           if (cell.empty())
             throw InputError(source, line_no, name,
                              "empty input cell (speeds and temperatures are "
                              "required in every row)");
-          in[c.slot] = ParseFiniteNumber(cell, source, line_no, name);
+          in[c.slot] =
+              name.rfind("T_", 0) == 0
+                  ? bounded(ParseFiniteNumber(cell, source, line_no, name),
+                            limits::kMaxTemperatureC, "degC", name)
+                  : bounded(ParseFiniteNumber(cell, source, line_no, name),
+                            limits::kMaxSpeedPerMin, "1/min", name);
           break;
         case ColumnKind::kOutput:
           out[c.slot] =
-              cell.empty() ? kNaN : ParseFiniteNumber(cell, source, line_no, name);
+              cell.empty()
+                  ? kNaN
+                  : bounded(ParseFiniteNumber(cell, source, line_no, name),
+                            limits::kMaxDisplacementUm, "um", name);
           break;
         case ColumnKind::kIgnored:
           break;

@@ -305,9 +305,12 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
     meas_rows.push_back(i);
   }
   res.measurements = int(res.measurement_times_s.size());
-  res.q_prod = res.total_s > 0 ? 1.0 - double(res.measurements) *
-                                           st.measuring_time_s / res.total_s
-                               : 1.0;
+  // Production time lost to measuring, within the log: a measurement still
+  // running at the log's end counts up to the end (Q_Prod stays in 0..1).
+  double measuring_s = 0;
+  for (double tm : res.measurement_times_s)
+    measuring_s += std::clamp(s.t_s.back() - tm, 0.0, st.measuring_time_s);
+  res.q_prod = res.total_s > 0 ? 1.0 - measuring_s / res.total_s : 1.0;
 
   // Static baselines: frozen after calibration, updated like TALC, and
   // fitted once on the stated window.

@@ -299,6 +299,24 @@ TEST(CliDiagnosis, TheMeasurementOptionsReachTheReader) {
   }
 }
 
+// An effect far beyond any machine's is refused before anything is made:
+// its piece would leave every plausible range (a 1e300 gain wrote a NaN
+// point and blamed the twin's own cloud).
+TEST(CliDiagnosis, TwinAndRunRefuseAnEffectSizeBeyondItsRange) {
+  const fs::path dir = test::TestDir("twin_size");
+  auto r = test::RunTtp("twin --effect tool_wear --size 5000 --seed 1 -o " +
+                        (dir / "t").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--size"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("0..1000"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "t" / "talc.csv"));
+  r = test::RunTtp("run --effect workpiece_expansion --size 1e300 -o " +
+                   (dir / "r").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("0..10 (gain)"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "r" / "report.html"));
+}
+
 TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
   const fs::path dir = test::TestDir("diag_bad");
   const std::string a = (kSamples / "run-a").string();

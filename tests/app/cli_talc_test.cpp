@@ -95,6 +95,34 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
   EXPECT_NE(r.output.find(":5"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("T_a"), std::string::npos) << r.output;
 
+  // The default calibration phase (8.5 h) outlasts a 6 h log: nothing
+  // would be compensated, and zeros would read as perfect compensation.
+  {
+    std::ifstream in(kTrain);
+    std::ofstream out(dir / "six_hours.csv");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (!line.empty() && std::isdigit(static_cast<unsigned char>(line[0])) &&
+          std::stod(line) > 6 * 3600)
+        break;
+      out << line << "\n";
+    }
+  }
+  const std::string six = (dir / "six_hours.csv").string();
+  r = test::RunTtp("talc replay " + six + " --interval-s 1800");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--calibration-s"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("reaches past the log's end"), std::string::npos)
+      << r.output;
+  r = test::RunTtp("talc replay " + six +
+                   " --interval-s 1800 --calibration-s 7200");
+  EXPECT_NE(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("Q_Prod"), std::string::npos) << r.output;
+  r = test::RunTtp("talc replay " + kTrain +
+                   " --interval-s 3600 --static-from-s 100 --static-to-s 101");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("holds no sample"), std::string::npos) << r.output;
+
   std::ofstream(dir / "g.toml") << "[grid]\ninterval_s = [3600, 0]\n";
   r = test::RunTtp("talc sweep " + (dir / "g.toml").string() + " --log " +
                    kTrain);

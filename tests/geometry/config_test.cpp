@@ -124,7 +124,20 @@ INSTANTIATE_TEST_SUITE_P(
                 "[machine]\nfanuc_skip_variables = [5061, 5062, 5063, 5099]\n",
                 "machine.fanuc_skip_variables[3]"},
         BadCase{"stick_out", "[process.finishing]\nstick_out_mm = 10.0\n",
-                "process.finishing.stick_out_mm"}),
+                "process.finishing.stick_out_mm"},
+        // Values a program cannot carry: a step down whose pass count
+        // explodes, a feed written as F0.0, a dwell of 1e12 min, a cycle
+        // period of more digits than a block holds.
+        BadCase{"step_down_tiny", "[process]\nroughing_step_down_mm = 6e-9\n",
+                "process.roughing_step_down_mm"},
+        BadCase{"feed_tiny", "[process.engraver]\nfeed_mm_min = 1e-9\n",
+                "process.engraver.feed_mm_min"},
+        BadCase{"hold_huge", "[process]\nnc_hold_after_pre_min = 1e12\n",
+                "process.nc_hold_after_pre_min"},
+        BadCase{"cycle_huge", "[process]\ncycle_period_s = 1e15\n",
+                "process.cycle_period_s"},
+        BadCase{"rtest_interval_huge", "[process]\nrtest_interval_s = 1e15\n",
+                "process.rtest_interval_s"}),
     [](const auto& info) { return std::string(info.param.name); });
 
 TEST(Config, UnreadableFileIsInputError) {

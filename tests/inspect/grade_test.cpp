@@ -127,7 +127,9 @@ TEST(Grade, UAtTheLimitIsNotDecidable) {
 }
 
 // A dial gauge measures no angle: E_B is not decidable with that reason,
-// and the piece can pass on the other figures.
+// and the piece can pass on the other figures. A CMM measures E_B: its
+// missing values are not shown to conform, even when all of them are
+// missing (the piece does not pass on less data).
 TEST(Grade, InstrumentWithoutAnglesDecidesOnTheRest) {
   CycleFigures c = Cycle(1, 1, 1, 1, 0, 1, 1, 0);
   c.e_b_rad = c.u_b_rad = std::nan("");
@@ -140,9 +142,11 @@ TEST(Grade, InstrumentWithoutAnglesDecidesOnTheRest) {
   // The same missing E_B from a CMM is a missing value: not proven.
   const GradeResult cmm = GradeFigures(
       {c}, {}, CapabilityOf(MeasurementKind::kCloud), GradeLimits{});
-  EXPECT_EQ(cmm.overall, Verdict::kPass);  // every value missing: not decided
-  EXPECT_NE(Of(cmm, Figure::kEB).reason.find("every value missing"),
-            std::string::npos);
+  EXPECT_EQ(cmm.overall, Verdict::kUndecidable);
+  EXPECT_TRUE(Of(cmm, Figure::kEB).decided);
+  EXPECT_EQ(Of(cmm, Figure::kEB).verdict, Verdict::kUndecidable);
+  EXPECT_EQ(cmm.counts[static_cast<int>(Verdict::kMissing)], 1);
+  EXPECT_NE(cmm.Summary().find("1 missing"), std::string::npos);
   CycleFigures c2 = Cycle(2, 1, 1, 1, 1, 1, 1, 2);
   const GradeResult part = GradeFigures(
       {c, c2}, {}, CapabilityOf(MeasurementKind::kCloud), GradeLimits{});

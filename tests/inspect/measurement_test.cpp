@@ -220,6 +220,16 @@ TEST_F(MeasurementTest, BadFilesNameTheProblem) {
                           R"({"facets": {"X1-1": {"distance_mm": "a"}}})"))
                 .find("distance_mm: is not a number"),
             std::string::npos);
+  // A value without its U is not exact: refused, naming the field.
+  EXPECT_NE(ErrorOf(Write("no_u.json",
+                          R"({"facets": {"X1-1": {"distance_mm": 97.3}}})"))
+                .find("facets.X1-1.U_distance_um: missing"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Write("no_u_angle.json",
+                          R"({"facets": {"X1-1": {"distance_mm": 97.3,
+                          "U_distance_um": 1, "angle_error_urad": 5}}})"))
+                .find("facets.X1-1.U_angle_urad: missing"),
+            std::string::npos);
   EXPECT_NE(ErrorOf(Write("cycle.json", R"({"figures": [{"cycle": 9}]})"))
                 .find("figures[0].cycle: outside 1..8"),
             std::string::npos);

@@ -341,6 +341,23 @@ TEST(Identify, MdlCriterionAndWlseRun) {
   EXPECT_LT(HoldoutRms(ts, PredictOutput(m.outputs[0], ts), kSplit), none);
 }
 
+// A half-life short against the span weights all but the newest samples
+// to nothing: refused naming the option, not a failed solve.
+TEST(Identify, WlseHalfLifeLeavingTooFewSamplesIsBadInput) {
+  const TimeSeries ts = TwoNodeNetwork(11);
+  FitOptions o;
+  o.weight_half_life_s = 1e-3;
+  try {
+    FitThermalModel(ts, {}, o, kSplit);
+    ADD_FAILURE() << "a half-life of 1 ms was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "--weight-half-life-s");
+    EXPECT_NE(std::string(e.what()).find("effective samples"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Identify, AutoNeverSeesTheHoldout) {
   const TimeSeries ts = TwoNodeNetwork(5);
   FitOptions o;

@@ -161,6 +161,19 @@ TEST(ThermalLog, NonFiniteCell) {
   EXPECT_EQ(ExpectError(kHeader + "t_s,T_a,d_x\n0,20,1e999\n").field(), "d_x");
 }
 
+// Finite but far beyond any machine's: refused with the limit named (a fit
+// on 1e300 reports a model of 1e301 um with zero error).
+TEST(ThermalLog, ValueBeyondAnyMachinesIsRefused) {
+  EXPECT_EQ(ExpectError(kHeader + "t_s,T_a,d_x\n0,20,0\n15,20,1e300\n").field(),
+            "d_x");
+  EXPECT_EQ(ExpectError(kHeader + "t_s,T_a,d_x\n0,2000,0\n").field(), "T_a");
+  EXPECT_EQ(ExpectError(kHeader + "t_s,n_s,T_a\n0,1e7,20\n").field(), "n_s");
+  EXPECT_EQ(ExpectError(kHeader + "t_s,T_a\n1e10,20\n").field(), "t_s");
+  const InputError e = ExpectError(kHeader + "t_s,T_a,d_x\n0,20,-2e5\n");
+  EXPECT_EQ(e.line(), 5);
+  EXPECT_NE(std::string(e.what()).find("limit"), std::string::npos);
+}
+
 TEST(ThermalLog, EmptyInputCell) {
   const InputError e =
       ExpectError(kHeader + "t_s,n_s,T_a,d_x\n0,0,20,0\n15,,20,\n");

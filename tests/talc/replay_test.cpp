@@ -89,6 +89,24 @@ TEST(Replay, FixedScheduleMeasuringTimeAndQProd) {
               210);
 }
 
+// A measurement still running at the log's end counts up to the end:
+// Q_Prod stays in 0..1 however long a measurement takes.
+TEST(Replay, QProdCountsMeasuringTimeInsideTheLog) {
+  const auto s = test::LaggedLinearSeries(20 * 3600, 15, 0, 2);
+  Strategy st;
+  st.calibration_s = 4 * 3600;
+  st.calibration_interval_s = 300;
+  st.interval_s = 600;
+  st.measuring_time_s = 7200;
+  const ReplayResult r = Replay(s, st);
+  EXPECT_GE(r.q_prod, 0.0);
+  EXPECT_NEAR(r.q_prod, 0.0, 1e-12);  // measuring back to back to the end
+  st.measuring_time_s = 1e9;
+  const ReplayResult one = Replay(s, st);
+  EXPECT_EQ(one.measurements, 1);
+  EXPECT_DOUBLE_EQ(one.q_prod, 0.0);
+}
+
 TEST(Replay, NeverReadsAnOutputItDidNotMeasure) {
   const auto s = test::TwoNodePlant{}.Make(36 * 3600, 15);
   Strategy st;

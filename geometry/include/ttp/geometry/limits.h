@@ -32,6 +32,10 @@ constexpr double kMaxRTestValueMicro = 1.0e5;  // |R-test value|, um or um/m
 constexpr double kMinSphereDistanceMm = 1.0;   // sphere_distance_mm
 constexpr double kMaxSphereDistanceMm = 10'000.0;
 constexpr double kMaxTemperatureC = 1000.0;          // |T_env|, |T_ws|, ...
+// Thermal log (models/time_series): a displacement at the tool (um) and a
+// speed (1/min) far beyond any machine's.
+constexpr double kMaxDisplacementUm = 1.0e5;
+constexpr double kMaxSpeedPerMin = 1.0e6;
 constexpr std::int64_t kMaxCycleId = 1'000'000'000;  // R-test cycle numbers
 // Points of a strategy sweep's grid (talc sweep): the thesis' 8,764
 // replays and far beyond; a grid past it is a typo, not a plan.
