@@ -129,13 +129,13 @@ void Register(CLI::App& root, GlobalOptions& global) {
         ->check(CLI::IsMember({"on", "off"}));
     cmd->add_option("--rtest-interval-s", options->rtest_interval_s,
                     "time between R-tests (default 300)")
-        ->check(FiniteRange(1.0, 86400.0));
+        ->check(FiniteRange(150.0, 7200.0));
     cmd->add_option("--point-noise-um", options->point_noise_um,
                     "CMM noise per point (default 0.4)")
         ->check(FiniteRange(0.0, 1000.0));
     cmd->add_option("--points", options->cloud_points,
                     "points in the measured cloud (default 20000)")
-        ->check(CLI::Range(100, 10'000'000));
+        ->check(CLI::Range(1000, 10'000'000));
     auto measurement = std::make_shared<std::string>("cloud");
     cmd->add_option(
            "--measurement", *measurement,
@@ -147,7 +147,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
         ->check(CLI::IsMember({"cloud", "ply", "xyz", "json"}));
     cmd->add_option("--stray-fraction", options->stray_fraction,
                     "stray points per cloud point (default 0.002)")
-        ->check(FiniteRange(0.0, 0.5));
+        ->check(FiniteRange(0.0, 0.49));
     cmd->add_option("-o,--output", *out_dir,
                     "output directory: talc.csv (the TALC log), the measured "
                     "piece and truth.json (the hidden effect and its "

@@ -75,12 +75,14 @@ void Register(CLI::App& root, GlobalOptions& global) {
     auto dry_run = std::make_shared<double>(-1.0);
     cmd->add_option("--dry-run", *dry_run,
                     "shorten every dwell to at most this many seconds (a "
-                    "trial run on a controller; nothing else changes)");
+                    "trial run on a controller; nothing else changes)")
+        ->check(FiniteRange(0.0, 86400.0));
     auto rtest_interval = std::make_shared<double>(-1.0);
     if (std::string(name) == "cycle")
       cmd->add_option("--rtest-interval", *rtest_interval,
                       "R-test every this many seconds (0 = none; default: "
-                      "process.rtest_interval_s of the config)");
+                      "process.rtest_interval_s of the config)")
+          ->check(FiniteRange(0.0, 86400.0));
     cmd->callback([&global, dialect, output, build, dry_run, rtest_interval] {
       const Dialect d = ParseDialect(*dialect, "--dialect");
       Config config = global.LoadConfig();

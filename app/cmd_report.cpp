@@ -164,11 +164,17 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
     const nlohmann::json data =
         report::WriteReport(config, inputs, *out, *json_out, *options);
     if (!global.quiet) {
+      // The diagnosis as its status says it: a cause only when one is named.
+      std::string diagnosis;
+      if (inputs.diagnosis) {
+        diagnosis = std::string("; diagnosis ") +
+                    diagnosis::StatusName(diagnosed.report.status);
+        if (diagnosed.report.status == diagnosis::DiagnosisStatus::kNamed)
+          diagnosis += " " + diagnosed.report.cause;
+      }
       std::fprintf(stderr, "report written to %s: %s%s\n", out->c_str(),
                    data["grade"]["summary"].get<std::string>().c_str(),
-                   inputs.diagnosis
-                       ? ("; cause " + diagnosed.report.cause).c_str()
-                       : "");
+                   diagnosis.c_str());
     }
     if (grade.overall != inspect::Verdict::kPass)
       global.exit_code = kExitJudgedFailure;

@@ -86,7 +86,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("SPHERES", args->spheres, "sphere centre CSV");
   cmd->add_option("--json", args->json_out, "write results as JSON");
   cmd->add_option("--distance-mm", args->distance_mm,
-                  "sphere distance from the C axis, d/2 (default: machine)");
+                  "sphere distance from the C axis, d/2 (default: machine)")
+      ->check(FiniteRange(1.0, 10000.0));
   cmd->add_option("--height-mm", args->height_mm,
                   "sphere centre above the table (default: machine)");
   cmd->add_option("--phi0-deg", args->phi0_deg,
@@ -99,7 +100,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->add_option("--d-m", args->d_m,
                   "sphere circle diameter d for "
                   "--resolution")
-      ->check(CLI::PositiveNumber);
+      ->check(FiniteRange(0.002, 20.0));
   cmd->callback([&global, args] {
     const Config config = global.LoadConfig();
     RTestGeometry g;

@@ -26,11 +26,13 @@ void Register(CLI::App& root, GlobalOptions& global) {
   auto rtest_interval = std::make_shared<double>(-1.0);
   cmd->add_option("--rtest-interval", *rtest_interval,
                   "R-test every this many seconds (0 = none; default: "
-                  "process.rtest_interval_s of the config)");
+                  "process.rtest_interval_s of the config)")
+      ->check(FiniteRange(0.0, 86400.0));
   auto dry_run = std::make_shared<double>(-1.0);
   cmd->add_option("--dry-run", *dry_run,
                   "schedule of the dry run (`ttp gcode cycle --dry-run S`: "
-                  "every dwell at most S seconds)");
+                  "every dwell at most S seconds)")
+      ->check(FiniteRange(0.0, 86400.0));
   cmd->callback([&global, csv, json, rtests_csv, rtest_interval, dry_run] {
     Config config = global.LoadConfig();
     if (*rtest_interval >= 0) config.process.rtest_interval_s = *rtest_interval;

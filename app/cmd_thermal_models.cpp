@@ -3,6 +3,7 @@
 // every structure side by side on a chronological holdout (docs/THERMAL.md).
 #include <fmt/format.h>
 
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <sstream>
@@ -203,6 +204,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
     AddFitOptions(cmd, o.get());
     cmd->callback([&global, log, from, until, json_out, o] {
       CheckFitOptions(*o);
+      if (!std::isfinite(*from))
+        throw InputError("thermal compare", 0, "--holdout-from",
+                         "must be a finite time (s)");
       if (!(*until > *from))
         throw InputError("thermal compare", 0, "--holdout-until",
                          "must be after --holdout-from");

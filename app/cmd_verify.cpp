@@ -57,7 +57,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
                 "every check with its numbers, not only the summary");
   cmd->add_option("--rtest-interval", opts->rtest_interval_s,
                   "without a program: the test cycle with an R-test every "
-                  "this many seconds (0 = none; default: the config's)");
+                  "this many seconds (0 = none; default: the config's)")
+      ->check(FiniteRange(0.0, 86400.0));
   cmd->callback([&global, opts] {
     Config config = global.LoadConfig();
     if (opts->rtest_interval_s >= 0) {

@@ -54,9 +54,11 @@ void AddMeasurementOptions(CLI::App* cmd, MeasurementArgs* a) {
                   "none");
   cmd->add_option("--cmm-mpe-um", a->cmm_mpe_um,
                   "clouds and DMIS: the CMM's MPE a + L/b per touch, a in um "
-                  "(default 1.2)");
+                  "(default 1.2)")
+      ->check(FiniteRange(1e-3, 1000.0));
   cmd->add_option("--cmm-mpe-l-mm", a->cmm_mpe_l_mm,
-                  "clouds and DMIS: b of the MPE a + L/b, in mm (default 400)");
+                  "clouds and DMIS: b of the MPE a + L/b, in mm (default 400)")
+      ->check(FiniteRange(1e-3, 1e9));
   auto* points =
       cmd->add_option("--cmm-points", a->cmm_points,
                       "DMIS results: the point list of the CMM program that "
@@ -67,7 +69,8 @@ void AddMeasurementOptions(CLI::App* cmd, MeasurementArgs* a) {
                   "in the pattern of ttp plan cmm (instead of --cmm-points)")
       ->excludes(points);
   cmd->add_option("--probe-repeatability-um", a->probe_repeatability_um,
-                  "probe results: standard uncertainty of one touch (um)");
+                  "probe results: standard uncertainty of one touch (um)")
+      ->check(FiniteRange(0.0, 1000.0));
   cmd->add_option("--probe-points", a->probe_points,
                   "probe results: the point list of the program (ttp plan "
                   "probe); default: the default plan");
@@ -76,9 +79,11 @@ void AddMeasurementOptions(CLI::App* cmd, MeasurementArgs* a) {
                   "work offset G54 as the program prints them (program), or "
                   "auto (default)");
   cmd->add_option("--dial-resolution-um", a->dial_resolution_um,
-                  "dial readings: gauge resolution (um)");
+                  "dial readings: gauge resolution (um)")
+      ->check(FiniteRange(0.0, 1000.0));
   cmd->add_option("--dial-repeatability-um", a->dial_repeatability_um,
-                  "dial readings: standard uncertainty of one reading (um)");
+                  "dial readings: standard uncertainty of one reading (um)")
+      ->check(FiniteRange(0.0, 1000.0));
 }
 
 inspect::MeasurementOptions ToMeasurementOptions(const MeasurementArgs& a,

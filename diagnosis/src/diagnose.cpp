@@ -1986,8 +1986,14 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
 DiagnosisReport DiagnoseRun(const thermal::TalcLog& log, const Config& config,
                             const MeasuredPiece& measured,
                             const DiagnosisOptions& options) {
-  return DiagnosePrepared(PrepareRun(log, config, measured, options), log,
-                          config.part, measured, options);
+  PreparedRun run = PrepareRun(log, config, measured, options);
+  if (run.refusal.empty() && run.observations.size() == 0)
+    throw InputError(measured.source.empty() ? "measurement" : measured.source,
+                     0, "",
+                     "no figure or facet angle to compare: the measurement "
+                     "holds no cycle's features beside the reference "
+                     "cycle's");
+  return DiagnosePrepared(std::move(run), log, config.part, measured, options);
 }
 
 namespace {

@@ -79,7 +79,9 @@ double ParseFiniteNumber(const std::string& cell, const std::string& source,
   const double v = std::strtod(begin, &end);
   if (end == begin || *end != '\0')
     throw InputError(source, line, column, "'" + cell + "' is not a number");
-  if (!std::isfinite(v) || errno == ERANGE)
+  // ERANGE on underflow (1e-320, a subnormal or a flush to 0) still gives
+  // a finite number near zero: only an overflow is not finite.
+  if (!std::isfinite(v) || (errno == ERANGE && std::abs(v) > 1.0))
     throw InputError(source, line, column,
                      "'" + cell + "' is not a finite number");
   return v;

@@ -448,7 +448,14 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
               std::to_string(limits::kMaxFeatureDeviationMm) + " mm, " +
               std::to_string(limits::kMaxFeatureAngleRad) +
               " rad): the units (UNITS/) or the frame do not fit the "
-              "piece's size");
+              "piece's size" +
+              (out.aligned_from_datums
+                   ? std::string()
+                   : "; the datums TOP, FLANK+Y, FLANK-Y and " +
+                         datum.ToString() +
+                         " were not all reported, so the coordinates were "
+                         "taken as the workpiece frame W: report them, or "
+                         "the features in W"));
     // The variance of a least-squares plane through independent touches
     // (DmisImportOptions), at the mean of their variances.
     auto planned = touches.find(nominal.Key());

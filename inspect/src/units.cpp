@@ -13,10 +13,16 @@ namespace ttp::inspect {
 using internal::Quantile;
 using internal::Subsample;
 
+// Below this many points the extent is no evidence of the units.
+constexpr Eigen::Index kMinPointsForUnits = 100;
+
 void CheckCloudUnits(const PartSpec& part, const PointCloud& cloud,
                      const InspectOptions& o) {
   if (!o.check_units) return;
   const Eigen::Matrix3Xd& p = cloud.xyz_mm;
+  // A handful of points says nothing about units: the extent of a few
+  // points on one facet looks like inches. The alignment names the count.
+  if (p.cols() < kMinPointsForUnits) return;
   double extent = 0;
   const internal::Indices some = Subsample(p.cols(), 100000);
   for (int a = 0; a < 3; ++a) {

@@ -739,7 +739,12 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
     for (const auto& name : outputs) {
       const int j = fit.OutputIndex(name);
       if (j < 0)
-        throw InputError(ts.source, 0, name, "output column is not in the log");
+        throw InputError(
+            ts.source, 0, name,
+            fit.InputIndex(name) >= 0
+                ? "is an input of the log (n_ or T_), not an output: "
+                  "--outputs takes d_ columns"
+                : "output column is not in the log");
       which.push_back(j);
     }
   }

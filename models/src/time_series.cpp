@@ -225,6 +225,10 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
                             limits::kMaxTemperatureC, "degC", name)
                   : bounded(ParseFiniteNumber(cell, source, line_no, name),
                             limits::kMaxSpeedPerMin, "1/min", name);
+          if (name.rfind("T_", 0) == 0 && in[c.slot] < limits::kAbsoluteZeroC)
+            throw InputError(
+                source, line_no, name,
+                fmt::format("{:g} degC is below absolute zero", in[c.slot]));
           break;
         case ColumnKind::kOutput:
           out[c.slot] =

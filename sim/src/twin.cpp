@@ -99,7 +99,7 @@ bool TwinOptions::IsValid(std::string* error) const {
   if (!(point_noise_um >= 0)) return fail("point_noise_um: must be >= 0");
   if (cloud_points < 1000) return fail("cloud_points: must be >= 1000");
   if (!(stray_fraction >= 0 && stray_fraction < 0.5))
-    return fail("stray_fraction: must be 0..0.5");
+    return fail("stray_fraction: must be in [0, 0.5)");
   if (!(workpiece_gain >= 0)) return fail("workpiece_gain: must be >= 0");
   if (!(workpiece_tau_s >= 0)) return fail("workpiece_tau_s: must be >= 0");
   if (!(tool_wear_um_per_m >= 0))

@@ -325,6 +325,17 @@ TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
                 .exit_code,
             0);
   const std::string measured = (dir / "a.json").string();
+  // A dial sheet with the reference facet alone holds nothing to compare:
+  // bad input naming the file.
+  {
+    std::ofstream(dir / "one_row.csv") << "feature,reading_um\nX1-1,1.0\n";
+    const std::string one = (dir / "one_row.csv").string();
+    const auto d = test::RunTtp("diagnose --log " + a + "/talc.csv " + one);
+    EXPECT_EQ(d.exit_code, 2) << d.output;
+    EXPECT_NE(d.output.find(one + ": no figure or facet angle"),
+              std::string::npos)
+        << d.output;
+  }
   // A missing log.
   const std::string missing = (dir / "no_such_log.csv").string();
   auto r = test::RunTtp("diagnose --log " + missing + " " + measured);

@@ -358,6 +358,20 @@ TEST(Identify, WlseHalfLifeLeavingTooFewSamplesIsBadInput) {
   }
 }
 
+// --outputs names d_ columns: an input given there is said to be one.
+TEST(Identify, AnInputAskedForAsAnOutputIsNamedAsAnInput) {
+  const TimeSeries ts = TwoNodeNetwork(11);
+  ASSERT_FALSE(ts.input_names.empty());
+  try {
+    FitThermalModel(ts, {ts.input_names[0]}, FitOptions{}, kSplit);
+    ADD_FAILURE() << "an input was fitted as an output";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("is an input of the log"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Identify, AutoNeverSeesTheHoldout) {
   const TimeSeries ts = TwoNodeNetwork(5);
   FitOptions o;

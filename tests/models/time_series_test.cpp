@@ -169,6 +169,7 @@ TEST(ThermalLog, ValueBeyondAnyMachinesIsRefused) {
   EXPECT_EQ(ExpectError(kHeader + "t_s,T_a,d_x\n0,2000,0\n").field(), "T_a");
   EXPECT_EQ(ExpectError(kHeader + "t_s,n_s,T_a\n0,1e7,20\n").field(), "n_s");
   EXPECT_EQ(ExpectError(kHeader + "t_s,T_a\n1e10,20\n").field(), "t_s");
+  EXPECT_EQ(ExpectError(kHeader + "t_s,T_a\n0,-300\n").field(), "T_a");
   const InputError e = ExpectError(kHeader + "t_s,T_a,d_x\n0,20,-2e5\n");
   EXPECT_EQ(e.line(), 5);
   EXPECT_NE(std::string(e.what()).find("limit"), std::string::npos);

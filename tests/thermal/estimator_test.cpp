@@ -568,6 +568,18 @@ TEST(Estimator, RefusesLogsItCannotUse) {
                InputError);
   std::string two = one + "395,rtest,1,1,1,1,1,1,1,95,,,,,,,\n";
   EXPECT_NO_THROW(MachineErrorEstimator::Fit(ParseTalcLog(two, "two")));
+  // Usable, but two R-tests cannot be cross-validated: it says so.
+  const auto est = MachineErrorEstimator::Fit(ParseTalcLog(two, "two"));
+  ASSERT_EQ(est.Warnings().size(), 1u);
+  EXPECT_NE(est.Warnings()[0].find("too few to cross-validate"),
+            std::string::npos);
+  EXPECT_NE(est.Describe().find("too few to cross-validate"),
+            std::string::npos);
+  const std::string three = one + "395,rtest,1,1,1,1,1,1,1,95,,,,,,,\n" +
+                            "695,rtest,2,2,2,2,2,2,2,95,,,,,,,\n";
+  EXPECT_TRUE(MachineErrorEstimator::Fit(ParseTalcLog(three, "three"))
+                  .Warnings()
+                  .empty());
   two.replace(two.find("compensation: off"), 17, "compensation: on");
   EXPECT_THROW(MachineErrorEstimator::Fit(ParseTalcLog(two, "two")),
                InputError);

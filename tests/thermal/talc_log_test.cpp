@@ -200,6 +200,10 @@ TEST(TalcLog, RejectsBadCutAndRTestRows) {
   rows = kRows;
   rows.replace(rows.find("1,2,3"), 1, "");
   ExpectRejected(kHead + kColumns + rows, 11, "EX0C");
+  // A second R-test describing the machine at the same time (not an exact
+  // duplicate: other values) contradicts the first.
+  ExpectRejected(kHead + kColumns + kRows + "395,rtest,,,2,2,3,4,5,6,7,,,95\n",
+                 12, "t_s");
 }
 
 TEST(TalcLog, RejectsBadHeaderValues) {
@@ -269,6 +273,11 @@ TEST(TalcLog, RejectsImpossibleHeaderValuesAndHugeReadings) {
                  "t_s");
   ExpectRejected(kHead + kColumns + kRows + "9e6,sample,20,0,,,,,,,,,0,\n", 12,
                  "t_s");
+  // Below absolute zero; a subnormal is a number near zero, not non-finite.
+  ExpectRejected(kHead + kColumns + kRows + "400,sample,-300,0,,,,,,,,,0,\n",
+                 12, "T_env");
+  EXPECT_NO_THROW(ParseTalcLog(
+      kHead + kColumns + kRows + "400,sample,1e-320,0,,,,,,,,,0,\n", "ok.csv"));
 }
 
 }  // namespace

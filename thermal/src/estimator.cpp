@@ -810,6 +810,16 @@ std::string MachineErrorEstimator::Describe() const {
 
 std::vector<std::string> MachineErrorEstimator::Warnings() const {
   std::vector<std::string> out;
+  // Two R-tests leave no fold with two to fit: nothing tells the
+  // estimator's error between them from the R-tests' own noise.
+  if (!cv_error_.empty() &&
+      std::any_of(models_.begin(), models_.end(),
+                  [](const auto& m) { return m.cv_evaluations == 0; }))
+    out.push_back(fmt::format(
+        "{} R-tests are too few to cross-validate the estimator (at least "
+        "3): its uncertainty between them is the R-tests' noise alone, "
+        "which understates it",
+        rtest_t_.size()));
   for (const LeftOutRTest& r : left_out_) {
     out.push_back(fmt::format(
         "R-test of line {} (t_s {:.0f}) left out as a gross error: its {} "

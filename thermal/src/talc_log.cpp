@@ -106,6 +106,12 @@ void CheckMagnitude(int column, double v, const std::string& source, int line) {
         source, line, kNumericColumnNames[column],
         fmt::format("{:g} is beyond the limit of {:g} {}", v, limit, unit));
   }
+  // A temperature (not dT_cool, a difference) below absolute zero.
+  if ((column == kTEnv || column == kTWs || column == kTMwf) &&
+      v < limits::kAbsoluteZeroC) {
+    throw InputError(source, line, kNumericColumnNames[column],
+                     fmt::format("{:g} degC is below absolute zero", v));
+  }
 }
 
 }  // namespace
@@ -319,6 +325,18 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
                "rtest row without dur_s: values taken at the row's t_s"});
         }
         r.t_ref_s = row.t_s - dur / 2;
+        // One measuring cycle at a time: an R-test that does not describe
+        // the machine after the previous one contradicts it (exact
+        // duplicate rows were dropped above).
+        if (!log.rtests.empty() && r.t_ref_s <= log.rtests.back().t_ref_s) {
+          throw InputError(
+              source, line_no, "t_s",
+              fmt::format("R-test describing the machine at {:g} s (t_s - "
+                          "dur_s/2), not after the previous one of line {} "
+                          "({:g} s): two measuring cycles overlap",
+                          r.t_ref_s, log.rtests.back().line,
+                          log.rtests.back().t_ref_s));
+        }
         r.measured = ErrorsFrom(row, kEX0C);
         if (HasAll(row, kPredEX0C)) r.pred = ErrorsFrom(row, kPredEX0C);
         log.rtests.push_back(r);

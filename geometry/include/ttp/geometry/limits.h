@@ -32,6 +32,7 @@ constexpr double kMaxRTestValueMicro = 1.0e5;  // |R-test value|, um or um/m
 constexpr double kMinSphereDistanceMm = 1.0;   // sphere_distance_mm
 constexpr double kMaxSphereDistanceMm = 10'000.0;
 constexpr double kMaxTemperatureC = 1000.0;          // |T_env|, |T_ws|, ...
+constexpr double kAbsoluteZeroC = -273.15;           // no temperature below
 // Thermal log (models/time_series): a displacement at the tool (um) and a
 // speed (1/min) far beyond any machine's.
 constexpr double kMaxDisplacementUm = 1.0e5;
