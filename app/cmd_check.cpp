@@ -50,7 +50,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
   cmd->callback([&global, cmd, log_path, measurement, json_out, tolerance,
                  no_schedule, how] {
     const Config config = global.LoadConfig();
-    const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
+    const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
     nlohmann::json schedule_json;
     if (!*no_schedule) {
       thermal::ScheduleCheckOptions so;

@@ -49,7 +49,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->callback(
         [&global, cmd, log_path, measurement, json_out, threshold, no_schedule,
          how] {
-          const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
+          const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
           const Config config = global.LoadConfig();
           diagnosis::DiagnosisOptions options;
           options.evidence_threshold = *threshold;

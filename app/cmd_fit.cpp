@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <iostream>
+#include <map>
 
 #include "command.h"
 #include "ttp/geometry/error.h"
@@ -97,14 +98,29 @@ nlohmann::json RunFit(const FitArgs& a, const Eigen::Matrix3Xd& p,
                          " fit: " + fit::FitStatusName(summary.status) + ": " +
                          summary.message);
   }
+  // As many points as the shape's free parameters fit it exactly: no
+  // residual is left to estimate uncertainties from (they are not 0).
+  static const std::map<std::string, int> kFreeParameters = {
+      {"line", 4},   {"plane", 3},    {"circle2d", 3}, {"circle3d", 6},
+      {"sphere", 4}, {"cylinder", 5}, {"cone", 6}};
+  const auto free = kFreeParameters.find(a.shape);
+  const bool determined =
+      free == kFreeParameters.end() || summary.points > free->second;
   nlohmann::json u = nlohmann::json::object();
   for (size_t i = 0; i < summary.parameter_names.size(); ++i) {
     const auto k = static_cast<Eigen::Index>(i);
     if (k < summary.covariance.rows())
       u[summary.parameter_names[i]] =
-          std::sqrt(std::max(0.0, summary.covariance(k, k)));
+          determined ? nlohmann::json(
+                           std::sqrt(std::max(0.0, summary.covariance(k, k))))
+                     : nlohmann::json(nullptr);
   }
   out["standard_uncertainty"] = u;
+  if (!determined)
+    out["uncertainty_note"] = fmt::format(
+        "{} points fit a {} of {} free parameters exactly: no residual is "
+        "left to estimate the uncertainties",
+        summary.points, a.shape, free->second);
   out["residuals"] = {{"rms_mm", summary.rms_mm},
                       {"max_abs_mm", summary.max_abs_mm}};
   out["points"] = summary.points;
@@ -132,7 +148,10 @@ std::string Text(const nlohmann::json& doc) {
   }
   s += "standard uncertainties (k = 1):\n";
   for (const auto& [k, v] : doc["standard_uncertainty"].items())
-    s += fmt::format("  {:<20} {:.3g}\n", k, v.get<double>());
+    s += v.is_null() ? fmt::format("  {:<20} not determined\n", k)
+                     : fmt::format("  {:<20} {:.3g}\n", k, v.get<double>());
+  if (doc.contains("uncertainty_note"))
+    s += "  (" + doc["uncertainty_note"].get<std::string>() + ")\n";
   s += fmt::format("residuals: rms {:.6g} mm, max |r| {:.6g} mm{}\n",
                    doc["residuals"]["rms_mm"].get<double>(),
                    doc["residuals"]["max_abs_mm"].get<double>(),
@@ -210,7 +229,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                        "the points do not determine a " + a->shape +
                            " (the fit is rank deficient: no covariance)");
     for (const auto& [k, v] : doc["standard_uncertainty"].items())
-      if (!finite(v))
+      if (!v.is_null() && !finite(v))  // null: an exact fit (said so)
         throw InputError(a->points, 0, a->shape,
                          "the points do not determine a " + a->shape + " (" +
                              k + " has no finite uncertainty)");

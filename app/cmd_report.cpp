@@ -143,7 +143,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
     diagnosis::PreparedDiagnosis diagnosed;
     diagnosis::DiagnosisExplanation explained;
     if (!log_path->empty()) {
-      log = thermal::ReadTalcLog(*log_path);
+      log = ReadTalcLogWarning(*log_path, global);
       // As `ttp diagnose`: a log that did not come from this program is an
       // input error.
       if (!*no_schedule)

@@ -20,6 +20,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("log", *log_path, "TALC log (CSV)")->required();
     cmd->add_option("--json", *json_out, "also write the summary as JSON");
     cmd->callback([&global, log_path, json_out] {
+      // The summary lists the log's warnings itself.
       const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
       if (!global.quiet || json_out->empty()) {
         TextOut(*json_out) << thermal::LogSummaryText(log);
@@ -46,7 +47,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "(default 3600 s, production practice)")
         ->check(CLI::PositiveNumber);
     cmd->callback([&global, log_path, json_out, compare, interval] {
-      const thermal::TalcLog log = thermal::ReadTalcLog(*log_path);
+      const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
       // The simulated figures with the U `ttp check` gives them (the
       // estimator's leave-one-out error).
       const Config config = global.LoadConfig();

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <map>
@@ -294,5 +295,15 @@ std::string DidYouMean(const CLI::App& root, int argc,
 }
 
 bool StdoutIsTerminal() { return ::isatty(STDOUT_FILENO) != 0; }
+
+thermal::TalcLog ReadTalcLogWarning(const std::string& path,
+                                    const GlobalOptions& global) {
+  thermal::TalcLog log = thermal::ReadTalcLog(path);
+  if (!global.quiet)
+    for (const thermal::LogWarning& w : log.warnings)
+      std::fprintf(stderr, "warning: %s:%d: %s\n", path.c_str(), w.line,
+                   w.message.c_str());
+  return log;
+}
 
 }  // namespace ttp::app

@@ -15,6 +15,7 @@
 #include "ttp/geometry/config.h"
 #include "ttp/inspect/grade.h"
 #include "ttp/inspect/measurement.h"
+#include "ttp/thermal/talc_log.h"
 
 namespace ttp::app {
 
@@ -125,6 +126,12 @@ inline CLI::Validator FiniteRange(double min, double max) {
 
 // True when stdout is a terminal (progress displays only then).
 bool StdoutIsTerminal();
+
+// Reads a TALC log and prints its lenient problems (gaps, dropped
+// duplicates, unknown events: talc-log.md section 4) as warnings on
+// stderr, naming file and line, unless --quiet.
+thermal::TalcLog ReadTalcLogWarning(const std::string& path,
+                                    const GlobalOptions& global);
 
 }  // namespace ttp::app
 

@@ -175,6 +175,21 @@ TEST(CliFit, DegenerateShapesExitTwoWithAClearMessage) {
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("four.xyz"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("inf"), std::string::npos) << r.output;
+  // As many points as free parameters fit the shape exactly: the
+  // uncertainties are not determined (null), not 0; one point more and they
+  // are numbers.
+  {
+    std::ofstream(dir / "three.xyz") << "0 0 0\n10 0 0.1\n0 10 -0.2\n";
+    std::ofstream(dir / "five.xyz")
+        << "0 0 0\n10 0 0.1\n0 10 -0.2\n10 10 0.05\n5 5 0.3\n";
+  }
+  const nlohmann::json exact = Fit("plane", (dir / "three.xyz").string());
+  for (const auto& [k, v] : exact["standard_uncertainty"].items())
+    EXPECT_TRUE(v.is_null()) << k << " " << v;
+  EXPECT_TRUE(exact.contains("uncertainty_note"));
+  const nlohmann::json over = Fit("plane", (dir / "five.xyz").string());
+  for (const auto& [k, v] : over["standard_uncertainty"].items())
+    EXPECT_GT(v.get<double>(), 0.0) << k;
 }
 
 }  // namespace
