@@ -191,9 +191,12 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
     // U in um (k = 2) -> variance in mm^2. A value without its U would be
     // taken as exact: every judgement on it (a grade, a diagnosis) would
     // claim more than the measurement shows.
+    // (a named reference: clang before 16 does not capture a structured
+    // binding in a lambda)
+    const nlohmann::json& feature = v;
     auto required_u = [&](const char* key, const char* value_key) {
-      const double u = Uncertainty(NumberOrNaN(v, key, source, where), source,
-                                   where + "." + key);
+      const double u = Uncertainty(NumberOrNaN(feature, key, source, where),
+                                   source, where + "." + key);
       if (std::isnan(u))
         throw InputError(source, 0, where + "." + key,
                          fmt::format("missing: {} needs its expanded "
