@@ -51,8 +51,6 @@ struct RunArgs {
   std::optional<diagnosis::Cause> cause;
 };
 
-// Sizes well inside the range the battery shows is diagnosable, in each
-// cause's own unit (sim/twin.h).
 // The effect hidden in the twin run: the one asked for, or one drawn from
 // the seed (possibly none).
 diagnosis::Cause HiddenCause(const RunArgs& args) {
@@ -61,18 +59,8 @@ diagnosis::Cause HiddenCause(const RunArgs& args) {
   return diagnosis::kAllCauses[rng() % 5];
 }
 
-double ClearSize(diagnosis::Cause cause);
-
-void SetHiddenEffect(const RunArgs& args, diagnosis::Cause cause,
-                     sim::TwinOptions* options) {
-  try {
-    sim::SetEffect(options, diagnosis::CauseName(cause),
-                   args.size > 0 ? args.size : ClearSize(cause));
-  } catch (const std::invalid_argument& e) {
-    throw InputError("--size", 0, "size", e.what());
-  }
-}
-
+// Sizes well inside the range the battery shows is diagnosable, in each
+// cause's own unit (sim/twin.h).
 double ClearSize(diagnosis::Cause cause) {
   switch (cause) {
     case diagnosis::Cause::kNone:
@@ -87,6 +75,18 @@ double ClearSize(diagnosis::Cause cause) {
       return 200.0;  // urad
   }
   return 0;
+}
+
+// The hidden effect at its size (given, or the clear one); a size beyond
+// the effect's range is bad input naming --size.
+void SetHiddenEffect(const RunArgs& args, diagnosis::Cause cause,
+                     sim::TwinOptions* options) {
+  try {
+    sim::SetEffect(options, diagnosis::CauseName(cause),
+                   args.size > 0 ? args.size : ClearSize(cause));
+  } catch (const std::invalid_argument& e) {
+    throw InputError("--size", 0, "size", e.what());
+  }
 }
 
 struct RunContext {

@@ -219,17 +219,18 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
             throw InputError(source, line_no, name,
                              "empty input cell (speeds and temperatures are "
                              "required in every row)");
-          in[c.slot] =
-              name.rfind("T_", 0) == 0
-                  ? bounded(ParseFiniteNumber(cell, source, line_no, name),
-                            limits::kMaxTemperatureC, "degC", name)
-                  : bounded(ParseFiniteNumber(cell, source, line_no, name),
-                            limits::kMaxSpeedPerMin, "1/min", name);
-          if (name.rfind("T_", 0) == 0 && in[c.slot] < limits::kAbsoluteZeroC)
-            throw InputError(
-                source, line_no, name,
-                fmt::format("{:g} degC is below absolute zero", in[c.slot]));
-          break;
+          {
+            const bool temperature = name.rfind("T_", 0) == 0;
+            in[c.slot] = bounded(ParseFiniteNumber(cell, source, line_no, name),
+                                 temperature ? limits::kMaxTemperatureC
+                                             : limits::kMaxSpeedPerMin,
+                                 temperature ? "degC" : "1/min", name);
+            if (temperature && in[c.slot] < limits::kAbsoluteZeroC)
+              throw InputError(
+                  source, line_no, name,
+                  fmt::format("{:g} degC is below absolute zero", in[c.slot]));
+            break;
+          }
         case ColumnKind::kOutput:
           out[c.slot] =
               cell.empty()

@@ -131,18 +131,21 @@ void SetEffect(TwinOptions* o, const std::string& name, double size) {
   if (name == "none") return;
   // Far beyond any machine's: the piece would leave the measurement's
   // plausible range (features within 5 mm of nominal) or the model's.
-  const double max_size = name == "workpiece_expansion"   ? 10.0
-                          : name == "tool_wear"           ? 1000.0
-                          : name == "clamping_distortion" ? 100.0
-                          : name == "c_axis_indexing"     ? 1e4
-                                                          : 0.0;
-  if (max_size > 0 && !(size >= 0 && size <= max_size))
-    throw std::invalid_argument(fmt::format(
-        "size {:g} of {} is outside 0..{:g} ({})", size, name, max_size,
-        name == "workpiece_expansion"   ? "gain"
-        : name == "tool_wear"           ? "um/m"
-        : name == "clamping_distortion" ? "um"
-                                        : "urad"));
+  struct Range {
+    const char* effect;
+    double max_size;
+    const char* unit;
+  };
+  static constexpr Range kRanges[] = {{"workpiece_expansion", 10.0, "gain"},
+                                      {"tool_wear", 1000.0, "um/m"},
+                                      {"clamping_distortion", 100.0, "um"},
+                                      {"c_axis_indexing", 1e4, "urad"}};
+  for (const Range& r : kRanges)
+    if (name == r.effect && !(size >= 0 && size <= r.max_size))
+      throw std::invalid_argument(
+          fmt::format("size {:g} of {} is outside "
+                      "0..{:g} ({})",
+                      size, name, r.max_size, r.unit));
   if (name == "workpiece_expansion")
     o->workpiece_gain = size;
   else if (name == "tool_wear")
