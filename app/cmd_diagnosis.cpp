@@ -157,14 +157,15 @@ void Register(CLI::App& root, GlobalOptions& global) {
         [&global, effect, options, size, compensation, out_dir, measurement] {
           sim::TwinOptions o = *options;
           o.compensation = *compensation == "on";
+          if (*effect != "none" && sim::FindEffect(*effect) == nullptr)
+            throw CLI::ValidationError("--effect",
+                                       "unknown effect '" + *effect + "'");
           if (*effect != "none" && !(*size > 0))
             throw CLI::ValidationError("--size", "must be > 0 with an effect");
           try {
             sim::SetEffect(&o, *effect, *size);
           } catch (const std::invalid_argument& e) {
-            const std::string what = e.what();
-            throw CLI::ValidationError(
-                what.rfind("size", 0) == 0 ? "--size" : "--effect", what);
+            throw CLI::ValidationError("--size", e.what());  // name is known
           }
           std::string invalid;
           if (!o.IsValid(&invalid)) throw CLI::ValidationError("twin", invalid);

@@ -50,6 +50,8 @@ void PrintResolution(const RTestArgs& a, const RTestGeometry& base) {
 void Evaluate(const RTestArgs& a, const RTestGeometry& g) {
   const std::vector<SphereCycle> cycles =
       ParseSphereMeasurements(ReadTextFile(a.spheres), a.spheres);
+  for (const SphereCycle& c : cycles)
+    CheckSpheresFollowGeometry(g, c, a.spheres);
   const std::vector<SphereMeasurement>& reference = cycles.front().positions;
   nlohmann::json out = {{"reference_cycle", cycles.front().cycle},
                         {"sphere_distance_mm", g.sphere_distance_mm},

@@ -59,16 +59,7 @@ double CsvTable::Number(const CsvRow& row, int column) const {
   const std::string& cell = Text(row, column);
   const std::string& name = columns.at(static_cast<size_t>(column));
   if (cell.empty()) throw InputError(source, row.line, name, "empty cell");
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(cell.c_str(), &end);
-  if (end == cell.c_str() || *end != '\0' || errno == ERANGE) {
-    throw InputError(source, row.line, name, "'" + cell + "' is not a number");
-  }
-  if (!std::isfinite(v)) {
-    throw InputError(source, row.line, name, "value is not finite");
-  }
-  return v;
+  return ParseFiniteNumber(cell, source, row.line, name);
 }
 
 double ParseFiniteNumber(const std::string& cell, const std::string& source,

@@ -1,6 +1,9 @@
 #include "ttp/geometry/json_text.h"
 
 #include <algorithm>
+#include <map>
+#include <set>
+#include <vector>
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -21,12 +24,53 @@ std::string Detail(const char* what) {
   return end == std::string::npos ? s : s.substr(end + 2);
 }
 
+// Line of the n-th (0-based) occurrence of "key" written as an object key.
+int KeyLine(const std::string& text, const std::string& key, int n) {
+  const std::string quoted = "\"" + key + "\"";
+  size_t at = 0;
+  for (int seen = 0;; ++at) {
+    at = text.find(quoted, at);
+    if (at == std::string::npos) return 0;
+    size_t next = text.find_first_not_of(" \t\r\n", at + quoted.size());
+    if (next != std::string::npos && text[next] == ':' && seen++ == n)
+      return LineAt(text, at);
+  }
+}
+
 }  // namespace
 
 nlohmann::json ParseJsonText(const std::string& text,
                              const std::string& source) {
+  // JSON leaves a repeated key to the reader (RFC 8259 section 4); nlohmann
+  // keeps the last silently. In a measurement or a model two values for one
+  // name are a broken file, so the first repeat is refused by name.
+  std::vector<std::set<std::string>> open_objects;
+  std::map<std::string, int> key_count;
+  std::string repeated;
+  int repeated_line = 0;
+  const nlohmann::json::parser_callback_t callback =
+      [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+        using Event = nlohmann::json::parse_event_t;
+        if (event == Event::object_start) {
+          open_objects.emplace_back();
+        } else if (event == Event::object_end) {
+          if (!open_objects.empty()) open_objects.pop_back();
+        } else if (event == Event::key && !open_objects.empty()) {
+          const std::string key = parsed.get<std::string>();
+          const int n = key_count[key]++;
+          if (!open_objects.back().insert(key).second && repeated.empty()) {
+            repeated = key;
+            repeated_line = KeyLine(text, key, n);
+          }
+        }
+        return true;
+      };
   try {
-    return nlohmann::json::parse(text);
+    nlohmann::json out = nlohmann::json::parse(text, callback);
+    if (!repeated.empty())
+      throw InputError(source, repeated_line, repeated,
+                       "appears twice in one object: which value is meant?");
+    return out;
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(source, LineAt(text, e.byte), "",
                      "not valid JSON: " + Detail(e.what()));

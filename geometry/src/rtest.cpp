@@ -1,5 +1,7 @@
 #include "ttp/geometry/rtest.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Dense>
 #include <cmath>
 #include <map>
@@ -87,12 +89,35 @@ std::vector<SphereCycle> ParseSphereMeasurements(const std::string& text,
     const long id = static_cast<long>(cycle);
     auto [it, fresh] = index.emplace(id, out.size());
     if (fresh) out.push_back({id, {}});
-    out[it->second].positions.push_back({deg * M_PI / 180, centre});
+    out[it->second].positions.push_back({deg * M_PI / 180, centre, row.line});
   }
   if (out.size() < 2)
     throw InputError(source, 0, "cycle",
                      "need a reference cycle and at least one more");
   return out;
+}
+
+void CheckSpheresFollowGeometry(const RTestGeometry& g,
+                                const SphereCycle& cycle,
+                                const std::string& source) {
+  const double r = g.sphere_distance_mm;
+  if (cycle.positions.empty()) return;
+  const SphereMeasurement& first = cycle.positions.front();
+  for (const SphereMeasurement& p : cycle.positions) {
+    const double nominal =
+        2 * r * std::abs(std::sin((p.c_rad - first.c_rad) / 2));
+    const double measured = (p.centre_mm - first.centre_mm).norm();
+    if (std::abs(measured - nominal) <= kRTestChordTolerance * r) continue;
+    throw InputError(
+        source, p.line, "x,y,z",
+        fmt::format("cycle {}: the sphere centres at c = {:g} deg (line {}) "
+                    "and {:g} deg lie {:.3f} mm apart, but a sphere d/2 = "
+                    "{:g} mm off the C axis moves {:.3f} mm between these "
+                    "angles: not an R-test of this set-up (set "
+                    "--distance-mm to the sphere's distance from the axis)",
+                    cycle.cycle, first.c_rad * 180 / M_PI, first.line,
+                    p.c_rad * 180 / M_PI, measured, r, nominal));
+  }
 }
 
 RTestSolution SolveRTest(const RTestGeometry& g,

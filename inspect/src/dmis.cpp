@@ -162,15 +162,25 @@ DmisResults ParseDmisOutput(const std::string& text,
       v.push_back(Number(words[i + k], source, st.line,
                          "FA(" + f.label + ") value " + std::to_string(k + 1)));
     f.point_mm = Eigen::Vector3d(v[0], v[1], v[2]) * scale;
+    // A diameter is a size: a negative or zero one is a broken report, not a
+    // feature to evaluate (the sign is not a convention in DMIS).
+    const auto diameter = [&](double value) {
+      if (!(value > 0))
+        throw InputError(source, st.line,
+                         "FA(" + f.label + ") value " + std::to_string(need),
+                         words[i + static_cast<size_t>(need) - 1] +
+                             ": a diameter must be positive");
+      return value * scale;
+    };
     if (f.type == "SPHERE") {
-      f.diameter_mm = v[3] * scale;
+      f.diameter_mm = diameter(v[3]);
     } else {
       const Eigen::Vector3d dir(v[3], v[4], v[5]);
       if (dir.norm() < 1e-12)
         throw InputError(source, st.line, "FA(" + f.label + ")",
                          "direction vector is zero");
       f.direction = dir.normalized();
-      if (need == 7) f.diameter_mm = v[6] * scale;
+      if (need == 7) f.diameter_mm = diameter(v[6]);
     }
     out.features.push_back(f);
   }

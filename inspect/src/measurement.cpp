@@ -296,6 +296,48 @@ std::map<FeatureId, double> FacetAnglesFromJson(const nlohmann::json& doc,
   return out;
 }
 
+// A JSON with features and figures (`ttp inspect --json` writes both): the
+// figures follow from the features, so the file's own are only compared.
+// When they differ (the features were edited, or the file was put together
+// from two results) the user is told which the evaluation used.
+void WarnOnStaleFigures(const nlohmann::json& doc, const std::string& source,
+                        const PartSpec& part, InspectionResult* r) {
+  std::vector<CycleFigures> given;
+  try {
+    given = FiguresFromJson(doc, source, part.cycles());
+  } catch (const InputError& e) {
+    r->warnings.push_back(std::string("the JSON's \"figures\" were not read "
+                                      "(the features were used): ") +
+                          e.what());
+    return;
+  }
+  // Largest difference, um (um/m for E_B); the file's figures are written
+  // to far better than 0.01.
+  double worst = 0.01;
+  std::string where;
+  for (const CycleFigures& g : given) {
+    for (const CycleFigures& f : r->figures) {
+      if (f.cycle != g.cycle) continue;
+      const std::pair<const char*, double> diffs[] = {
+          {"E_X", (g.e_x_mm - f.e_x_mm) * 1e3},
+          {"E_Y", (g.e_y_mm - f.e_y_mm) * 1e3},
+          {"E_Z", (g.e_z_mm - f.e_z_mm) * 1e3},
+          {"E_B", (g.e_b_rad - f.e_b_rad) * 1e6},
+          {"E_TTP", (g.e_ttp_mm - f.e_ttp_mm) * 1e3}};
+      for (const auto& d : diffs) {
+        if (!(std::abs(d.second) > worst)) continue;  // NaN: one is missing
+        worst = std::abs(d.second);
+        where =
+            fmt::format("{} of cycle {} by {:.2f}", d.first, g.cycle, d.second);
+      }
+    }
+  }
+  if (!where.empty())
+    r->warnings.push_back(
+        "the JSON's \"figures\" differ from those of its features (" + where +
+        " at most): the figures were computed from the features");
+}
+
 InspectionResult FromInspectionJson(const PartSpec& part,
                                     const std::string& text,
                                     const std::string& source) {
@@ -319,6 +361,7 @@ InspectionResult FromInspectionJson(const PartSpec& part,
                      "U_beta_urad", source, part, &r);
     CompleteFeatures(part, &r);
     ComputeResultFigures(part, &r);
+    if (doc.contains("figures")) WarnOnStaleFigures(doc, source, part, &r);
   } else if (doc.contains("figures")) {
     r.figures = FiguresFromJson(doc, source, part.cycles());
     r.facet_angle_rad = FacetAnglesFromJson(doc, source, part);

@@ -127,38 +127,38 @@ std::string TwinOptions::ExpectedOutcome() const {
   return s;
 }
 
+const EffectRange* FindEffect(const std::string& name) {
+  static constexpr EffectRange kEffects[] = {
+      {"workpiece_expansion", 10.0, "gain"},
+      {"tool_wear", 1000.0, "um/m"},
+      {"clamping_distortion", 100.0, "um"},
+      {"c_axis_indexing", 1e4, "urad"}};
+  for (const EffectRange& e : kEffects)
+    if (name == e.name) return &e;
+  return nullptr;
+}
+
 void SetEffect(TwinOptions* o, const std::string& name, double size) {
   if (name == "none") return;
-  // Far beyond any machine's: the piece would leave the measurement's
-  // plausible range (features within 5 mm of nominal) or the model's.
-  struct Range {
-    const char* effect;
-    double max_size;
-    const char* unit;
-  };
-  static constexpr Range kRanges[] = {{"workpiece_expansion", 10.0, "gain"},
-                                      {"tool_wear", 1000.0, "um/m"},
-                                      {"clamping_distortion", 100.0, "um"},
-                                      {"c_axis_indexing", 1e4, "urad"}};
-  for (const Range& r : kRanges)
-    if (name == r.effect && !(size >= 0 && size <= r.max_size))
-      throw std::invalid_argument(
-          fmt::format("size {:g} of {} is outside "
-                      "0..{:g} ({})",
-                      size, name, r.max_size, r.unit));
+  const EffectRange* effect = FindEffect(name);
+  if (effect == nullptr)
+    throw std::invalid_argument(
+        "unknown effect '" + name +
+        "' (none, workpiece_expansion, tool_wear, clamping_distortion, "
+        "c_axis_indexing)");
+  if (!(size >= 0 && size <= effect->max_size))
+    throw std::invalid_argument(
+        fmt::format("size {:g} of {} is outside "
+                    "0..{:g} ({})",
+                    size, name, effect->max_size, effect->unit));
   if (name == "workpiece_expansion")
     o->workpiece_gain = size;
   else if (name == "tool_wear")
     o->tool_wear_um_per_m = size;
   else if (name == "clamping_distortion")
     o->clamping_amplitude_um = size;
-  else if (name == "c_axis_indexing")
-    o->c_indexing_amplitude_urad = size;
   else
-    throw std::invalid_argument(
-        "unknown effect '" + name +
-        "' (none, workpiece_expansion, tool_wear, clamping_distortion, "
-        "c_axis_indexing)");
+    o->c_indexing_amplitude_urad = size;
 }
 
 TwinRun RunTwin(const Config& config, const TwinOptions& options) {

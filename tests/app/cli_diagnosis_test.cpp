@@ -315,6 +315,12 @@ TEST(CliDiagnosis, TwinAndRunRefuseAnEffectSizeBeyondItsRange) {
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("0..10 (gain)"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(dir / "r" / "report.html"));
+  // An effect the twin does not know is named as the effect, before its size.
+  r = test::RunTtp("twin --effect thermal_bend -o " + (dir / "u").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--effect: unknown effect 'thermal_bend'"),
+            std::string::npos)
+      << r.output;
 }
 
 TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {

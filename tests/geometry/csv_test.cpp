@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "ttp/geometry/error.h"
 
 namespace ttp {
@@ -30,6 +32,22 @@ TEST(Csv, ErrorsNameFileLineAndColumn) {
   EXPECT_THROW(ParseCsv("a,b\n1,2,3\n", "f.csv"), InputError);
   EXPECT_THROW(ParseCsv("# only\n", "f.csv"), InputError);
   EXPECT_THROW(ParseCsv("a,a\n", "f.csv"), InputError);
+}
+
+// A number too small for a normal double (1e-320, strtod's ERANGE on
+// underflow) is still a number near zero; one too large for a double is
+// not finite. Each table cell reads numbers the same way.
+TEST(Csv, UnderflowIsANumberOverflowIsNot) {
+  const CsvTable t = ParseCsv("a\n1e-320\n-1e-400\n1e400\n", "f.csv");
+  EXPECT_EQ(t.Number(t.rows[0], 0), 1e-320);
+  EXPECT_EQ(std::abs(t.Number(t.rows[1], 0)), 0.0);
+  try {
+    t.Number(t.rows[2], 0);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "f.csv:4: a: '1e400' is not a finite number");
+  }
 }
 
 }  // namespace

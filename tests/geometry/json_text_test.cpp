@@ -43,6 +43,25 @@ TEST(JsonText, ANumberBeyondADoubleNamesItsLine) {
   EXPECT_NE(std::string(e.what()).find("range of a double"), std::string::npos);
 }
 
+// JSON leaves a repeated key to the reader (RFC 8259 section 4); nlohmann
+// would keep the last one. Two values for one name in a measurement are a
+// broken file: refused naming the key and the line of its repeat, in any
+// object; the same key in two different objects is fine.
+TEST(JsonText, AKeyRepeatedInOneObjectIsRefused) {
+  EXPECT_NO_THROW(ParseJsonText(
+      "{\"a\": {\"u\": 1}, \"b\": {\"u\": 2}, \"c\": [{\"u\": 3}, {\"u\": 4}]}",
+      "doc.json"));
+  InputError e = ErrorOf("{\n  \"a\": 1,\n  \"b\": 2,\n  \"a\": 3\n}");
+  EXPECT_EQ(e.line(), 4);
+  EXPECT_EQ(e.field(), "a");
+  EXPECT_NE(std::string(e.what()).find("twice"), std::string::npos);
+  // Nested, after the same key in a sibling object.
+  e = ErrorOf(
+      "{\"f\": {\"u\": 1},\n \"g\": {\"u\": 1,\n \"v\": 2,\n \"u\": 5}}");
+  EXPECT_EQ(e.line(), 4);
+  EXPECT_EQ(e.field(), "u");
+}
+
 // The fuzzer's input: a config whose number overflows a double ended the
 // process with an uncaught nlohmann exception instead of an input error.
 TEST(JsonText, AConfigWithAnOverflowingNumberIsAnInputError) {

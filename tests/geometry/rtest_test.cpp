@@ -96,5 +96,48 @@ TEST(RTest, SphereFileCyclesInFileOrderAndValuesWithinLimits) {
                InputError);  // one cycle: nothing to compare
 }
 
+// A cycle's centres must move as a sphere d/2 off the C axis does: the
+// chord between two angles is 2 (d/2) sin(dc/2) (plane geometry). One
+// point repeated at every angle, or a sphere at another distance than the
+// one given, is refused naming the line; a sphere within the tolerance and
+// micrometre thermal moves pass.
+TEST(RTest, CentresThatDoNotMoveAsTheSphereDoesAreRefused) {
+  RTestGeometry g;
+  g.sphere_distance_mm = 160;
+  const std::string head = "cycle,c_deg,x,y,z\n";
+  const auto cycles_of = [&](const std::string& rows) {
+    return ParseSphereMeasurements(head + rows, "s.csv");
+  };
+  // 163 mm instead of 160 (within 10 %) and a 2 um thermal move: accepted.
+  for (const SphereCycle& c :
+       cycles_of("0,0,163,0,80\n0,90,0,-163,80\n"
+                 "1,0,163.002,0,80\n1,90,0,-163.001,80\n"))
+    EXPECT_NO_THROW(CheckSpheresFollowGeometry(g, c, "s.csv"));
+  const auto line_of_refusal = [&](const std::string& rows) {
+    for (const SphereCycle& c : cycles_of(rows)) {
+      try {
+        CheckSpheresFollowGeometry(g, c, "s.csv");
+      } catch (const InputError& e) {
+        EXPECT_EQ(e.field(), "x,y,z");
+        EXPECT_NE(std::string(e.what()).find("--distance-mm"),
+                  std::string::npos);
+        return e.line();
+      }
+    }
+    return 0;
+  };
+  // One point at every angle.
+  EXPECT_EQ(line_of_refusal("0,0,1,1,1\n0,90,1,1,1\n1,0,1,1,1\n1,90,1,1,1\n"),
+            3);
+  // A sphere 100 mm off the axis read as 160 mm.
+  EXPECT_EQ(line_of_refusal("0,0,100,0,80\n0,180,-100,0,80\n"
+                            "1,0,100,0,80\n1,180,-100,0,80\n"),
+            3);
+  // The second cycle 40 mm off at one angle.
+  EXPECT_EQ(line_of_refusal("0,0,160,0,80\n0,90,0,-160,80\n"
+                            "1,0,160,0,80\n1,90,40,-160,80\n"),
+            5);
+}
+
 }  // namespace
 }  // namespace ttp

@@ -70,6 +70,14 @@ TEST(DmisTest, BadFilesNameLineAndWord) {
   EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,2,3,0,0,0\n").find("zero"),
             std::string::npos);
   EXPECT_NE(ErrorOf("").find("empty"), std::string::npos);
+  // A diameter is a size, never negative or zero.
+  EXPECT_NE(
+      ErrorOf("\nFA(C)=FEAT/CIRCLE,OUTER,CART,0,0,60,0,0,1,-199\n")
+          .find("r.dmo:2: FA(C) value 7: -199: a diameter must be positive"),
+      std::string::npos);
+  EXPECT_NE(ErrorOf("FA(S)=FEAT/SPHERE,CART,0,0,60,0\n")
+                .find("FA(S) value 4: 0: a diameter must be positive"),
+            std::string::npos);
   // A program given where its results belong.
   EXPECT_NE(ErrorOf("DMISMN/'p',05.0\nF(A)=FEAT/PLANE,CART,0,0,0,0,0,1\n"
                     "MEAS/PLANE,F(A),3\n")

@@ -116,6 +116,37 @@ TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
   EXPECT_EQ(out["segmentation"]["missing"], nlohmann::json({"Y2-3"}));
 }
 
+// `ttp inspect --json` writes features and the figures they give. A file
+// whose features were edited afterwards holds figures that no longer
+// follow from them: the evaluation uses the features and says so.
+TEST_F(MeasurementTest, FiguresThatDoNotFollowFromTheFeaturesAreNamed) {
+  const fs::path cloud = fs::path(TTP_DATA_DIR) / "samples/run-a/piece.ply";
+  const Measurement measured = LoadMeasurement(config_, cloud);
+  nlohmann::json doc = InspectionToJson(measured.result);
+  ASSERT_TRUE(doc.contains("figures"));
+  ASSERT_TRUE(doc.contains("facets"));
+  const Measurement same =
+      LoadMeasurement(config_, Write("same.json", doc.dump(1)));
+  for (const std::string& w : same.result.warnings)
+    EXPECT_EQ(w.find("\"figures\""), std::string::npos) << w;
+  // X1-3 is a facet of cycle 3 (thesis 7.2): 8 um further out.
+  doc["facets"]["X1-3"]["distance_mm"] =
+      doc["facets"]["X1-3"]["distance_mm"].get<double>() + 0.008;
+  const Measurement edited =
+      LoadMeasurement(config_, Write("edited.json", doc.dump(1)));
+  int named = 0;
+  for (const std::string& w : edited.result.warnings)
+    named +=
+        w.find("differ from those of its features (E_") != std::string::npos &&
+        w.find("of cycle 3") != std::string::npos;
+  EXPECT_EQ(named, 1);
+  for (size_t i = 0; i < edited.result.figures.size(); ++i) {
+    const CycleFigures& f = edited.result.figures[i];
+    if (f.cycle != 3) continue;
+    EXPECT_GT(std::abs(f.e_x_mm - measured.result.figures[i].e_x_mm), 1e-3);
+  }
+}
+
 TEST_F(MeasurementTest, FiguresOnlyJsonIsTakenAsIs) {
   const fs::path p =
       Write("f.json",

@@ -68,6 +68,29 @@ TEST(Estimator, FollowsTheTruthWithDenseRTests) {
   EXPECT_NEAR(est.models()[2].tau_s.at(0), run.tau_s, 900);
 }
 
+// The JSON description holds numbers or null, never "inf": JSON has no
+// infinity, and a reader expecting a number must not meet a string. Each
+// error's smoother is named with its bandwidth.
+TEST(Estimator, JsonBandwidthIsANumberOrNullWithTheSmootherNamed) {
+  test::SyntheticRun run;
+  const TalcLog log = Parse(run);
+  EstimatorOptions mean_only;
+  mean_only.bandwidth_grid_s = {std::numeric_limits<double>::infinity()};
+  const nlohmann::json j = MachineErrorEstimator::Fit(log, mean_only).ToJson();
+  ASSERT_FALSE(j["models"].empty());
+  for (const auto& [name, m] : j["models"].items()) {
+    EXPECT_TRUE(m["residual_bandwidth_s"].is_null()) << name;
+    EXPECT_EQ(m["residual_smoother"], "mean") << name;
+  }
+  EstimatorOptions linear;
+  linear.bandwidth_grid_s = {0};
+  const nlohmann::json k = MachineErrorEstimator::Fit(log, linear).ToJson();
+  for (const auto& [name, m] : k["models"].items()) {
+    EXPECT_EQ(m["residual_bandwidth_s"], 0.0) << name;
+    EXPECT_EQ(m["residual_smoother"], "linear") << name;
+  }
+}
+
 // With R-tests an hour apart, a straight line across the
 // start of the warm-up and of the cool-down is off by a micrometre or more;
 // the dynamic model is not.

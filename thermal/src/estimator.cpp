@@ -856,8 +856,13 @@ nlohmann::json MachineErrorEstimator::ToJson() const {
         {"terms", terms},
         {"bic", m.bic},
         {"rms_residual_" + m.unit, m.rms_residual_um_or_urad},
+        // JSON has no infinity: the smoother is named, its bandwidth is a
+        // number or null (the mean of the residuals).
+        {"residual_smoother", std::isinf(m.bandwidth_s) ? "mean"
+                              : m.bandwidth_s == 0      ? "linear"
+                                                        : "gaussian"},
         {"residual_bandwidth_s", std::isinf(m.bandwidth_s)
-                                     ? nlohmann::json("inf")
+                                     ? nlohmann::json(nullptr)
                                      : nlohmann::json(m.bandwidth_s)},
         {"loo_rms_" + m.unit, m.loo_rms_um_or_urad},
         {"cv_rms_" + m.unit, m.cv_rms_um_or_urad}};

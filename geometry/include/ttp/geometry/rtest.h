@@ -24,6 +24,7 @@ struct RTestGeometry {
 struct SphereMeasurement {
   double c_rad = 0;
   Eigen::Vector3d centre_mm = Eigen::Vector3d::Zero();
+  int line = 0;  // of the file it was read from (0: not read from a file)
 };
 
 // The sphere centres of an R-test file (CSV `cycle,c_deg,x,y,z`, machine
@@ -38,6 +39,18 @@ struct SphereCycle {
 };
 std::vector<SphereCycle> ParseSphereMeasurements(const std::string& text,
                                                  const std::string& source);
+
+// InputError naming `source`, the line and --distance-mm when the centres
+// of one cycle do not move as a sphere d/2 off the C axis does: two
+// positions c_a, c_b lie 2 (d/2) sin(|c_a - c_b| / 2) apart, whatever the
+// machine's thermal state (its errors are micrometres). A distance off by
+// more than kRTestChordTolerance of d/2 means another set-up (a wrong d/2,
+// or centres that are not an R-test's, such as one point repeated); the
+// errors solved from it would be scaled wrongly or meaningless.
+inline constexpr double kRTestChordTolerance = 0.1;
+void CheckSpheresFollowGeometry(const RTestGeometry& g,
+                                const SphereCycle& cycle,
+                                const std::string& source);
 
 // Nominal machine position of the sphere centre at table angle c.
 Eigen::Vector3d NominalSpherePosition(const RTestGeometry& g, double c_rad);

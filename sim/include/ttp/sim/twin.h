@@ -59,10 +59,23 @@ struct TwinOptions {
   std::string ExpectedOutcome() const;
 };
 
+// A catalogue effect the twin can hide, with the largest size it takes (in
+// the effect's unit): far beyond any machine's, where the piece would leave
+// the measurement's plausible range (features within 5 mm of nominal) or
+// the model's.
+struct EffectRange {
+  const char* name;
+  double max_size;
+  const char* unit;
+};
+// The effect of that name, or nullptr ("none" is no effect: nullptr).
+const EffectRange* FindEffect(const std::string& name);
+
 // Options with one catalogue effect by name ("none", "workpiece_expansion",
 // "tool_wear", "clamping_distortion", "c_axis_indexing") of the given
 // size in that effect's unit (gain, um/m, um, urad); throws
-// std::invalid_argument for an unknown name.
+// std::invalid_argument for an unknown name or a size outside
+// 0..EffectRange::max_size.
 void SetEffect(TwinOptions* options, const std::string& name, double size);
 
 struct TwinRun {
