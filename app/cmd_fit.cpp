@@ -6,7 +6,6 @@
 
 #include <cmath>
 #include <iostream>
-#include <map>
 
 #include "command.h"
 #include "ttp/geometry/error.h"
@@ -98,14 +97,10 @@ nlohmann::json RunFit(const FitArgs& a, const Eigen::Matrix3Xd& p,
                          " fit: " + fit::FitStatusName(summary.status) + ": " +
                          summary.message);
   }
-  // As many points as the shape's free parameters fit it exactly: no
-  // residual is left to estimate uncertainties from (they are not 0).
-  static const std::map<std::string, int> kFreeParameters = {
-      {"line", 4},   {"plane", 3},    {"circle2d", 3}, {"circle3d", 6},
-      {"sphere", 4}, {"cylinder", 5}, {"cone", 6}};
-  const auto free = kFreeParameters.find(a.shape);
-  const bool determined =
-      free == kFreeParameters.end() || summary.points > free->second;
+  // A shape through every point exactly (as many residual components as
+  // free parameters) leaves no residual to estimate uncertainties from
+  // (they are not 0).
+  const bool determined = summary.DegreesOfFreedom() > 0;
   nlohmann::json u = nlohmann::json::object();
   for (size_t i = 0; i < summary.parameter_names.size(); ++i) {
     const auto k = static_cast<Eigen::Index>(i);
@@ -120,7 +115,7 @@ nlohmann::json RunFit(const FitArgs& a, const Eigen::Matrix3Xd& p,
     out["uncertainty_note"] = fmt::format(
         "{} points fit a {} of {} free parameters exactly: no residual is "
         "left to estimate the uncertainties",
-        summary.points, a.shape, free->second);
+        summary.points, a.shape, summary.parameter_names.size());
   out["residuals"] = {{"rms_mm", summary.rms_mm},
                       {"max_abs_mm", summary.max_abs_mm}};
   out["points"] = summary.points;

@@ -343,6 +343,7 @@ LineFit3D FitLine3D(const Eigen::Matrix3Xd& points, const FitOptions& options) {
     fit.point = s.centroid + q - q.dot(d) * d;
     fit.direction = d;
     fit.summary = std::move(solved.summary);
+    fit.summary.residuals_per_point = 2;
     return fit;
   }
   const Eigen::Matrix3Xd perpendicular =
@@ -350,6 +351,7 @@ LineFit3D FitLine3D(const Eigen::Matrix3Xd& points, const FitOptions& options) {
   const Eigen::VectorXd dist = perpendicular.colwise().norm();
   FitSummary& sum = fit.summary;
   SetClosedFormSummary(dist, &sum);
+  sum.residuals_per_point = 2;
   if (options.compute_covariance) {
     // Two residual components per point, four parameters.
     const double dof = 2.0 * n - 4;
@@ -450,6 +452,7 @@ CircleFit3D FitCircle3D(const Eigen::Matrix3Xd& points,
   fit.u = plane.u;
   fit.v = plane.v;
   fit.summary = circle.summary;
+  fit.summary.residuals_per_point = 2;
   // Residuals: in-plane circle distance and out-of-plane distance combined.
   const long n = points.cols();
   double sum_sq = 0, max_abs = 0;

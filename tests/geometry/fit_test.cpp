@@ -202,6 +202,49 @@ TEST(FitPlane, ThreePointsFitExactly) {
   EXPECT_LT(fit.summary.max_abs_mm, 1e-12);
 }
 
+// The fewest points that fix a shape (geometry: 3 a plane, 2 a 3D line,
+// 3 a circle in the plane or in space, 4 a sphere) leave no residual
+// degree of freedom; one point more leaves some. The count is the fit's
+// own, not a table of the caller's.
+TEST(FitSummary, TheFewestPointsThatFixAShapeLeaveNoDegreeOfFreedom) {
+  const auto on_circle = [](int n, double z_tilt) {
+    Eigen::Matrix3Xd p(3, n);
+    for (int k = 0; k < n; ++k) {
+      const double a = 2 * M_PI * k / n + 0.3;
+      p.col(k) << 100 + 20 * std::cos(a), -50 + 20 * std::sin(a),
+          7 + z_tilt * std::cos(a);
+    }
+    return p;
+  };
+  const auto on_sphere = [](int n) {
+    Eigen::Matrix3Xd p(3, n);
+    const double d[5][3] = {
+        {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-0.6, -0.64, -0.48}, {0, -1, 0}};
+    for (int k = 0; k < n; ++k)
+      p.col(k) = Eigen::Vector3d(5, 6, 7) +
+                 12.5 * Eigen::Vector3d(d[k][0], d[k][1], d[k][2]);
+    return p;
+  };
+  for (int more : {0, 1}) {
+    Eigen::Matrix3Xd line(3, 2 + more);
+    for (int k = 0; k < 2 + more; ++k)
+      line.col(k) << 1 + 3 * k, 2 - k, 4 + 2 * k;
+    EXPECT_EQ(FitLine3D(line).summary.DegreesOfFreedom() > 0, more > 0);
+    EXPECT_EQ(FitPlane(on_circle(3 + more, 2.0)).summary.DegreesOfFreedom() > 0,
+              more > 0);
+    EXPECT_EQ(
+        FitCircle3D(on_circle(3 + more, 2.0)).summary.DegreesOfFreedom() > 0,
+        more > 0);
+    const Eigen::Matrix3Xd flat = on_circle(3 + more, 0.0);
+    EXPECT_EQ(FitCircle2D(flat.topRows<2>()).summary.DegreesOfFreedom() > 0,
+              more > 0);
+    EXPECT_EQ(FitSphere(on_sphere(4 + more)).summary.DegreesOfFreedom() > 0,
+              more > 0);
+  }
+  EXPECT_EQ(FitSphere(on_sphere(4)).summary.DegreesOfFreedom(), 0);
+  EXPECT_EQ(FitLine3D(on_circle(3, 0.0)).summary.DegreesOfFreedom(), 2);
+}
+
 TEST(FitPlane, ResidualStatisticsMatchNoise) {
   std::mt19937_64 rng(2);
   const auto p = PlanePoints(rng, Eigen::Vector3d(1, 2, 3),

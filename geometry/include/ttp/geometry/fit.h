@@ -52,11 +52,24 @@ struct FitSummary {
   int iterations = 0;
   std::string message;  // Ceres' message, or why the fit is degenerate
   // Covariance of the parameters listed in parameter_names (mm, rad);
-  // empty when the fit is degenerate.
+  // empty when the fit is degenerate. The names are the shape's free
+  // parameters, one each (a plane: offset and two tilts).
   Eigen::MatrixXd covariance;
   std::vector<std::string> parameter_names;
   // A result the caller may use: converged and every parameter determined.
   bool Usable() const { return status == FitStatus::kConverged; }
+  // Residual components per point: 1, or 2 for a 3D line and a 3D circle
+  // (off the line in two directions; off the circle in and across its
+  // plane).
+  int residuals_per_point = 1;
+  // Residual degrees of freedom: residual components beyond the free
+  // parameters. At 0 or below the shape passes through every point exactly
+  // and nothing is left to estimate the covariance from (it is then not
+  // zero but unknown).
+  int DegreesOfFreedom() const {
+    return residuals_per_point * points -
+           static_cast<int>(parameter_names.size());
+  }
 };
 
 struct LineFit2D {  // point on the line (centroid) and unit direction
