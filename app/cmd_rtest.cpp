@@ -98,7 +98,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
                 "print the resolution of each error (thesis table 5.4)");
   cmd->add_option("--axis-resolution-um", args->axis_resolution_um,
                   "axis resolution for --resolution")
-      ->check(CLI::PositiveNumber);
+      ->check(FiniteRange(1e-6, 1000.0));
   cmd->add_option("--d-m", args->d_m,
                   "sphere circle diameter d for "
                   "--resolution")

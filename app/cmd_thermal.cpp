@@ -45,7 +45,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_option("--rtest-interval-s", *interval,
                     "R-test spacing kept for --compare-interpolation "
                     "(default 3600 s, production practice)")
-        ->check(CLI::PositiveNumber);
+        ->check(FiniteRange(1.0, 86400.0));
     cmd->callback([&global, log_path, json_out, compare, interval] {
       const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
       // The simulated figures with the U `ttp check` gives them (the

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "command.h"
@@ -61,9 +62,20 @@ void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
                   "ordinary least squares)");
 }
 
+// An invalid option is named as the user wrote it (its flag), the options'
+// own field name otherwise.
 void CheckFitOptions(const models::FitOptions& o) {
   std::string error;
-  if (!o.IsValid(&error)) throw InputError("options", 0, "", error);
+  if (o.IsValid(&error)) return;
+  static const std::map<std::string, std::string> kFlags = {
+      {"model", "--model"},
+      {"criterion", "--criterion"},
+      {"temperature_lag_s", "--temperature-lag-s"},
+      {"max_terms", "--max-terms"},
+      {"weight_half_life_s", "--weight-half-life-s"}};
+  const auto flag = kFlags.find(error.substr(0, error.find(':')));
+  throw InputError(flag == kFlags.end() ? "options" : flag->second, 0, "",
+                   error);
 }
 
 void Warn(const GlobalOptions& global, const std::vector<std::string>& w) {

@@ -10,6 +10,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/format.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::inspect {
 namespace {
@@ -133,10 +134,13 @@ bool GradeLimits::IsValid(std::string* error) const {
     if (error) *error = e;
     return false;
   };
-  if (!(linear_um > 0) || !std::isfinite(linear_um))
-    return fail("linear_um: must be a positive number");
-  if (!(angular_um_per_m > 0) || !std::isfinite(angular_um_per_m))
-    return fail("angular_um_per_m: must be a positive number");
+  // A limit beyond the largest figure a measurement may hold would pass
+  // every piece: no grading.
+  const std::string most = fmt::format("{:g}", limits::kMaxFigureMicro);
+  if (!(linear_um > 0 && linear_um <= limits::kMaxFigureMicro))
+    return fail("linear_um: must be a positive number up to " + most);
+  if (!(angular_um_per_m > 0 && angular_um_per_m <= limits::kMaxFigureMicro))
+    return fail("angular_um_per_m: must be a positive number up to " + most);
   if (figures.empty()) return fail("figures: no figure to grade");
   return true;
 }

@@ -8,6 +8,7 @@
 #include <set>
 
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::models {
 namespace {
@@ -492,7 +493,9 @@ bool FitOptions::IsValid(std::string* error) const {
   if (taus_s.empty()) return fail("taus_s: at least one time constant");
   for (double t : taus_s)
     if (!(t > 0)) return fail("taus_s: time constants must be > 0");
-  if (!(temperature_lag_s > 0)) return fail("temperature_lag_s: must be > 0");
+  // (a lag beyond any log's time is no lag a log can show)
+  if (!(temperature_lag_s > 0 && temperature_lag_s <= limits::kMaxLogTimeS))
+    return fail("temperature_lag_s: must be > 0 and at most 1e9 s");
   if (!(fir_step_s > 0)) return fail("fir_step_s: must be > 0");
   if (fir_taps < 1 || fir_taps > 50) return fail("fir_taps: 1..50");
   if (max_terms < 1 || max_terms > 40) return fail("max_terms: 1..40");

@@ -283,6 +283,27 @@ TEST(CliHardening, OptionLimits) {
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
     EXPECT_EQ(r.output.find("talc.csv:"), std::string::npos) << r.output;
   }
+  // Values no measurement or machine can mean (a grading limit above the
+  // largest readable figure passes every piece), each named by its flag.
+  for (const auto& [args, flag] :
+       std::vector<std::pair<std::string, std::string>>{
+           {"grade " + piece + " --limit-linear-um 1e300", "--limit-linear-um"},
+           {"grade " + piece + " --limit-angular-um-per-m 1e5",
+            "--limit-angular-um-per-m"},
+           {"rtest --resolution --axis-resolution-um 1e300",
+            "--axis-resolution-um"},
+           {"simulate --log " + log +
+                " --compare-interpolation --rtest-interval-s 1e300",
+            "--rtest-interval-s"},
+           {"thermal fit " + Data("samples/thermal-log.csv") + " -o " +
+                Q(dir / "m.json") + " --temperature-lag-s 1e300",
+            "--temperature-lag-s"}}) {
+    const RunResult r = RunTtp(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(flag), std::string::npos) << args << "\n"
+                                                      << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir / "m.json"));
   // An R-test cycle id beyond every integer type.
   const fs::path spheres =
       Put(dir / "spheres.csv",
