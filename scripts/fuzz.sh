@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The fuzz stage: builds every libFuzzer target with clang
 # (-fsanitize=fuzzer,address,undefined) into build-fuzz/ and runs each for
-# FUZZ_SECONDS (default 25) on a copy of its seed corpus. Exits non-zero
+# FUZZ_SECONDS (default 25) on a copy of its seed corpus, as many targets
+# at a time as there are cores. Exits non-zero
 # when a target finds a crash, leaving the input in build-fuzz/artifacts/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,13 +17,12 @@ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DTTP_BUILD_TESTS=OFF -DTTP_BUILD_BENCH=OFF "${launcher[@]}" >/dev/null
 cmake --build build-fuzz -j"$(nproc)" --target fuzz_all
 mkdir -p build-fuzz/artifacts
-failed=()
-for exe in build-fuzz/fuzz/fuzz_*; do
-  [[ -x "$exe" && -f "$exe" ]] || continue
-  name="${exe##*/fuzz_}"
-  work="build-fuzz/corpus/$name"
+rm -f build-fuzz/*.failed
+# One target per core at a time (libFuzzer runs one process per target).
+run_target() {
+  local exe="$1" name="${1##*/fuzz_}"
+  local work="build-fuzz/corpus/$name" seeds="fuzz/corpus/$name"
   mkdir -p "$work"
-  seeds="fuzz/corpus/$name"
   [[ -d "$seeds" ]] || seeds=""
   echo "fuzz $name: ${seconds} s"
   # New inputs go to the working corpus; the committed seeds stay as they are.
@@ -31,9 +31,23 @@ for exe in build-fuzz/fuzz/fuzz_*; do
       -max_len=65536 -print_final_stats=0 \
       -artifact_prefix="build-fuzz/artifacts/${name}-" \
       "$work" ${seeds:+"$seeds"} >"build-fuzz/$name.log" 2>&1; then
-    failed+=("$name")
-    tail -40 "build-fuzz/$name.log"
+    touch "build-fuzz/$name.failed"
   fi
+}
+slots="$(nproc)"
+for exe in build-fuzz/fuzz/fuzz_*; do
+  [[ -x "$exe" && -f "$exe" ]] || continue
+  while (($(jobs -rp | wc -l) >= slots)); do wait -n || true; done
+  run_target "$exe" &
+done
+wait
+failed=()
+for f in build-fuzz/*.failed; do
+  [[ -e "$f" ]] || continue
+  name="$(basename "$f" .failed)"
+  failed+=("$name")
+  echo "== fuzz $name failed:"
+  tail -40 "build-fuzz/$name.log"
 done
 if ((${#failed[@]})); then
   echo "fuzz: crashes in ${failed[*]} (inputs in build-fuzz/artifacts/)"
