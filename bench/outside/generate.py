@@ -48,6 +48,13 @@ RTEST_DUR_S = 95.0
 CATALOGUE = ["workpiece_expansion", "tool_wear", "clamping_distortion",
              "c_axis_indexing"]
 OUTSIDE = ["step", "two_lobe", "strip_drift"]
+# more effects outside the catalogue, not in the battery's rotation (its
+# runs and seeds stay as they were): every facet angle drifting over the
+# cycles (the piece turning on its fixture, a C offset the R-tests do not
+# see), the spindle's axial growth with its heat (strips deeper, facets
+# alone unchanged), and an offset of every feature of a cycle along its
+# normal, drawn per cycle (tool length and radius set again each cycle)
+OUTSIDE_MORE = ["angle_drift", "spindle_growth", "cycle_jitter"]
 MISMATCH = ["other_log", "short_log"]
 
 
@@ -178,6 +185,12 @@ class Effect:
             self.params = {"amplitude_um": size, "phase_deg": rng.uniform(0, 180)}
         elif name == "strip_drift":
             self.params = {"total_um": size * rng.choice([-1, 1])}
+        elif name == "angle_drift":
+            self.params = {"total_urad": size * rng.choice([-1, 1])}
+        elif name == "spindle_growth":
+            self.params = {"growth_um": size, "tau_s": rng.uniform(1200, 3600)}
+        elif name == "cycle_jitter":
+            self.params = {"offsets_um": [rng.gauss(0, size) for _ in range(10)]}
 
     def c_error_urad(self, c_deg):
         if self.name != "c_axis_indexing":
@@ -391,6 +404,7 @@ def simulate(seed, effect, size, spacing_s, comp_on, rtest_noise_scale=1.0, mach
 
     path_mm = 0.0
     features = {}
+    first_cut_t = min(c[0] for c in cuts) - 3.0
     for (tc, name, s, j, c_cmd, k) in cuts:
         t_cut = tc - 3.0   # the row marks the end of the cut
         E = rel(t_cut)
@@ -407,6 +421,11 @@ def simulate(seed, effect, size, spacing_s, comp_on, rtest_noise_scale=1.0, mach
                 depth_um += ALPHA_PIECE * piece_dT(t_cut) * zc * 1e-3
             if "strip_drift" in effs:
                 depth_um += effs["strip_drift"].params["total_um"] * k / 8.0
+            if "spindle_growth" in effs:
+                g = effs["spindle_growth"].params
+                depth_um += g["growth_um"] * (1 - math.exp(-max(0.0, t_cut - first_cut_t) / g["tau_s"]))
+            if "cycle_jitter" in effs:
+                depth_um += effs["cycle_jitter"].params["offsets_um"][k]
             half = math.sqrt(101.5 ** 2 - y * y)
             path_mm += 2 * (half - 5.0)
             features[name] = {"depth_um": depth_um, "beta_urad": beta_urad, "t": t_cut, "cycle": k,
@@ -437,6 +456,10 @@ def simulate(seed, effect, size, spacing_s, comp_on, rtest_noise_scale=1.0, mach
             ang_urad += -nl * amp * math.sin(a) / R_FACET_MM * 1000.0
         if "step" in effs and k >= effs["step"].params["from_cycle"]:
             dist_um += effs["step"].params["step_um"]
+        if "angle_drift" in effs:
+            ang_urad += effs["angle_drift"].params["total_urad"] * k / 8.0
+        if "cycle_jitter" in effs:
+            dist_um += effs["cycle_jitter"].params["offsets_um"][k]
         path_mm += 12.2
         features[name] = {"dist_um": dist_um, "angle_urad": ang_urad, "t": t_cut, "cycle": k,
                           "machine_errors": E}
@@ -1074,7 +1097,7 @@ def add_scale_args(ap):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    known = ["none"] + CATALOGUE + OUTSIDE + MISMATCH
+    known = ["none"] + CATALOGUE + OUTSIDE + OUTSIDE_MORE + MISMATCH
     ap.add_argument("--effect", default="none",
                     help="one of %s, or two joined by + (e.g. tool_wear+clamping_distortion)" % ", ".join(known))
     ap.add_argument("--size", default="0", help="effect size; for two effects S1+S2")

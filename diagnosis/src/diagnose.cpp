@@ -1097,6 +1097,42 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
             "BIC {:.1f})",
             lobes, f.spec.Name(), delta);
     }
+    // Every facet angle turned alike, drifting over the cycles or stepping
+    // from one on (the piece turning on its fixture, a C offset the R-tests
+    // do not see). Each cycle cuts its four facets at table angles a few
+    // degrees from the segments' centres, 60 deg apart from one another in
+    // pairs, where the C stop error's harmonics twice and four times per
+    // turn take alike values and slopes: such a rotation fits them closely
+    // and is not a C stop error. Counted as two parameters, like the step.
+    if (rival.empty() && obs.angles() >= 4) {
+      const size_t nf = obs.figures();
+      std::vector<std::pair<std::string, Column>> turns;
+      Column drift = Column::Zero(obs.size());
+      for (size_t i = 0; i < obs.angles(); ++i)
+        drift[nf + i] = obs.angle_cycle[i];
+      turns.emplace_back("a drift of every facet angle over the cycles", drift);
+      for (int from = 2; from <= part_cycles(obs); ++from) {
+        Column step = Column::Zero(obs.size());
+        for (size_t i = 0; i < obs.angles(); ++i)
+          if (obs.angle_cycle[i] >= from) step[nf + i] = 1;
+        turns.emplace_back(
+            fmt::format("a step of every facet angle from cycle {} on", from),
+            step);
+      }
+      for (const auto& turn : turns) {
+        const Fit with =
+            fitter.Linear(ModelSpec{}, 0.0, {problem.Whiten(turn.second)});
+        if (!with.ok) continue;
+        const double delta = Bic(f, n) - rival_bic(with.chi2);
+        if (delta > -options.step_rival_margin) {
+          rival = fmt::format(
+              "{} explains the data as well as {} (delta "
+              "BIC {:.1f})",
+              turn.first, f.spec.Name(), delta);
+          break;
+        }
+      }
+    }
   }
   std::string step;
   if (sel.step_chi2 > options.step_chi2)
