@@ -398,7 +398,8 @@ MachineErrorEstimator MachineErrorEstimator::FitExcluding(
   }
 
   for (const CutRecord& cut : log.cuts) est.cut_t_.push_back(cut.t_s);
-  est.TabulateInputs();
+  est.at_rtests_ = est.Tabulate(est.rtest_t_);
+  est.at_cuts_ = est.Tabulate(est.cut_t_);
 
   // Per error: BIC over input subsets and time constants.
   const int n = static_cast<int>(est.rtest_t_.size());
@@ -526,7 +527,7 @@ MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
           const double margin =
               std::max(0.5 * (hi - lo), 2.0 * std::sqrt(rss / n));
           for (size_t j = 0; j < cut_t_.size(); ++j) {
-            const double v = CutRowDot(c, static_cast<int>(j), beta);
+            const double v = at_cuts_.RowDot(c, j, beta);
             bounded &= v >= lo - margin && v <= hi + margin;
           }
         }
@@ -561,77 +562,45 @@ Eigen::MatrixXd MachineErrorEstimator::Design(
   const int ridge = c.free_state ? m : 0;
   Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n + ridge, 1 + m + ridge);
   x.col(0).head(n).setOnes();
-  const size_t n_tau = options_.tau_grid_s.size(), count = rtest_t_.size();
   for (int a = 0; a < m; ++a) {
-    const size_t tau = static_cast<size_t>(c.taus[a]);
-    const double* input =
-        &rtest_input_[(static_cast<size_t>(c.subset[a]) * n_tau + tau) * count];
-    const double* decay = &rtest_decay_[tau * count];
     for (int r = 0; r < n; ++r) {
-      x(r, 1 + a) = input[rows[r]];
-      if (c.free_state) x(r, 1 + m + a) = decay[rows[r]];
+      const size_t k = static_cast<size_t>(rows[r]);
+      x(r, 1 + a) = at_rtests_.Input(c.subset[a], c.taus[a], k);
+      if (c.free_state) x(r, 1 + m + a) = at_rtests_.Decay(c.taus[a], k);
     }
   }
   for (int k = 0; k < ridge; ++k) x(n + k, 1 + m + k) = kInitialStateRidge;
   return x;
 }
 
-void MachineErrorEstimator::TabulateInputs() {
-  const int n_tau = static_cast<int>(options_.tau_grid_s.size());
-  const auto fill = [&](const std::vector<double>& times,
-                        std::vector<double>* inputs,
-                        std::vector<double>* decays) {
-    const size_t count = times.size();
-    inputs->assign(signals_.size() * n_tau * count, 0.0);
-    decays->assign(n_tau * count, 0.0);
-    for (int tau = 0; tau < n_tau; ++tau) {
-      for (size_t k = 0; k < count; ++k) {
-        (*decays)[tau * count + k] =
-            std::exp(-(times[k] - grid_t0_) / options_.tau_grid_s[tau]);
-        for (size_t input = 0; input < signals_.size(); ++input)
-          (*inputs)[(input * n_tau + tau) * count + k] =
-              InputAt(static_cast<int>(input), tau, times[k]);
-      }
+MachineErrorEstimator::InputTable MachineErrorEstimator::Tabulate(
+    const std::vector<double>& times_s) const {
+  InputTable t;
+  t.taus = options_.tau_grid_s.size();
+  t.times = times_s.size();
+  t.inputs.resize(signals_.size() * t.taus * t.times);
+  t.decays.resize(t.taus * t.times);
+  for (size_t tau = 0; tau < t.taus; ++tau) {
+    for (size_t k = 0; k < t.times; ++k) {
+      t.decays[tau * t.times + k] =
+          std::exp(-(times_s[k] - grid_t0_) / options_.tau_grid_s[tau]);
+      for (size_t input = 0; input < signals_.size(); ++input)
+        t.inputs[(input * t.taus + tau) * t.times + k] =
+            InputAt(static_cast<int>(input), static_cast<int>(tau), times_s[k]);
     }
-  };
-  fill(rtest_t_, &rtest_input_, &rtest_decay_);
-  fill(cut_t_, &cut_input_, &cut_decay_);
+  }
+  return t;
 }
 
-namespace {
-
-// Row(c, t) . beta with the inputs and decays at t read from tables.
-double TabulatedRowDot(const std::vector<int>& subset,
-                       const std::vector<int>& taus, bool free_state,
-                       const std::vector<double>& inputs,
-                       const std::vector<double>& decays, size_t n_tau,
-                       size_t count, size_t k, const Eigen::VectorXd& beta) {
-  const size_t m = subset.size();
+double MachineErrorEstimator::InputTable::RowDot(
+    const Choice& c, size_t k, const Eigen::VectorXd& beta) const {
+  const int m = static_cast<int>(c.subset.size());
   double v = beta[0];
-  for (size_t a = 0; a < m; ++a) {
-    const size_t tau = static_cast<size_t>(taus[a]);
-    v += beta[static_cast<Eigen::Index>(1 + a)] *
-         inputs[(static_cast<size_t>(subset[a]) * n_tau + tau) * count + k];
-    if (free_state)
-      v += beta[static_cast<Eigen::Index>(1 + m + a)] * decays[tau * count + k];
+  for (int a = 0; a < m; ++a) {
+    v += beta[1 + a] * Input(c.subset[a], c.taus[a], k);
+    if (c.free_state) v += beta[1 + m + a] * Decay(c.taus[a], k);
   }
   return v;
-}
-
-}  // namespace
-
-double MachineErrorEstimator::RTestRowDot(const Choice& c, int k,
-                                          const Eigen::VectorXd& beta) const {
-  return TabulatedRowDot(c.subset, c.taus, c.free_state, rtest_input_,
-                         rtest_decay_, options_.tau_grid_s.size(),
-                         rtest_t_.size(), static_cast<size_t>(k), beta);
-}
-
-double MachineErrorEstimator::CutRowDot(const Choice& c, int j,
-                                        const Eigen::VectorXd& beta) const {
-  return TabulatedRowDot(c.subset, c.taus, c.free_state, cut_input_, cut_decay_,
-                         options_.tau_grid_s.size(), cut_t_.size(),
-                         static_cast<size_t>(j), beta);
 }
 
 Eigen::VectorXd MachineErrorEstimator::Row(const Choice& c, double t) const {
@@ -713,11 +682,11 @@ void MachineErrorEstimator::CrossValidate() {
       std::vector<double> tk, rk;
       for (int k : kept) {
         tk.push_back(rtest_t_[k]);
-        rk.push_back(y[k] - RTestRowDot(c, k, c.beta));
+        rk.push_back(y[k] - at_rtests_.RowDot(c, k, c.beta));
       }
       for (int k = b0; k < b1; ++k) {
         const double t = rtest_t_[k];
-        const double pred = RTestRowDot(c, k, c.beta) +
+        const double pred = at_rtests_.RowDot(c, k, c.beta) +
                             Smooth(tk, rk, models_[e].bandwidth_s, t);
         ss += (pred - y[k]) * (pred - y[k]);
         cv_error_[k][e] = y[k] - pred;

@@ -217,10 +217,26 @@ class MachineErrorEstimator {
                 const std::vector<int>& rows, int affordable_n = 0) const;
   Eigen::MatrixXd Design(const Choice& c, const std::vector<int>& rows) const;
   Eigen::VectorXd Row(const Choice& c, double t_s) const;
-  // Row(c, t) . beta at R-test k or cut j, from the tables below.
-  double RTestRowDot(const Choice& c, int k, const Eigen::VectorXd& beta) const;
-  double CutRowDot(const Choice& c, int j, const Eigen::VectorXd& beta) const;
-  void TabulateInputs();
+  // Each input through each lag, and each lag's decay from the log's start
+  // (free initial state), at fixed times (the R-tests, the cuts): the
+  // structure search evaluates them for every candidate.
+  struct InputTable {
+    size_t taus = 0, times = 0;
+    std::vector<double> inputs;  // [(input * taus + tau) * times + k]
+    std::vector<double> decays;  // [tau * times + k]
+    double Input(int input, int tau, size_t k) const {
+      return inputs[(static_cast<size_t>(input) * taus +
+                     static_cast<size_t>(tau)) *
+                        times +
+                    k];
+    }
+    double Decay(int tau, size_t k) const {
+      return decays[static_cast<size_t>(tau) * times + k];
+    }
+    // Row(c, t_k) . beta.
+    double RowDot(const Choice& c, size_t k, const Eigen::VectorXd& beta) const;
+  };
+  InputTable Tabulate(const std::vector<double>& times_s) const;
   void SelectModel(int e, const Eigen::VectorXd& y,
                    const std::vector<int>& rows);
   void CrossValidate();
@@ -256,11 +272,7 @@ class MachineErrorEstimator {
   // otherwise fit them with large opposite gains that the cuts' different
   // input state turns into errors of many um.
   std::vector<double> cut_t_;
-  // Each input through each lag, and each lag's decay from the log's start
-  // (free initial state), at the R-tests and at the cuts: the structure
-  // search evaluates them for every candidate. Input tables
-  // [(input * taus + tau) * count + k], decay tables [tau * count + k].
-  std::vector<double> rtest_input_, rtest_decay_, cut_input_, cut_decay_;
+  InputTable at_rtests_, at_cuts_;
   std::vector<ErrorModel> models_;  // 7
   std::vector<std::vector<int>> model_input_index_, model_tau_index_;
   std::vector<std::array<double, 7>> residual_;  // per R-test, log units
