@@ -3,10 +3,10 @@
 // every structure side by side on a chronological holdout (docs/THERMAL.md).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <map>
 #include <sstream>
 
 #include "command.h"
@@ -62,20 +62,15 @@ void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
                   "ordinary least squares)");
 }
 
-// An invalid option is named as the user wrote it (its flag), the options'
-// own field name otherwise.
-void CheckFitOptions(const models::FitOptions& o) {
+// An invalid option is named as the user wrote it: the command's flag for
+// the field (max_terms: --max-terms), the options' field name otherwise.
+void CheckFitOptions(const models::FitOptions& o, const CLI::App* cmd) {
   std::string error;
   if (o.IsValid(&error)) return;
-  static const std::map<std::string, std::string> kFlags = {
-      {"model", "--model"},
-      {"criterion", "--criterion"},
-      {"temperature_lag_s", "--temperature-lag-s"},
-      {"max_terms", "--max-terms"},
-      {"weight_half_life_s", "--weight-half-life-s"}};
-  const auto flag = kFlags.find(error.substr(0, error.find(':')));
-  throw InputError(flag == kFlags.end() ? "options" : flag->second, 0, "",
-                   error);
+  std::string flag = "--" + error.substr(0, error.find(':'));
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  throw InputError(cmd->get_option_no_throw(flag) != nullptr ? flag : "options",
+                   0, "", error);
 }
 
 void Warn(const GlobalOptions& global, const std::vector<std::string>& w) {
@@ -126,8 +121,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
         "arx, combined or joint");
     cmd->add_option("--json", *json_out, "also write a fit summary as JSON");
     AddFitOptions(cmd, o.get());
-    cmd->callback([&global, log, out, outputs, json_out, o] {
-      CheckFitOptions(*o);
+    cmd->callback([&global, cmd, log, out, outputs, json_out, o] {
+      CheckFitOptions(*o, cmd);
       const models::TimeSeries ts = ReadLog(*log);
       Warn(global, ts.warnings);
       const models::ThermalModel model =
@@ -214,8 +209,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
                     "to the end of the log)");
     cmd->add_option("--json", *json_out, "also write the comparison as JSON");
     AddFitOptions(cmd, o.get());
-    cmd->callback([&global, log, from, until, json_out, o] {
-      CheckFitOptions(*o);
+    cmd->callback([&global, cmd, log, from, until, json_out, o] {
+      CheckFitOptions(*o, cmd);
       if (!std::isfinite(*from))
         throw InputError("thermal compare", 0, "--holdout-from",
                          "must be a finite time (s)");
