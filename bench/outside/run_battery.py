@@ -378,6 +378,12 @@ CHECK_CASES = [
     # and four times per turn
     ("angle_drift", 40.0, 27357, 3600, False, "json", "unexplained"),
     ("angle_drift", 40.0, 27357, 3600, True, "cloud", "unexplained"),
+    # every cycle cut at its own offset (facets and strip, 1.5 um sd), with
+    # its own log: refused while E_X, E_Y and E_Z kept off the log had to
+    # be explained by no other run's machine (each cycle's E_Z its own way)
+    ("cycle_jitter", 1.5, 619703, 3600, False, "cloud", "unexplained"),
+    ("cycle_jitter", 1.5, 330984, 300, False, "json", "unexplained"),
+    ("cycle_jitter", 1.5, 361837, 300, False, "dial", "unexplained"),
 ]
 
 

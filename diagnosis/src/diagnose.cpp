@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -14,6 +15,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
+#include "ttp/geometry/series.h"
 #include "ttp/inspect/measurement.h"
 
 namespace ttp::diagnosis {
@@ -185,6 +187,35 @@ class ColumnCache {
     return out;
   }
   const Column& WorkpieceBase() const { return wp_base_; }
+  // The machine of another run under this run's loads, on the rows of
+  // figure kind g (E_X, E_Y, E_Z; zero on every other row): the table's
+  // temperature change directly and through a first-order lag tau_s at the
+  // cut, and the time in hours (the room, or a start state of its own, the
+  // run's history does not show). Each minus its value at the first cut
+  // (the reference cycle: every figure is a difference to it).
+  static constexpr int kOtherMachineColumns = 3;
+  std::vector<Column> OtherMachine(int g, double tau_s) const {
+    std::vector<Column> out(kOtherMachineColumns, Column::Zero(obs_.size()));
+    if (context_.machine_dT_K.empty() || context_.cuts.empty()) return out;
+    const std::vector<double> lagged =
+        LagFilter(context_.machine_dT_K, context_.grid_step_s, tau_s);
+    const auto values = [&](double t_s) {
+      return std::array<double, kOtherMachineColumns>{
+          InterpolateUniform(context_.machine_dT_K, context_.grid_t0_s,
+                             context_.grid_step_s, t_s),
+          InterpolateUniform(lagged, context_.grid_t0_s, context_.grid_step_s,
+                             t_s),
+          t_s / 3600.0};
+    };
+    const auto reference = values(context_.cuts.front().t_s);
+    for (size_t i = 0; i < obs_.figures(); ++i) {
+      if (obs_.figure_kind[i] != g) continue;
+      const auto v = values(obs_.figure_t_s[i]);
+      for (int k = 0; k < kOtherMachineColumns; ++k)
+        out[k][i] = v[k] - reference[k];
+    }
+    return out;
+  }
   // A spring-back of another lobe count than the bolts' three (a rival of
   // a name, never a cause): its cos and sin columns.
   std::vector<Column> Lobes(int lobes) const {
@@ -700,6 +731,9 @@ struct Selection {
   // (what an effect on one feature type leaves, not another machine).
   double machine_pooled_z_one_kind = -kInf;
   std::vector<double> machine_kind_z = std::vector<double>(3, -kInf);
+  // The same pooled deviate with another run's machine fitted along
+  // (DiagnosisReport::machine_pooled_z_other_machine).
+  double machine_pooled_z_other_machine = kInf;
   double step_chi2 = 0;  // largest chi2 drop by a step in one figure kind
   int step_group = -1, step_from_cycle = 0;
   // BIC of the chosen cause minus the best step alternative's.
@@ -1040,6 +1074,53 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
       }
     }
   }
+  // Another run's machine: E_X, E_Y and E_Z each following the table's
+  // temperature change of this run (its loads, as the log's R-tests show
+  // them) directly and through one lag, and drifting in time, with gains
+  // of their own (the thermal paths of a machine in another state, or
+  // another machine, under the same program, in another room). What a
+  // mismatched log leaves is smooth in time and such a machine explains
+  // it; a piece-side effect that moves each cycle's features its own way
+  // (a set-up or cutter change per cycle) is not explained by it, and is
+  // no reason to refuse the log.
+  {
+    const Observations& obs = problem.obs();
+    std::vector<int> machine_kinds;
+    for (int g = 0; g < 3; ++g)
+      if (std::count(kinds.begin(), kinds.end(), g) >= 3)
+        machine_kinds.push_back(g);
+    int machine_rows = 0;
+    for (int k : kinds) machine_rows += k <= 2;
+    const auto machine_chi2 = [&kinds](const Column& residual) {
+      double chi2 = 0;
+      for (size_t r = 0; r < kinds.size(); ++r)
+        if (kinds[r] <= 2) chi2 += residual[r] * residual[r];
+      return chi2;
+    };
+    for (const Fit* fit : std::initializer_list<const Fit*>{&f, &sel.fits[0]}) {
+      if (!fit->ok || machine_kinds.empty() || obs.figures() == 0) continue;
+      std::vector<Eigen::VectorXd> fit_columns;
+      Eigen::VectorXd fit_base;
+      fitter.Columns(*fit, &fit_columns, &fit_base);
+      for (double tau_s : options.other_machine_tau_s) {
+        std::vector<Eigen::VectorXd> with = fit_columns;
+        for (int g : machine_kinds)
+          for (const Column& c : cache.OtherMachine(g, tau_s))
+            with.push_back(problem.Whiten(c));
+        const Problem::Solution solved = problem.Solve(with, fit_base);
+        if (!solved.ok) continue;
+        // Its columns per kind and the lag chosen among those tried.
+        const int rows = machine_rows -
+                         ColumnCache::kOtherMachineColumns *
+                             static_cast<int>(machine_kinds.size()) -
+                         1;
+        if (rows < 3) continue;
+        sel.machine_pooled_z_other_machine =
+            std::min(sel.machine_pooled_z_other_machine,
+                     ChiSquareDeviate(machine_chi2(solved.residual), rows));
+      }
+    }
+  }
   // The same step as an alternative to the chosen cause (the step's
   // height and the cycle it starts at are its two parameters): a cause
   // that explains the data no better than a step at some cycle is not
@@ -1271,6 +1352,13 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
     return fail("refuse_machine_pooled_z: must be > 0");
   if (!std::isfinite(refuse_after_one_kind_z))
     return fail("refuse_after_one_kind_z: must be finite");
+  if (!(refuse_other_machine_z > 0))
+    return fail("refuse_other_machine_z: must be > 0");
+  if (other_machine_tau_s.empty()) return fail("other_machine_tau_s: empty");
+  for (double tau_s : other_machine_tau_s)
+    if (!(tau_s > 0) || !std::isfinite(tau_s))
+      return fail(
+          "other_machine_tau_s: every time constant must be > 0 and finite");
   if (!(min_heldout_gain_pct < 100))
     return fail("min_heldout_gain_pct: must be < 100");
   if (!(trend_chi2 > 0)) return fail("trend_chi2: must be > 0");
@@ -1533,6 +1621,7 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.machine_pooled_z = sel.machine_pooled_z;
   report.machine_kind_z = sel.machine_kind_z;
   report.machine_pooled_z_one_kind = sel.machine_pooled_z_one_kind;
+  report.machine_pooled_z_other_machine = sel.machine_pooled_z_other_machine;
   report.step_chi2 = sel.step_chi2;
   report.trend_chi2 = sel.trend_chi2;
   report.trend_um = sel.trend_um;
@@ -2117,6 +2206,8 @@ static DiagnosisReport DecidePrepared(const PreparedRun& run,
     refused.machine_pooled_z = report.machine_pooled_z;
     refused.machine_kind_z = report.machine_kind_z;
     refused.machine_pooled_z_one_kind = report.machine_pooled_z_one_kind;
+    refused.machine_pooled_z_other_machine =
+        report.machine_pooled_z_other_machine;
     refused.structure_z = report.structure_z;
     refused.best_evidence = report.best_evidence;
     refused.evidence_threshold = report.evidence_threshold;
@@ -2129,8 +2220,15 @@ static DiagnosisReport DecidePrepared(const PreparedRun& run,
   // known cause changes much) do not follow the simulated ones.
   const bool beyond_one_kind =
       report.machine_pooled_z_one_kind > options.refuse_after_one_kind_z;
+  // ... and a machine of another run under this run's loads explains what
+  // E_X, E_Y and E_Z keep: what another run's log leaves is smooth in
+  // time; structure that moves each cycle its own way is the piece's, not
+  // the log's (`unexplained`).
+  const bool another_machine =
+      report.machine_pooled_z_other_machine <= options.refuse_other_machine_z;
   if (report.status == DiagnosisStatus::kUnexplained &&
-      report.machine_z > options.refuse_z && beyond_one_kind) {
+      report.machine_z > options.refuse_z && beyond_one_kind &&
+      another_machine) {
     // E_X, E_Y and E_Z follow the machine's location errors, which the
     // log's R-tests measure and which no catalogue cause changes much
     // (after the best model): far beyond the error budget there, the log
@@ -2152,9 +2250,11 @@ static DiagnosisReport DecidePrepared(const PreparedRun& run,
   // after the best model: the R-tests of the log imply machine location
   // errors the piece does not show (another run's log; a probe's or dial's
   // few touches keep each kind alone within its budget).
-  if (beyond_one_kind &&
-      ((report.status == DiagnosisStatus::kNamed &&
-        report.machine_pooled_z > options.named_machine_z) ||
+  const bool named_off_machine =
+      report.status == DiagnosisStatus::kNamed &&
+      report.machine_pooled_z > options.named_machine_z;
+  if (beyond_one_kind && another_machine &&
+      (named_off_machine ||
        report.machine_pooled_z > options.refuse_machine_pooled_z)) {
     DiagnosisReport refused = refuse_keeping_evidence(fmt::format(
         "{} does not follow the machine errors of {}: {} fits, but E_X, E_Y "
@@ -2170,6 +2270,24 @@ static DiagnosisReport DecidePrepared(const PreparedRun& run,
             : options.refuse_machine_pooled_z));
     refused.machine_pooled_z = report.machine_pooled_z;
     return refused;
+  }
+  // A cause fits but E_X, E_Y and E_Z stay off the log beyond the budget
+  // in a way no other run's machine explains: the cause does not account
+  // for the piece.
+  if (beyond_one_kind && named_off_machine) {
+    report.reason = fmt::format(
+        "{} beats the nominal model, but E_X, E_Y and E_Z, which no "
+        "catalogue cause changes much, keep a chi2 deviate of {:.1f} after "
+        "it (limit {:g}) that neither one figure kind nor another run's "
+        "machine explains: the residual holds structure that no known cause "
+        "explains",
+        report.cause, report.machine_pooled_z, options.named_machine_z);
+    report.status = DiagnosisStatus::kUnexplained;
+    report.cause = StatusName(report.status);
+    report.params.clear();
+    report.gain_pct = 0;
+    report.extended_rms_um = report.baseline_rms_um;
+    report.extended_rms_urad = report.baseline_rms_urad;
   }
   if (report.status == DiagnosisStatus::kUnexplained) {
     double sd = 0;
@@ -2295,6 +2413,8 @@ nlohmann::json DiagnosisToJson(const DiagnosisReport& r) {
       {"machine_pooled_deviate", finite_or_null(r.machine_pooled_z)},
       {"machine_pooled_deviate_after_one_kind",
        finite_or_null(r.machine_pooled_z_one_kind)},
+      {"machine_pooled_deviate_after_other_machine",
+       finite_or_null(r.machine_pooled_z_other_machine)},
       {"step_chi2", r.step_chi2},
       {"trend_chi2", r.trend_chi2},
       {"trend_um", r.trend_um}};

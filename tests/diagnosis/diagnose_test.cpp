@@ -562,6 +562,14 @@ TEST(DiagnoseUnexplained, OptionsOfTheNameTestsValidate) {
   o.refuse_after_one_kind_z = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("refuse_after_one_kind_z"), std::string::npos);
+  o = DiagnosisOptions{};
+  o.refuse_other_machine_z = 0;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("refuse_other_machine_z"), std::string::npos);
+  o = DiagnosisOptions{};
+  o.other_machine_tau_s = {600, -1};
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("other_machine_tau_s"), std::string::npos);
 }
 
 // A twin run without a cause, kept whole so that DiagnosePrepared (which
@@ -721,6 +729,36 @@ TEST(DiagnoseRefusal, AnotherMachinesErrorsInEveryKindAreRefused) {
             gain_um[obs.figure_kind[i]] * load(obs.figure_t_s[i]);
     const DiagnosisReport r = twin.Diagnosed();
     EXPECT_EQ(r.status, DiagnosisStatus::kRefused) << r.reason;
+    EXPECT_LE(r.machine_pooled_z_other_machine,
+              DiagnosisOptions{}.refuse_other_machine_z);
+  }
+}
+
+// Each cycle cut at its own offset (a set-up that moves between cycles:
+// strip and facets of a cycle alike, the offsets written here by hand,
+// 1-2 um): E_Z jumps from cycle to cycle, which no machine under this
+// run's loads does. With its own log that is `unexplained`, not another
+// run's log; refused when any E_X/E_Y/E_Z structure beyond one kind's
+// term counted as another run's.
+TEST(DiagnoseRefusal, EachCycleAtItsOwnOffsetIsUnexplainedNotRefused) {
+  static constexpr double kOffsetUm[9] = {0.0, 1.6,  -1.2, 2.1, -0.8,
+                                          1.3, -1.9, 1.0,  -1.4};
+  for (std::uint64_t seed : {31u, 32u}) {
+    TwinWithoutCause twin(seed, 1800);
+    // E_Z follows the strip's depth; E_TTP the facets' growth outward,
+    // the opposite sign.
+    AddToFigureKind(&twin.run.observations, 2,
+                    [](int cycle, int) { return kOffsetUm[cycle]; });
+    AddToFigureKind(&twin.run.observations, 3,
+                    [](int cycle, int) { return -kOffsetUm[cycle]; });
+    const DiagnosisReport r = twin.Diagnosed();
+    EXPECT_EQ(r.status, DiagnosisStatus::kUnexplained) << r.reason;
+    EXPECT_GT(r.machine_pooled_z_other_machine,
+              DiagnosisOptions{}.refuse_other_machine_z);
+    DiagnosisOptions any_structure;
+    any_structure.refuse_other_machine_z = 1e9;
+    EXPECT_EQ(twin.Diagnosed(any_structure).status, DiagnosisStatus::kRefused)
+        << "the offsets are far beyond the budget";
   }
 }
 

@@ -186,6 +186,17 @@ struct DiagnosisOptions {
   // `unexplained`, not a mismatch. One standard deviation: a residual
   // the budget describes after that term.
   double refuse_after_one_kind_z = 1.0;
+  // The three rules above refuse also only when a machine of another run
+  // under this run's loads explains what E_X, E_Y and E_Z keep: each of
+  // them following the table's temperature change directly and through a
+  // lag (one of other_machine_tau_s) and drifting in time (the room, its
+  // own start state), with gains of its own, leaves a pooled deviate of at
+  // most this. What another run's log leaves is smooth in time; an effect
+  // on the piece that moves each cycle its own way is `unexplained`, not a
+  // mismatch (docs/DIAGNOSIS.md).
+  double refuse_other_machine_z = 2.5;
+  // The lags tried for another run's machine, s.
+  std::vector<double> other_machine_tau_s = {600, 1800, 5400};
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
 
@@ -268,6 +279,13 @@ struct DiagnosisReport {
   // cause's shape leaves little here, another run's machine errors (in
   // every kind the R-tests measure) stay.
   double machine_pooled_z_one_kind = 0;
+  // The pooled deviate with another run's machine fitted along with the
+  // best model or the nominal one (the least over both and the lags
+  // tried): E_X, E_Y and E_Z each following this run's table temperature
+  // directly and through a lag, and drifting in time, with gains of their
+  // own (DiagnosisOptions::refuse_other_machine_z). A mismatched log
+  // leaves little here; structure that moves each cycle its own way stays.
+  double machine_pooled_z_other_machine = 0;
   // Held-out cycles (the whole selection repeated without each cycle):
   // RMS of the held-out residuals, nominal vs the fold's chosen model.
   double heldout_baseline_rms_um = 0, heldout_extended_rms_um = 0;
