@@ -1104,16 +1104,19 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
       fitter.Columns(*fit, &fit_columns, &fit_base);
       for (double tau_s : options.other_machine_tau_s) {
         std::vector<Eigen::VectorXd> with = fit_columns;
+        int added = 0;
         for (int g : machine_kinds)
           for (const Column& c : cache.OtherMachine(g, tau_s))
-            with.push_back(problem.Whiten(c));
+            // (a log whose E_R0T never changes gives the table's
+            // temperature no column: the drift alone)
+            if (c.squaredNorm() > 0) {
+              with.push_back(problem.Whiten(c));
+              ++added;
+            }
         const Problem::Solution solved = problem.Solve(with, fit_base);
         if (!solved.ok) continue;
-        // Its columns per kind and the lag chosen among those tried.
-        const int rows = machine_rows -
-                         ColumnCache::kOtherMachineColumns *
-                             static_cast<int>(machine_kinds.size()) -
-                         1;
+        // Its columns and the lag chosen among those tried.
+        const int rows = machine_rows - added - 1;
         if (rows < 3) continue;
         sel.machine_pooled_z_other_machine =
             std::min(sel.machine_pooled_z_other_machine,
