@@ -188,19 +188,21 @@ class ColumnCache {
   }
   const Column& WorkpieceBase() const { return wp_base_; }
   // The machine of another run under this run's loads, on the rows of
-  // figure kind g (E_X, E_Y, E_Z; zero on every other row): the table's
-  // temperature change directly and through a first-order lag tau_s at the
-  // cut, and the time in hours (the room, or a start state of its own, the
-  // run's history does not show). Each minus its value at the first cut
-  // (the reference cycle: every figure is a difference to it).
-  static constexpr int kOtherMachineColumns = 3;
-  std::vector<Column> OtherMachine(int g, double tau_s) const {
-    std::vector<Column> out(kOtherMachineColumns, Column::Zero(obs_.size()));
+  // each figure kind in `kinds` (E_X, E_Y, E_Z; zero on every other row):
+  // per kind, the table's temperature change directly and through a
+  // first-order lag tau_s at the cut, and the time in hours (the room, or a
+  // start state of its own, the run's history does not show). Each minus
+  // its value at the first cut (the reference cycle: every figure is a
+  // difference to it). A column that is zero everywhere (a log whose E_R0T
+  // never changes) is left out.
+  std::vector<Column> OtherMachine(const std::vector<int>& kinds,
+                                   double tau_s) const {
+    std::vector<Column> out;
     if (context_.machine_dT_K.empty() || context_.cuts.empty()) return out;
     const std::vector<double> lagged =
         LagFilter(context_.machine_dT_K, context_.grid_step_s, tau_s);
     const auto values = [&](double t_s) {
-      return std::array<double, kOtherMachineColumns>{
+      return std::array<double, 3>{
           InterpolateUniform(context_.machine_dT_K, context_.grid_t0_s,
                              context_.grid_step_s, t_s),
           InterpolateUniform(lagged, context_.grid_t0_s, context_.grid_step_s,
@@ -208,11 +210,17 @@ class ColumnCache {
           t_s / 3600.0};
     };
     const auto reference = values(context_.cuts.front().t_s);
-    for (size_t i = 0; i < obs_.figures(); ++i) {
-      if (obs_.figure_kind[i] != g) continue;
-      const auto v = values(obs_.figure_t_s[i]);
-      for (int k = 0; k < kOtherMachineColumns; ++k)
-        out[k][i] = v[k] - reference[k];
+    for (int g : kinds) {
+      std::array<Column, 3> columns;
+      columns.fill(Column::Zero(obs_.size()));
+      for (size_t i = 0; i < obs_.figures(); ++i) {
+        if (obs_.figure_kind[i] != g) continue;
+        const auto v = values(obs_.figure_t_s[i]);
+        for (size_t k = 0; k < v.size(); ++k)
+          columns[k][i] = v[k] - reference[k];
+      }
+      for (Column& c : columns)
+        if (c.squaredNorm() > 0) out.push_back(std::move(c));
     }
     return out;
   }
@@ -1084,7 +1092,6 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   // (a set-up or cutter change per cycle) is not explained by it, and is
   // no reason to refuse the log.
   {
-    const Observations& obs = problem.obs();
     std::vector<int> machine_kinds;
     for (int g = 0; g < 3; ++g)
       if (std::count(kinds.begin(), kinds.end(), g) >= 3)
@@ -1097,26 +1104,26 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
         if (kinds[r] <= 2) chi2 += residual[r] * residual[r];
       return chi2;
     };
+    // The machine's whitened columns per lag: the same for both fits.
+    std::vector<std::vector<Eigen::VectorXd>> machine_columns;
+    if (!machine_kinds.empty())
+      for (double tau_s : options.other_machine_tau_s) {
+        machine_columns.emplace_back();
+        for (const Column& c : cache.OtherMachine(machine_kinds, tau_s))
+          machine_columns.back().push_back(problem.Whiten(c));
+      }
     for (const Fit* fit : std::initializer_list<const Fit*>{&f, &sel.fits[0]}) {
-      if (!fit->ok || machine_kinds.empty() || obs.figures() == 0) continue;
+      if (!fit->ok) continue;
       std::vector<Eigen::VectorXd> fit_columns;
       Eigen::VectorXd fit_base;
       fitter.Columns(*fit, &fit_columns, &fit_base);
-      for (double tau_s : options.other_machine_tau_s) {
+      for (const std::vector<Eigen::VectorXd>& machine : machine_columns) {
         std::vector<Eigen::VectorXd> with = fit_columns;
-        int added = 0;
-        for (int g : machine_kinds)
-          for (const Column& c : cache.OtherMachine(g, tau_s))
-            // (a log whose E_R0T never changes gives the table's
-            // temperature no column: the drift alone)
-            if (c.squaredNorm() > 0) {
-              with.push_back(problem.Whiten(c));
-              ++added;
-            }
+        with.insert(with.end(), machine.begin(), machine.end());
         const Problem::Solution solved = problem.Solve(with, fit_base);
         if (!solved.ok) continue;
         // Its columns and the lag chosen among those tried.
-        const int rows = machine_rows - added - 1;
+        const int rows = machine_rows - static_cast<int>(machine.size()) - 1;
         if (rows < 3) continue;
         sel.machine_pooled_z_other_machine =
             std::min(sel.machine_pooled_z_other_machine,
@@ -1502,6 +1509,19 @@ std::vector<StructureLocation> LocateStructure(const Observations& obs,
 // in the angles is judged there too: a figure's squared over its sigma, a
 // facet angle's deviance under the fold's prediction (its variance
 // added).
+// A name withdrawn after the selection: the report becomes `unexplained`
+// with `reason`, without the cause's parameters or gain, its residual
+// that of the nominal model.
+void WithdrawName(DiagnosisReport* report, std::string reason) {
+  report->status = DiagnosisStatus::kUnexplained;
+  report->cause = StatusName(report->status);
+  report->reason = std::move(reason);
+  report->params.clear();
+  report->gain_pct = 0;
+  report->extended_rms_um = report->baseline_rms_um;
+  report->extended_rms_urad = report->baseline_rms_urad;
+}
+
 std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
                             double heldout_base_chi2, double heldout_ext_chi2,
                             const DiagnosisOptions& options) {
@@ -1708,16 +1728,13 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     const std::string why = NamedCauseHolds(
         report, sel.chosen, heldout_base_chi2, heldout_ext_chi2, options);
     if (!why.empty()) {
-      report.status = DiagnosisStatus::kUnexplained;
-      report.cause = StatusName(report.status);
-      report.reason = fmt::format(
-          "{} beats the nominal model (delta BIC {:.1f}) but does not hold: "
-          "{}; the residual holds structure that no known cause explains",
-          chosen.spec.Name(), report.candidates[sel.chosen].delta_bic, why);
-      report.params.clear();
-      report.gain_pct = 0;
-      report.extended_rms_um = report.baseline_rms_um;
-      report.extended_rms_urad = report.baseline_rms_urad;
+      WithdrawName(
+          &report,
+          fmt::format("{} beats the nominal model (delta BIC {:.1f}) but does "
+                      "not hold: {}; the residual holds structure that no "
+                      "known cause explains",
+                      chosen.spec.Name(),
+                      report.candidates[sel.chosen].delta_bic, why));
       // Where the structure lives: after the nominal model, since the
       // cause's fit does not hold.
       const Column nominal = y - Prediction(sel.fits[0], cache, obs);
@@ -2277,21 +2294,16 @@ static DiagnosisReport DecidePrepared(const PreparedRun& run,
   // A cause fits but E_X, E_Y and E_Z stay off the log beyond the budget
   // in a way no other run's machine explains: the cause does not account
   // for the piece.
-  if (beyond_one_kind && named_off_machine) {
-    report.reason = fmt::format(
-        "{} beats the nominal model, but E_X, E_Y and E_Z, which no "
-        "catalogue cause changes much, keep a chi2 deviate of {:.1f} after "
-        "it (limit {:g}) that neither one figure kind nor another run's "
-        "machine explains: the residual holds structure that no known cause "
-        "explains",
-        report.cause, report.machine_pooled_z, options.named_machine_z);
-    report.status = DiagnosisStatus::kUnexplained;
-    report.cause = StatusName(report.status);
-    report.params.clear();
-    report.gain_pct = 0;
-    report.extended_rms_um = report.baseline_rms_um;
-    report.extended_rms_urad = report.baseline_rms_urad;
-  }
+  if (beyond_one_kind && named_off_machine)
+    WithdrawName(
+        &report,
+        fmt::format(
+            "{} beats the nominal model, but E_X, E_Y and E_Z, which no "
+            "catalogue cause changes much, keep a chi2 deviate of {:.1f} "
+            "after it (limit {:g}) that neither one figure kind nor another "
+            "run's machine explains: the residual holds structure that no "
+            "known cause explains",
+            report.cause, report.machine_pooled_z, options.named_machine_z));
   if (report.status == DiagnosisStatus::kUnexplained) {
     double sd = 0;
     const double slope = MismatchSlope(run, &sd);

@@ -582,10 +582,10 @@ MachineErrorEstimator::InputTable MachineErrorEstimator::Tabulate(
   t.decays.resize(t.taus * t.times);
   for (size_t tau = 0; tau < t.taus; ++tau) {
     for (size_t k = 0; k < t.times; ++k) {
-      t.decays[tau * t.times + k] =
+      t.decays[t.DecaySlot(tau, k)] =
           std::exp(-(times_s[k] - grid_t0_) / options_.tau_grid_s[tau]);
       for (size_t input = 0; input < signals_.size(); ++input)
-        t.inputs[(input * t.taus + tau) * t.times + k] =
+        t.inputs[t.InputSlot(input, tau, k)] =
             InputAt(static_cast<int>(input), static_cast<int>(tau), times_s[k]);
     }
   }

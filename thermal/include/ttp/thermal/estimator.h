@@ -224,14 +224,16 @@ class MachineErrorEstimator {
     size_t taus = 0, times = 0;
     std::vector<double> inputs;  // [(input * taus + tau) * times + k]
     std::vector<double> decays;  // [tau * times + k]
+    size_t InputSlot(size_t input, size_t tau, size_t k) const {
+      return (input * taus + tau) * times + k;
+    }
+    size_t DecaySlot(size_t tau, size_t k) const { return tau * times + k; }
     double Input(int input, int tau, size_t k) const {
-      return inputs[(static_cast<size_t>(input) * taus +
-                     static_cast<size_t>(tau)) *
-                        times +
-                    k];
+      return inputs[InputSlot(static_cast<size_t>(input),
+                              static_cast<size_t>(tau), k)];
     }
     double Decay(int tau, size_t k) const {
-      return decays[static_cast<size_t>(tau) * times + k];
+      return decays[DecaySlot(static_cast<size_t>(tau), k)];
     }
     // Row(c, t_k) . beta.
     double RowDot(const Choice& c, size_t k, const Eigen::VectorXd& beta) const;
