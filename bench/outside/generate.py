@@ -1022,7 +1022,9 @@ def noise_free_figures(features):
 
 def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cloud_format="auto",
              pose="auto", wall_top_mm=1.0, probe_points=None, rtest_noise_scale=1.0,
-             machine_gain_scale=1.0):
+             machine_gain_scale=1.0, closing_rtest=True):
+    """closing_rtest False: the log keeps no R-test after the last cut (a
+    production log that ends before the next R-test is due)."""
     os.makedirs(out, exist_ok=True)
     eff_name = effect
     if effect in MISMATCH:
@@ -1035,6 +1037,9 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cl
     elif effect == "short_log":
         cut_at = CYCLE0_S + 5 * CYCLE_S + 600.0   # the log ends after cycle 5
         rows = [r for r in rows if r["t_s"] <= cut_at]
+    if not closing_rtest:
+        last_cut = max(r["t_s"] for r in rows if r["event"] == "cut")
+        rows = [r for r in rows if not (r["event"] == "rtest" and r["t_s"] > last_cut)]
     write_log(os.path.join(out, "talc.csv"), rows, comp_on)
     rng = random.Random(seed * 31 + 5)
     info = None
@@ -1072,6 +1077,8 @@ def generate(out, effect, size, seed, spacing_s, comp_on, kind, points=20000, cl
         truth["rtest_noise_scale"] = rtest_noise_scale
     if machine_gain_scale != 1.0:
         truth["machine_gain_scale"] = machine_gain_scale
+    if not closing_rtest:
+        truth["closing_rtest"] = False
     with open(os.path.join(out, "truth.json"), "w") as fh:
         json.dump(truth, fh, indent=1)
     return os.path.join(out, fname), os.path.join(out, "talc.csv")
@@ -1093,6 +1100,13 @@ def add_scale_args(ap):
     ap.add_argument("--machine-gain-scale", type=scale_arg, default=1.0, metavar="F",
                     help="the machine's thermal error gains (every path) times F: larger thermal "
                          "errors (default 1)")
+
+
+def add_log_end_arg(ap):
+    """How the log ends (generate.py, run_battery.py)."""
+    ap.add_argument("--no-closing-rtest", action="store_true",
+                    help="no R-test after the last cut: the log ends before the next one is due, as "
+                         "a production log may (default: an R-test closes the run)")
 
 
 def main():
@@ -1121,6 +1135,7 @@ def main():
                     help="cloud: the highest points on the facets and flanks, mm below the top face "
                          "(default 1: a CMM program's margin, as in the samples; a scanner sees up to the edge)")
     add_scale_args(ap)
+    add_log_end_arg(ap)
     ap.add_argument("-o", required=True)
     a = ap.parse_args()
     if any(n not in known for n in a.effect.split("+")):
@@ -1129,7 +1144,7 @@ def main():
         a.size = float(a.size)
     m, l = generate(a.o, a.effect, a.size, a.seed, a.spacing_s, a.compensation == "on", a.measurement,
                     a.points, a.cloud_format, a.pose, a.wall_top_mm, a.probe_points,
-                    a.rtest_noise_scale, a.machine_gain_scale)
+                    a.rtest_noise_scale, a.machine_gain_scale, not a.no_closing_rtest)
     print(m, l)
 
 

@@ -167,6 +167,7 @@ PROBE_PLANS = {"probe": [], "probe-sparse": ["--facet-columns", "2", "--facet-ro
 
 # Options given to every `ttp diagnose` (--diagnose-args).
 DIAGNOSE_ARGS = []
+NO_CLOSING_RTEST = False  # --no-closing-rtest
 # The instrument stated with each DMIS and dial run (generate.STATED_ARGS);
 # --dmis-cmm default leaves the CMM unstated (ttp's own program assumed).
 STATED_ARGS = dict(generate.STATED_ARGS)
@@ -186,14 +187,17 @@ def probe_points(ttp, work, kind="probe"):
 
 
 def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0,
-            rtest_noise_scale=1.0, machine_gain_scale=1.0):
+            rtest_noise_scale=1.0, machine_gain_scale=1.0, closing_rtest=None):
+    if closing_rtest is None:
+        closing_rtest = not NO_CLOSING_RTEST
     d = os.path.join(work, "run")
     shutil.rmtree(d, ignore_errors=True)
     points = probe_points(ttp, work, kind) if kind in PROBE_PLANS else None
     meas, log = generate.generate(d, effect, size, seed, spacing, comp, "probe" if points else kind,
                                   wall_top_mm=wall_top_mm, probe_points=points,
                                   rtest_noise_scale=rtest_noise_scale,
-                                  machine_gain_scale=machine_gain_scale)
+                                  machine_gain_scale=machine_gain_scale,
+                                  closing_rtest=closing_rtest)
     # The point list goes with the results, as the user of a probing program
     # gives it.
     outcome, rc, detail, decision = diagnose(ttp, meas, log, os.path.join(d, "diag.json"),
@@ -206,7 +210,8 @@ def run_one(ttp, work, spacing, comp, effect, size, kind, seed, wall_top_mm=1.0,
             "size": size, "measurement": kind, "file": os.path.basename(meas), "seed": seed,
             "expected": expected(effect), "outcome": outcome, "exit": rc, "detail": detail,
             "wall_top_mm": wall_top_mm, "rtest_noise_scale": rtest_noise_scale,
-            "machine_gain_scale": machine_gain_scale, "decision": decision}
+            "machine_gain_scale": machine_gain_scale, "closing_rtest": closing_rtest,
+            "decision": decision}
 
 
 def parse_spacing(text):
@@ -229,6 +234,8 @@ def command_for(r):
         if r.get(key, 1.0) != 1.0:
             v = "%g" % r[key] if float("%g" % r[key]) == r[key] else repr(r[key])
             extra += " --%s %s" % (key.replace("_", "-"), v)
+    if not r.get("closing_rtest", True):
+        extra += " --no-closing-rtest"
     probed = r["measurement"] in PROBE_PLANS
     if probed:
         extra += " --probe-points out/points.csv"
@@ -362,6 +369,16 @@ CHECK_MARGIN = 3
 # (each plane given one touch's uncertainty, the program's touches not
 # counted) with the clamping of a pair and a clamping alone not seen; and
 # on-machine probing results at the points of `ttp plan probe`
+# Logs as production may write them, ending before an R-test follows the
+# last cuts (--no-closing-rtest): the machine errors of those cuts are
+# extrapolated; a piece still gets its cause, another run's log is still
+# refused.
+OPEN_LOG_CASES = [
+    ("workpiece_expansion", 1.0, 251034, 3600, True, "json", "workpiece_expansion"),
+    ("none", 0.0, 697591, 3600, True, "dial", "none"),
+    ("other_log", 0.0, 375384, 3600, False, "json", "refused"),
+]
+
 CHECK_CASES = [
     ("tool_wear+clamping_distortion", "6+1.5", 474525, 300, False, "dmis", "clamping_distortion+tool_wear"),
     ("clamping_distortion", 0.8, 615680, 1800, True, "dmis", "clamping_distortion"),
@@ -437,8 +454,9 @@ def check(ttp, work):
         print("FAIL: %s named in a run without a catalogue cause (%s): %s" % (
             r["outcome"], r["effect"], command_for(r)))
     right = sum(r["outcome"] == r["expected"] for r in results)
-    for effect, size, seed, sp, comp, kind, want in CHECK_CASES:
-        r = run_one(ttp, work, sp, comp, effect, size, kind, seed)
+    for effect, size, seed, sp, comp, kind, want, closing in (
+            [c + (True,) for c in CHECK_CASES] + [c + (False,) for c in OPEN_LOG_CASES]):
+        r = run_one(ttp, work, sp, comp, effect, size, kind, seed, closing_rtest=closing)
         if r["outcome"] != want:
             print("FAIL: a case that once came out wrong: %s expected %s, got %s: %s" % (
                 effect, want, r["outcome"], command_for(r)))
@@ -537,11 +555,16 @@ def main():
                     help="DMIS runs: read with the generator's CMM stated (MPE and touches, default) or with "
                          "ttp's defaults (the touches of ttp plan cmm at MPE 1.2 um + L/400)")
     generate.add_scale_args(ap)
+    generate.add_log_end_arg(ap)
     a = ap.parse_args()
     scales = (a.rtest_noise_scale, a.machine_gain_scale)
     if a.check and scales != (1.0, 1.0):
         ap.error("--check is the ctest's fixed set: without --rtest-noise-scale or --machine-gain-scale")
     DIAGNOSE_ARGS.extend(a.diagnose_args.split())
+    global NO_CLOSING_RTEST
+    NO_CLOSING_RTEST = a.no_closing_rtest
+    if a.check and a.no_closing_rtest:
+        ap.error("--check is the ctest's fixed set: without --no-closing-rtest")
     if a.dmis_cmm == "default":
         del STATED_ARGS["dmis"]
     if a.summarise:

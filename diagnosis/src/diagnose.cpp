@@ -2333,7 +2333,7 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
                                  const MeasuredPiece& measured,
                                  const DiagnosisOptions& options) {
   DiagnosisReport report = DecidePrepared(run, log, part, measured, options);
-  report.warnings = run.simulation.estimator_warnings;
+  report.warnings = run.simulation.warnings;
   return report;
 }
 

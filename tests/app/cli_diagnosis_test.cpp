@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -139,6 +140,70 @@ TEST(CliDiagnosis, SampleRunAWithAGrossErrorInOneRTest) {
   const size_t list = page.find("id=\"diagnosis-warnings\"");
   ASSERT_NE(list, std::string::npos);
   EXPECT_NE(page.find(named, list), std::string::npos);
+}
+
+// Sample run-a's log as production writes it: R-tests every 30 min, the
+// last of them more than an hour before the last cuts, none after them. Their
+// machine errors are extrapolated through the estimator's model (the log covers
+// the cut times; nothing in it is another run's), so the diagnosis is still the
+// sample's truth, with a warning that names the cuts extrapolated; the
+// check says it too.
+TEST(CliDiagnosis, SampleRunAWithoutAClosingRTest) {
+  const fs::path dir = test::TestDir("diag_open");
+  const auto inspected =
+      test::RunTtp("inspect " + (kSamples / "run-a/piece.ply").string() +
+                   " --json " + (dir / "m.json").string());
+  ASSERT_EQ(inspected.exit_code, 0) << inspected.output;
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(kSamples / "run-a/talc.csv");
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  double last_cut_s = 0;
+  for (const std::string& l : lines)
+    if (l.find(",cut,") != std::string::npos)
+      last_cut_s = std::max(last_cut_s, std::stod(l));
+  std::ofstream out(dir / "talc.csv");
+  double kept_s = -1e9;
+  int dropped_after = 0;
+  for (const std::string& l : lines) {
+    if (l.find(",rtest,") != std::string::npos) {
+      const double t = std::stod(l);
+      if (t > last_cut_s - 3600) {
+        dropped_after += t > last_cut_s;
+        continue;
+      }
+      if (t - kept_s < 1800) continue;
+      kept_s = t;
+    }
+    out << l << "\n";
+  }
+  out.close();
+  ASSERT_GT(dropped_after, 0);
+  ASSERT_LT(kept_s, last_cut_s - 3600);
+  const std::string args =
+      (dir / "talc.csv").string() + " " + (dir / "m.json").string();
+  const auto r = test::RunTtp("diagnose --log " + args + " --json " +
+                              (dir / "d.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json d = test::ReadJson(dir / "d.json");
+  const nlohmann::json truth = test::ReadJson(kSamples / "run-a/truth.json");
+  EXPECT_EQ(d["status"], "named") << r.output;
+  ASSERT_EQ(d["cause"], truth["cause"]) << r.output;
+  EXPECT_NEAR(d["extended"]["params"]["gain_K_per_K"].get<double>(),
+              truth["params"]["gain"],
+              2 * d["extended"]["uncertainty"]["gain_K_per_K"].get<double>());
+  ASSERT_EQ(d["warnings"].size(), 1u) << d["warnings"].dump();
+  const std::string w = d["warnings"][0];
+  EXPECT_NE(w.find("after the last R-test"), std::string::npos) << w;
+  EXPECT_NE(w.find("extrapolated"), std::string::npos) << w;
+  EXPECT_NE(r.output.find("warning: "), std::string::npos) << r.output;
+  const auto c = test::RunTtp("check --log " + args + " --json " +
+                              (dir / "c.json").string());
+  ASSERT_TRUE(c.exit_code == 0 || c.exit_code == 1) << c.output;
+  EXPECT_NE(c.output.find("after the last R-test"), std::string::npos)
+      << c.output;
+  EXPECT_EQ(test::ReadJson(dir / "c.json")["warnings"].size(), 1u);
 }
 
 // Sample run-a's inspection with one facet's distance 8 um off (a CMM
@@ -287,7 +352,7 @@ TEST(CliDiagnosis, TheMeasurementOptionsReachTheReader) {
                          (dir / "p.nc").string() + " --points-csv " + plan)
                 .exit_code,
             0);
-  for (const std::string command : {"diagnose" + log, "report" + log}) {
+  for (const std::string& command : {"diagnose" + log, "report" + log}) {
     const std::string out =
         command[0] == 'r' ? " -o " + (dir / "r.html").string() : "";
     r = test::RunTtp(command + c + "/probe.csv --probe-points " + plan + out);

@@ -4,6 +4,7 @@
 // refused.
 #include "ttp/thermal/simulate.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -114,6 +115,16 @@ TEST(Simulate, ExtrapolatesPastTheLastRTest) {
   for (int e = 0; e < 7; ++e)
     EXPECT_GT(est.ErrorSigmaAt(e, est.LastRTestS() + 600),
               est.ErrorSigmaAt(e, est.LastRTestS()));
+  // The user is told which cuts rest on the extrapolation.
+  ASSERT_EQ(sim.warnings.size(), 1u);
+  EXPECT_NE(sim.warnings[0].find(
+                fmt::format("{} cut(s) after the last R-test", beyond)),
+            std::string::npos)
+      << sim.warnings[0];
+  // With an R-test after the last cut, nothing is extrapolated.
+  const TalcLog closed =
+      ParseTalcLog(test::SyntheticRun().Text(config), "syn.csv");
+  EXPECT_TRUE(SimulatePiece(closed, config).warnings.empty());
 }
 
 TEST(Simulate, CutGeometryRefusesUnknownFeatures) {

@@ -142,6 +142,7 @@ CheckResult CheckPiece(const TalcLog& log, const Config& config,
   CheckResult out;
   out.log_source = log.source;
   out.estimator = sim.estimator_description;
+  out.warnings = sim.warnings;
   out.simulated_uncertainty = options.simulated_uncertainty;
   out.piece_alpha_per_k = part.alpha_per_k;
   out.piece_radius_mm = part.facet_final_distance_mm;
@@ -301,12 +302,14 @@ nlohmann::json CheckToJson(const CheckResult& r) {
     cycles.push_back(cj);
   }
   j["cycles"] = cycles;
+  j["warnings"] = r.warnings;
   return j;
 }
 
 std::string CheckTable(const CheckResult& r) {
   std::string s =
       fmt::format("log        {}\nestimator  {}\n", r.log_source, r.estimator);
+  for (const std::string& w : r.warnings) s += "warning: " + w + "\n";
   s += fmt::format(
       "measured vs simulated per cycle (um, E_B in um/m); U expanded (k = 2); "
       "ok = |diff| <= U combined; DISAGREE = |diff| > {:.2f} / 2 x U "
@@ -468,20 +471,19 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
                       p.feature.ToString(), p.end_s + out.offset_s));
     }
   }
-  // Every cut needs an R-test before and after it.
+  // Every cut needs an R-test before it: the R-test values are changes
+  // since the run's first one, so nothing anchors a machine error before
+  // it. After the last R-test the estimator extrapolates (SimulatePiece).
   for (const CutRecord& c : log.cuts) {
-    bool before = false, after = false;
-    for (const RTestRecord& r : log.rtests) {
-      before |= r.t_ref_s <= c.t_s;
-      after |= r.t_ref_s >= c.t_s;
-    }
-    if (!before || !after) {
+    const bool before =
+        std::any_of(log.rtests.begin(), log.rtests.end(),
+                    [&c](const RTestRecord& r) { return r.t_ref_s <= c.t_s; });
+    if (!before) {
       throw InputError(
           log.source, c.line, "rtest",
-          fmt::format("cut {} at t_s {:.0f} has no R-test {} it: the machine "
-                      "error at the cut cannot be interpolated",
-                      c.feature.ToString(), c.t_s,
-                      before ? "after" : "before"));
+          fmt::format("cut {} at t_s {:.0f} has no R-test before it: the "
+                      "machine error at the cut has no reference",
+                      c.feature.ToString(), c.t_s));
     }
   }
   return out;

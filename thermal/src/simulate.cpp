@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -138,7 +139,7 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
                          const SimulationOptions& options) {
   Simulation sim;
   sim.estimator_description = est.Describe();
-  sim.estimator_warnings = est.Warnings();
+  sim.warnings = est.Warnings();
   sim.estimator_json = est.ToJson();
   if (log.cuts.empty()) {
     throw InputError(log.source, 0, "cut", "the log has no cut rows");
@@ -183,6 +184,21 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
     sim.results_linear[g.feature.Key()] = sc.result_linear;
     sim.cuts.push_back(sc);
   }
+  // A production log may end before an R-test follows the last cuts.
+  std::vector<const SimulatedCut*> past;
+  for (const SimulatedCut& sc : sim.cuts)
+    if (sc.t_s > est.LastRTestS()) past.push_back(&sc);
+  if (!past.empty()) {
+    const double beyond_s = past.back()->t_s - est.LastRTestS();
+    sim.warnings.push_back(fmt::format(
+        "{} cut(s) after the last R-test (t_s {:.0f}), {} at t_s {:.0f} to "
+        "{} at t_s {:.0f}: their machine errors are extrapolated through the "
+        "estimator's model, up to {:.0f} s ({:.2g} mean R-test spacings) past "
+        "it, with an uncertainty that grows in proportion",
+        past.size(), est.LastRTestS(), past.front()->feature.ToString(),
+        past.front()->t_s, past.back()->feature.ToString(), past.back()->t_s,
+        beyond_s, beyond_s / std::max(est.MeanRTestSpacingS(), 1.0)));
+  }
   sim.figures = ComputeFigures(config.part, sim.results);
   sim.figures_linear = ComputeFigures(config.part, sim.results_linear);
   return sim;
@@ -192,6 +208,7 @@ nlohmann::json SimulationToJson(const Simulation& sim,
                                 const MachineErrorEstimator& estimator) {
   nlohmann::json j;
   j["estimator"] = sim.estimator_json;
+  j["warnings"] = sim.warnings;
   j["figures"] = FiguresToJson(sim.figures)["figures"];
   j["figures_linear_interpolation"] =
       FiguresToJson(sim.figures_linear)["figures"];
@@ -224,7 +241,9 @@ nlohmann::json SimulationToJson(const Simulation& sim,
 }
 
 std::string SimulationText(const Simulation& sim) {
-  std::string s = "estimator: " + sim.estimator_description + "\n\n";
+  std::string s = "estimator: " + sim.estimator_description + "\n";
+  for (const std::string& w : sim.warnings) s += "warning: " + w + "\n";
+  s += "\n";
   s += "simulated figures per cycle (um, E_B in um/m); [linear] = straight "
        "line between R-tests\n";
   s += fmt::format(

@@ -88,6 +88,8 @@ struct CheckResult {
   bool agree() const { return compared > 0 && beyond_run_limit == 0; }
   double piece_alpha_per_k = 0, piece_radius_mm = 0;
   double table_alpha_per_k = 0, table_radius_mm = 0;
+  // The simulation's (Simulation::warnings).
+  std::vector<std::string> warnings;
 };
 
 // Standard uncertainties (k = 1, in the u_* fields, values zero) of the
@@ -150,7 +152,9 @@ struct ScheduleCheck {
 // time, cuts out of the program's order, a cut time off the schedule by more
 // than the tolerance, a table angle that is not the planned one, a log that
 // starts after the first planned cut or ends before the last, a cut without
-// an R-test before and after it.
+// an R-test before it. A cut after the last R-test is no mismatch (a
+// production log may end before the next R-test): the simulation
+// extrapolates the machine's errors there and warns.
 ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
                                       const std::vector<PlannedCut>& planned,
                                       const ScheduleCheckOptions& options = {});

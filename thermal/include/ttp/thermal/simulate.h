@@ -84,16 +84,20 @@ struct SimulationOptions {
 
 struct Simulation {
   std::string estimator_description;
-  // MachineErrorEstimator::Warnings (R-tests left out as gross errors).
-  std::vector<std::string> estimator_warnings;
+  // MachineErrorEstimator::Warnings (R-tests left out as gross errors),
+  // and one for cuts after the last R-test (their machine errors are
+  // extrapolated through the estimator's model).
+  std::vector<std::string> warnings;
   nlohmann::json estimator_json;
   std::vector<SimulatedCut> cuts;
   FeatureResults results, results_linear;
   std::vector<CycleFigures> figures, figures_linear;
 };
 
-// Throws InputError (naming the cut row) when a cut lies outside the span
-// of the R-tests: the log does not cover the cut times.
+// Throws InputError (naming the cut row) when a cut lies before the first
+// R-test (nothing anchors the estimate there: the log does not cover the
+// cut times). Cuts after the last R-test are simulated from the
+// estimator's extrapolation, with a warning.
 Simulation SimulatePiece(const TalcLog& log, const Config& config,
                          const SimulationOptions& options = {});
 Simulation SimulatePiece(const TalcLog& log, const Config& config,
