@@ -15,6 +15,9 @@ stage_done() {
 }
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+# The tests are compiled with a precompiled header (tests/CMakeLists.txt);
+# ccache caches such compilations only with this sloppiness.
+export CCACHE_SLOPPINESS=pch_defines,time_macros
 
 bash scripts/install-deps.sh
 
