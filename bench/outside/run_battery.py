@@ -377,6 +377,10 @@ OPEN_LOG_CASES = [
     ("workpiece_expansion", 1.0, 251034, 3600, True, "json", "workpiece_expansion"),
     ("none", 0.0, 697591, 3600, True, "dial", "none"),
     ("other_log", 0.0, 375384, 3600, False, "json", "refused"),
+    # R-tests 2 h apart, five of them: `none` while five afforded the
+    # estimator a constant only
+    ("workpiece_expansion", 1.5, 665386, 7200, False, "dial", "workpiece_expansion"),
+    ("tool_wear", 2.0, 280830, 7200, True, "json", "tool_wear"),
 ]
 
 CHECK_CASES = [

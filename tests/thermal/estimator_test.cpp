@@ -298,6 +298,8 @@ TEST(Estimator, ContinuousPredictionFitsTheResidual) {
 // 1.3 urad).
 struct SecondOrderPlant {
   double rtest_interval_s = 300;
+  // A production log may also end before an R-test follows the last cut.
+  bool closing_rtest = true;
   unsigned seed = 11;
   static constexpr double kEnd = 8.5 * 3600, kStep = 1.0;
   std::array<double, 7> heat_gain = {1.2, -2.0, -9.0, 5.0, 3.0, -1.5, 4.0};
@@ -349,7 +351,7 @@ struct SecondOrderPlant {
     std::vector<double> rtest_t;
     for (double t = 95; t <= kEnd; t += rtest_interval_s) rtest_t.push_back(t);
     // A production log closes with an R-test after the last cut.
-    if (rtest_t.back() < kEnd - 60) rtest_t.push_back(kEnd);
+    if (closing_rtest && rtest_t.back() < kEnd - 60) rtest_t.push_back(kEnd);
     for (size_t k = 0; k < rtest_t.size(); ++k) {
       const double t = rtest_t[k];
       auto e = At(t - 47.5);
@@ -445,6 +447,16 @@ TEST(Estimator, SecondOrderPlantWithAnUnloggedInput) {
   EXPECT_LT(two_hours.rms_z, 1.5) << two_hours.largest_z;
   EXPECT_GT(two_hours.rms_z, 0.8) << two_hours.rms_um;
   EXPECT_LT(two_hours.largest_z, 4.0);
+  // The same without the closing R-test: five R-tests, the last cuts past
+  // the last one. One lag through five still follows the plant, and the
+  // budget still describes the error.
+  plant.closing_rtest = false;
+  const CutTimeErrors open = AtTheCuts(plant);
+  EXPECT_EQ(ParseTalcLog(plant.Text(), "open.csv").rtests.size(), 5u);
+  EXPECT_LT(open.rms_z, 1.5) << open.largest_z;
+  EXPECT_GT(open.rms_z, 0.5) << open.rms_um;
+  EXPECT_LT(open.largest_z, 4.0);
+  plant.closing_rtest = true;
   plant.rtest_interval_s = 1800;
   plant.Simulate();
   // The stated uncertainty grows with the distance to the nearest R-test:
@@ -460,7 +472,8 @@ TEST(Estimator, SecondOrderPlantWithAnUnloggedInput) {
             << dense.largest_z << "; sparse " << sparse.rms_um << " um z "
             << sparse.rms_z << " max " << sparse.largest_z << "; 2 h "
             << two_hours.rms_um << " um z " << two_hours.rms_z << " max "
-            << two_hours.largest_z << "\n";
+            << two_hours.largest_z << "; 2 h, five R-tests " << open.rms_um
+            << " um z " << open.rms_z << " max " << open.largest_z << "\n";
 }
 
 // A gross error in one R-test (a chip on a sphere: 3-4 um on E_X0C or
