@@ -41,7 +41,7 @@ std::vector<Expected> ExpectedTouches(const Config& config,
   const Eigen::Vector3d centre = MachineToProgram(
       config, Eigen::Vector3d(m.sphere_distance_mm, 0,
                               m.table_top_z_mm + m.sphere_height_mm));
-  for (const Eigen::Vector3d n :
+  for (const Eigen::Vector3d& n :
        {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(1, 0, 0),
         Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 1, 0),
         Eigen::Vector3d(0, -1, 0)})

@@ -156,8 +156,11 @@ TEST(VerifyTest, DogLegRapidIsCaughtOnlyUnderPerAxisRapids) {
   EXPECT_TRUE(r.Find("rapid cuts no material (straight rapids)")->pass);
   // What the dog-leg cut away shows on the surfaces it crossed; nothing
   // else fails.
-  for (const Finding* f : r.Failed())
-    if (f != per_axis) EXPECT_EQ(f->check.rfind("surface ", 0), 0u) << f->check;
+  for (const Finding* f : r.Failed()) {
+    if (f != per_axis) {
+      EXPECT_EQ(f->check.rfind("surface ", 0), 0u) << f->check;
+    }
+  }
 }
 
 TEST(VerifyTest, WaitingInTheSphereRingWhileCTurnsIsCaught) {

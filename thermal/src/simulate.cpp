@@ -194,7 +194,7 @@ Simulation SimulatePiece(const TalcLog& log, const Config& config,
         "{} cut(s) after the last R-test (t_s {:.0f}), {} at t_s {:.0f} to "
         "{} at t_s {:.0f}: their machine errors are extrapolated through the "
         "estimator's model, up to {:.0f} s ({:.2g} mean R-test spacings) past "
-        "it, with an uncertainty that grows in proportion",
+        "it, with an uncertainty that grows with the distance",
         past.size(), est.LastRTestS(), past.front()->feature.ToString(),
         past.front()->t_s, past.back()->feature.ToString(), past.back()->t_s,
         beyond_s, beyond_s / std::max(est.MeanRTestSpacingS(), 1.0)));
