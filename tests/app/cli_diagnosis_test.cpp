@@ -49,13 +49,20 @@ void ExpectReportKeys(const nlohmann::json& d) {
   }
 }
 
+// A sample's cloud inspected into dir/m.json.
+void InspectSample(const std::string& run, const std::string& cloud,
+                   const fs::path& dir) {
+  const auto inspected =
+      test::RunTtp("inspect " + (kSamples / run / cloud).string() + " --json " +
+                   (dir / "m.json").string());
+  ASSERT_EQ(inspected.exit_code, 0) << inspected.output;
+}
+
 nlohmann::json InspectAndDiagnose(const std::string& run,
                                   const std::string& cloud,
                                   const fs::path& dir) {
   const fs::path in = kSamples / run;
-  const auto inspected = test::RunTtp("inspect " + (in / cloud).string() +
-                                      " --json " + (dir / "m.json").string());
-  EXPECT_EQ(inspected.exit_code, 0) << inspected.output;
+  InspectSample(run, cloud, dir);
   const auto r = test::RunTtp("diagnose --log " + (in / "talc.csv").string() +
                               " " + (dir / "m.json").string() + " --json " +
                               (dir / "d.json").string());
@@ -150,10 +157,7 @@ TEST(CliDiagnosis, SampleRunAWithAGrossErrorInOneRTest) {
 // check says it too.
 TEST(CliDiagnosis, SampleRunAWithoutAClosingRTest) {
   const fs::path dir = test::TestDir("diag_open");
-  const auto inspected =
-      test::RunTtp("inspect " + (kSamples / "run-a/piece.ply").string() +
-                   " --json " + (dir / "m.json").string());
-  ASSERT_EQ(inspected.exit_code, 0) << inspected.output;
+  ASSERT_NO_FATAL_FAILURE(InspectSample("run-a", "piece.ply", dir));
   std::vector<std::string> lines;
   {
     std::ifstream in(kSamples / "run-a/talc.csv");
@@ -214,10 +218,7 @@ TEST(CliDiagnosis, SampleRunAWithoutAClosingRTest) {
 // log and measurement do not belong together.
 TEST(CliDiagnosis, SampleRunAWithAGrossErrorInOneFacet) {
   const fs::path dir = test::TestDir("diag_gross_facet");
-  const auto inspected =
-      test::RunTtp("inspect " + (kSamples / "run-a/piece.ply").string() +
-                   " --json " + (dir / "m.json").string());
-  ASSERT_EQ(inspected.exit_code, 0) << inspected.output;
+  ASSERT_NO_FATAL_FAILURE(InspectSample("run-a", "piece.ply", dir));
   const nlohmann::json clean = test::ReadJson(dir / "m.json");
   for (const auto& [facet, cycle] : std::vector<std::pair<std::string, int>>{
            {"X1-3", 3}, {"Y1-9", 8}, {"X1-5", 0}}) {
