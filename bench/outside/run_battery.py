@@ -437,6 +437,10 @@ CHECK_CASES = [
     ("cycle_jitter", 1.5, 619703, 3600, False, "cloud", "unexplained"),
     ("cycle_jitter", 1.5, 330984, 300, False, "json", "unexplained"),
     ("cycle_jitter", 1.5, 361837, 300, False, "dial", "unexplained"),
+    # seven R-tests 83 min apart: `none` while seven afforded the estimator
+    # two lags (overdetermined by two; three for two lags now)
+    ("step", 1.5, 187697, 5000, False, "dial", "unexplained"),
+    ("step", 3.0, 640684, 5000, True, "json", "unexplained"),
 ]
 
 

@@ -80,6 +80,30 @@ TEST(Battery, NoCauseNamedWithoutOneAtProductionSpacing) {
   EXPECT_GE(right, kNoCauseRightAtLeast);
 }
 
+// R-tests 2 h apart, seven of them: a run without a cause (a cloud) and a
+// probed piece next to another run's log. While seven R-tests afforded
+// the estimator two lags (two R-tests to spare), their gains, which the
+// cuts' phases do not pin, put structure at the cuts that the first was
+// named workpiece_expansion for (delta BIC -86) and the second
+// tool_wear+workpiece_expansion; a second lag needs three to spare.
+TEST(Battery, SevenRTestsTwoHoursApartNameNoCauseWithoutOne) {
+  const Config config;
+  BatteryOptions options;
+  options.rtest_interval_s = 7200;
+  options.cloud_every = 10;
+  for (int index : {6, 62}) {
+    const BatteryCase c = DrawBatteryCase(options, index);
+    ASSERT_TRUE(c.scenario == Scenario::kNone ||
+                c.scenario == Scenario::kMismatched)
+        << index;
+    const BatteryRun r = RunBatteryCase(config, c, options.diagnosis);
+    EXPECT_TRUE(
+        r.outcome == c.expected ||
+        (c.scenario == Scenario::kMismatched && r.outcome == "unexplained"))
+        << index << ": " << r.outcome << ": " << r.reason;
+  }
+}
+
 // A piece measured with a probe (a few touches per facet, whose stated
 // variances hide the mismatch in E_X, E_Y or E_Z alone) next to the log of
 // another run: the facet distances' difference looks like wear or the
