@@ -81,11 +81,11 @@ TEST(Battery, NoCauseNamedWithoutOneAtProductionSpacing) {
 }
 
 // R-tests 2 h apart, seven of them: a run without a cause (a cloud) and a
-// probed piece next to another run's log. While seven R-tests afforded
-// the estimator two lags (two R-tests to spare), their gains, which the
-// cuts' phases do not pin, put structure at the cuts that the first was
-// named workpiece_expansion for (delta BIC -86) and the second
-// tool_wear+workpiece_expansion; a second lag needs three to spare.
+// probed piece next to another run's log. When seven R-tests afford the
+// estimator two lags (two R-tests to spare), their gains, which the cuts'
+// phases do not pin, put structure at the cuts: the first run is named
+// workpiece_expansion (delta BIC -86), the second
+// tool_wear+workpiece_expansion. A second lag needs three to spare.
 TEST(Battery, SevenRTestsTwoHoursApartNameNoCauseWithoutOne) {
   const Config config;
   BatteryOptions options;
