@@ -438,7 +438,7 @@ CHECK_CASES = [
     ("cycle_jitter", 1.5, 330984, 300, False, "json", "unexplained"),
     ("cycle_jitter", 1.5, 361837, 300, False, "dial", "unexplained"),
     # seven R-tests 83 min apart: `none` while seven afforded the estimator
-    # two lags (overdetermined by two; three for two lags now)
+    # two lags (two R-tests to spare; two lags need three)
     ("step", 1.5, 187697, 5000, False, "dial", "unexplained"),
     ("step", 3.0, 640684, 5000, True, "json", "unexplained"),
 ]
