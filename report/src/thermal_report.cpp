@@ -4,10 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
+#include <vector>
 
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/models/time_series.h"
+#include "ttp/talc/replay.h"
+#include "ttp/talc/strategy.h"
 
 namespace ttp::report_assets {
 extern const char* const kUplotJsPieces[];
@@ -45,6 +50,7 @@ std::string Escape(const std::string& s) {
 json Finite(double v) { return std::isfinite(v) ? json(v) : json(); }
 
 constexpr const char* kScript = R"js(
+window.addEventListener("error", function(){ document.body.setAttribute("data-js-error", "1"); });
 var D = JSON.parse(document.getElementById("data").textContent);
 function width(div){ return Math.max(320, Math.min(div.clientWidth || 900, 1100)); }
 D.outputs.forEach(function(o, k){
@@ -77,7 +83,148 @@ D.outputs.forEach(function(o, k){
     }, [xs, idx.map(function(i){ return o.best_res[i]; }), idx.map(function(i){ return o.simplest_res[i]; })], b);
   }
 });
+if (D.replay && D.replay.outputs) {
+  var R = D.replay, box = document.getElementById("replay_curve");
+  var c = document.createElement("div"); box.appendChild(c);
+  var colours = ["#0b4f8a", "#c2410c", "#15803d", "#7c3aed", "#b45309", "#0e7490", "#be123c"];
+  var ser = [{ label: "interval (h)" }], cols = [R.curve.map(function(p){ return p.interval_s / 3600; })];
+  R.output_names.forEach(function(name, k){
+    ser.push({ label: name + " TALC", stroke: colours[k % colours.length], width: 1.5, points: { show: true, size: 5 } });
+    cols.push(R.curve.map(function(p){ return p.outputs[name].talc_p99_um; }));
+    ser.push({ label: name + " hold", stroke: colours[k % colours.length], width: 1, dash: [4, 3] });
+    cols.push(R.curve.map(function(p){ return p.outputs[name].hold_p99_um; }));
+  });
+  new uPlot({ title: "P99 of |residual| against the measurement interval (um; dashed: the last measurement held)",
+    width: width(box), height: 300, scales: { x: { time: false } },
+    axes: [{ label: "interval (h)" }, { label: "P99 (um)", size: 55 }], series: ser }, cols, c);
+  R.outputs.forEach(function(o, k){
+    var b = document.getElementById("replay" + k), d = document.createElement("div"); b.appendChild(d);
+    new uPlot({ title: o.name + ": measured, TALC's compensation and the last measurement held (um), every " + R.shown_interval_s / 3600 + " h",
+      width: width(b), height: 260, scales: { x: { time: false } },
+      axes: [{ label: "time (h)" }, { label: "um", size: 55 }],
+      series: [{ label: "t (h)" },
+        { label: "measured", stroke: "#0b4f8a", width: 1.5 },
+        { label: "TALC", stroke: "#c2410c", width: 1.5 },
+        { label: "hold", stroke: "#7b8794", width: 1, dash: [4, 3] },
+        { label: "measurements", stroke: "#111", width: 0, paths: function(){ return null; }, points: { show: true, size: 5, fill: "#111" } }],
+      hooks: { draw: [function(u){
+        var x = u.valToPos(R.evaluated_from_h, "x", true), ctx = u.ctx;
+        ctx.save(); ctx.strokeStyle = "#444"; ctx.setLineDash([3, 3]);
+        ctx.beginPath(); ctx.moveTo(x, u.bbox.top); ctx.lineTo(x, u.bbox.top + u.bbox.height); ctx.stroke();
+        ctx.restore(); }] }
+    }, [R.t_h, o.measured, o.talc, o.hold, o.measurement], d);
+  });
+}
+document.body.setAttribute("data-plots-done", "1");
 )js";
+
+// The replay the page shows (thesis chapter 6, docs/TALC.md): the default
+// strategy (8.5 h of calibration, a measurement every 5 min, then a fixed
+// interval), its P99 at intervals of 15 min to 4 h against holding the
+// last measurement, and the compensation over time at one measurement per
+// hour. A calibration that would leave less than a third of the log
+// compensated is shortened to a third of the span (the page says so). A
+// log the replay cannot run on (no output measured, say) gets the reason
+// instead of the section.
+json ReplayData(const models::TimeSeries& ts) {
+  json out;
+  const size_t n = ts.rows();
+  if (n < 2 || ts.output_names.empty()) {
+    out["unavailable"] = "the log has no output to replay";
+    return out;
+  }
+  const double span_s = ts.t_s.back() - ts.t_s.front();
+  talc::Strategy base;
+  out["calibration_shortened"] = false;
+  if (base.calibration_s > span_s * 2.0 / 3.0) {
+    base.calibration_s = span_s / 3.0;
+    out["calibration_shortened"] = true;
+  }
+  constexpr double kShownIntervalS = 3600.0;
+  try {
+    json curve = json::array();
+    for (double interval_s : {900.0, 1800.0, 3600.0, 7200.0, 14400.0}) {
+      talc::Strategy s = base;
+      s.interval_s = interval_s;
+      const talc::ReplayResult r = talc::Replay(ts, s);
+      if (r.status != talc::ReplayStatus::kOk) continue;
+      json per = json::object();
+      for (const auto& o : r.outputs)
+        per[o.name] = {{"talc_p99_um", Finite(o.talc.p99_um)},
+                       {"talc_rms_um", Finite(o.talc.rms_um)},
+                       {"hold_p99_um", Finite(o.hold.p99_um)},
+                       {"static_p99_um", Finite(o.static_model.p99_um)},
+                       {"none_p99_um", Finite(o.none.p99_um)}};
+      curve.push_back({{"interval_s", interval_s},
+                       {"measurements", r.measurements},
+                       {"q_prod_percent", 100.0 * r.q_prod},
+                       {"outputs", per}});
+    }
+    talc::Strategy shown = base;
+    shown.interval_s = kShownIntervalS;
+    talc::ReplayOptions keep;
+    keep.keep_predictions = true;
+    keep.baselines = false;
+    const talc::ReplayResult r = talc::Replay(ts, shown, keep);
+    if (curve.empty() || r.status != talc::ReplayStatus::kOk) {
+      out["unavailable"] =
+          "no sample after the calibration phase has every output measured";
+      return out;
+    }
+    // About 2000 rows per series, and every measurement's row.
+    const size_t stride = std::max<size_t>(1, n / 2000);
+    std::vector<char> measured_row(n, 0);
+    {
+      size_t i = 0;
+      for (double tm : r.measurement_times_s) {
+        while (i < n && ts.t_s[i] < tm) ++i;
+        if (i < n && ts.t_s[i] == tm) measured_row[i] = 1;
+      }
+    }
+    std::vector<size_t> rows;
+    for (size_t i = 0; i < n; ++i)
+      if (i % stride == 0 || measured_row[i]) rows.push_back(i);
+    json t = json::array();
+    for (size_t i : rows) t.push_back(ts.t_s[i] / 3600.0);
+    json outs = json::array(), names = json::array();
+    for (size_t k = 0; k < r.outputs.size(); ++k) {
+      const int col = ts.OutputIndex(r.outputs[k].name);
+      if (col < 0) continue;
+      json m = json::array(), p = json::array(), h = json::array(),
+           at = json::array();
+      double held = std::numeric_limits<double>::quiet_NaN();
+      size_t next = 0;
+      for (size_t i : rows) {
+        // The last measurement strictly before this sample (the
+        // compensation at a sample is decided before its own measurement).
+        for (; next < i; ++next)
+          if (measured_row[next])
+            held = ts.outputs_um(Eigen::Index(next), col);
+        const double y = ts.outputs_um(Eigen::Index(i), col);
+        m.push_back(Finite(y));
+        p.push_back(Finite(r.predictions_um(Eigen::Index(i), Eigen::Index(k))));
+        h.push_back(Finite(held));
+        at.push_back(measured_row[i] ? Finite(y) : json());
+      }
+      names.push_back(r.outputs[k].name);
+      outs.push_back({{"name", r.outputs[k].name},
+                      {"measured", m},
+                      {"talc", p},
+                      {"hold", h},
+                      {"measurement", at}});
+    }
+    out["strategy"] = talc::StrategyToJson(shown);
+    out["shown_interval_s"] = kShownIntervalS;
+    out["evaluated_from_h"] = r.evaluated_from_s / 3600.0;
+    out["curve"] = curve;
+    out["output_names"] = names;
+    out["t_h"] = t;
+    out["outputs"] = outs;
+  } catch (const InputError& e) {
+    out = json{{"unavailable", e.what()}};
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -181,6 +328,57 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
   std::string plots;
   for (size_t k = 0; k < names.size(); ++k)
     plots += fmt::format("<div class=\"out\" id=\"out{}\"></div>\n", k);
+  std::string replay;
+  if (data.contains("replay")) {
+    const json& rp = data.at("replay");
+    replay = "<h2>TALC replayed (thesis chapter 6)</h2>\n";
+    if (rp.contains("unavailable")) {
+      replay += "<p>No replay: " +
+                Escape(rp.at("unavailable").get<std::string>()) + ".</p>\n";
+    } else {
+      const json& st = rp.at("strategy");
+      replay += fmt::format(
+          "<p>The outputs measured only at the strategy's times, the model "
+          "(speed lags and temperatures) updated by recursive least squares "
+          "at each, its prediction the compensation (<code>ttp talc "
+          "replay</code>, docs/TALC.md). Calibration: {:g} h, a measurement "
+          "every {:g} min{}; then a fixed interval. P99 of |residual| (um) "
+          "from the end of calibration ({:.2f} h), TALC / the last "
+          "measurement held; Q_Prod: the share of time not spent "
+          "measuring.</p>\n",
+          st.at("calibration_s").get<double>() / 3600.0,
+          st.at("calibration_interval_s").get<double>() / 60.0,
+          rp.at("calibration_shortened").get<bool>()
+              ? " (shortened to a third of the log)"
+              : "",
+          rp.at("evaluated_from_h").get<double>());
+      replay += "<table><tr><th>interval</th><th>measurements</th>"
+                "<th>Q_Prod</th>";
+      for (const auto& o : rp.at("output_names"))
+        replay += "<th>" + Escape(o.get<std::string>()) + "</th>";
+      replay += "</tr>\n";
+      auto cell = [](const json& v) {
+        return v.is_number() ? fmt::format("{:.2f}", v.get<double>())
+                             : std::string("-");
+      };
+      for (const auto& p : rp.at("curve")) {
+        replay += fmt::format(
+            "<tr><td>{:g} min</td><td>{}</td><td>{:.1f} %</td>",
+            p.at("interval_s").get<double>() / 60.0,
+            p.at("measurements").get<int>(),
+            p.at("q_prod_percent").get<double>());
+        for (const auto& o : rp.at("output_names")) {
+          const json& e = p.at("outputs").at(o.get<std::string>());
+          replay += "<td>" + cell(e.at("talc_p99_um")) + " / " +
+                    cell(e.at("hold_p99_um")) + "</td>";
+        }
+        replay += "</tr>\n";
+      }
+      replay += "</table>\n<div class=\"out\" id=\"replay_curve\"></div>\n";
+      for (size_t k = 0; k < rp.at("outputs").size(); ++k)
+        replay += fmt::format("<div class=\"out\" id=\"replay{}\"></div>\n", k);
+    }
+  }
   std::string payload = data.dump();
   // Keep "</script>" out of the embedded JSON.
   for (size_t p = 0; (p = payload.find("</", p)) != std::string::npos; p += 3)
@@ -200,7 +398,7 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
              Escape(data.at("log").get<std::string>()),
              data.at("holdout_from_s").get<double>()) +
          table + "<h2>What the best and the simplest get wrong</h2>\n" + diag +
-         "<h2>Per output</h2>\n" + plots +
+         "<h2>Per output</h2>\n" + plots + replay +
          "<script type=\"application/json\" id=\"data\">" + payload +
          "</script>\n<script>" + Joined(report_assets::kUplotJsPieces) +
          "\n</script>\n<script>" + kScript +
@@ -216,7 +414,8 @@ json WriteThermalReport(const std::string& log_path,
       ts.t_s.front() + (ts.t_s.back() - ts.t_s.front()) * 2.0 / 3.0;
   const models::CompareResult r =
       models::CompareModels(ts, from, models::FitOptions());
-  const json data = ThermalReportData(r);
+  json data = ThermalReportData(r);
+  data["replay"] = ReplayData(ts);
   WriteFileAtomic(html_out,
                   ThermalReportHtml(data, "Thermal error models: " + log_path));
   if (!json_out.empty()) WriteFileAtomic(json_out, data.dump(1) + "\n");

@@ -1,5 +1,6 @@
 // `ttp thermal fit|predict|compare` end to end on the real FL spindle data
 // and on bad input (exit codes 0 / 2, messages naming file, line, column).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -113,6 +114,46 @@ TEST(CliModels, ReportOnThermalLog) {
   const auto data = ReadJson(dir / "r.json");
   ASSERT_EQ(data["outputs"].size(), 5u);
   EXPECT_EQ(data["outputs"][0]["measured"].size(), data["t_h"].size());
+
+  // The TALC replay on the same page: the default strategy, its
+  // calibration (8.5 h) shortened to a third of this 10 h excerpt, at five
+  // intervals; each point is what `ttp talc replay` reports for that
+  // strategy on that log, and the hourly one is drawn over time with every
+  // measurement marked.
+  EXPECT_NE(page.find("TALC replayed"), std::string::npos);
+  const auto& replay = data["replay"];
+  ASSERT_TRUE(replay.contains("curve")) << replay.dump();
+  EXPECT_TRUE(replay["calibration_shortened"].get<bool>());
+  const double calibration_s = replay["strategy"]["calibration_s"];
+  EXPECT_NEAR(calibration_s, 2399 * 15.0 / 3.0, 1e-9);
+  ASSERT_EQ(replay["curve"].size(), 5u);
+  const auto& hourly = replay["curve"][2];
+  ASSERT_EQ(hourly["interval_s"].get<double>(), 3600.0);
+  const RunResult cli = RunTtp(
+      fmt::format("talc replay {} --interval-s 3600 --calibration-s {} "
+                  "--json {}",
+                  log, calibration_s, (dir / "replay.json").string()));
+  ASSERT_EQ(cli.exit_code, 0) << cli.output;
+  const auto expected = ReadJson(dir / "replay.json");
+  EXPECT_EQ(hourly["measurements"], expected["measurements"]);
+  ASSERT_EQ(expected["outputs"].size(), 5u);
+  for (const auto& o : expected["outputs"]) {
+    const auto& shown = hourly["outputs"][o["name"].get<std::string>()];
+    EXPECT_DOUBLE_EQ(shown["talc_p99_um"].get<double>(),
+                     o["talc"]["p99_um"].get<double>());
+    EXPECT_DOUBLE_EQ(shown["hold_p99_um"].get<double>(),
+                     o["hold"]["p99_um"].get<double>());
+  }
+  ASSERT_EQ(replay["outputs"].size(), 5u);
+  for (const auto& o : replay["outputs"]) {
+    ASSERT_EQ(o["measured"].size(), replay["t_h"].size());
+    ASSERT_EQ(o["talc"].size(), replay["t_h"].size());
+    ASSERT_EQ(o["hold"].size(), replay["t_h"].size());
+    size_t marked = 0;
+    for (const auto& v : o["measurement"]) marked += v.is_number();
+    EXPECT_EQ(marked, expected["measurement_times_s"].size());
+  }
+
   // A TALC log still needs its measurement.
   const RunResult talc =
       RunTtp("report --log " + std::string(TTP_DATA_DIR) +

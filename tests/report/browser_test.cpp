@@ -1,6 +1,6 @@
 // The reports of the sample runs (samples/: a cloud, dial, DMIS and probe
 // measurement, with and without the TALC log, and the comparison of two
-// pieces), built by the `ttp report` binary, opened in headless Chromium
+// pieces) and of the real thermal log, built by the `ttp report` binary, opened in headless Chromium
 // with no network. Every uPlot instance must have drawn every data point of
 // its series inside its plot area (the page's draw hook counts them from
 // uPlot's own data and scales into data-points), the page must log nothing
@@ -222,6 +222,52 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   const std::string image = ReadFile(png);
   EXPECT_EQ(image.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
   EXPECT_GT(image.size(), 50000u);  // a drawn page, not a blank one
+}
+
+// The page of a thermal log (the real spindle data): the comparison of the
+// model structures (measured and predicted, residual against the leading
+// temperature) and the TALC replay (P99 against the interval, and the
+// hourly compensation over time), each output's plots drawn by uPlot,
+// nothing logged, no script error.
+TEST_F(BrowserTest, ThermalLogPageDrawsTheComparisonAndTheReplay) {
+  ASSERT_TRUE(fs::exists(TTP_CHROMIUM)) << "Chromium not found";
+  const fs::path dir = fs::path(TTP_BINARY_DIR) / "report_browser" / "thermal";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path html = fs::absolute(dir / "thermal.html");
+  const fs::path data_path = fs::absolute(dir / "thermal.json");
+  const RunResult report = RunCommand(
+      "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
+      "/app/ttp report --log reference/fl-thermal/train.csv -o " +
+      Quote(html) + " --json " + Quote(data_path) + " 2>&1");
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const json data = json::parse(ReadFile(data_path));
+  const size_t outputs = data["outputs"].size();
+  ASSERT_EQ(outputs, 5u);
+  ASSERT_EQ(data["replay"]["outputs"].size(), outputs);
+  const RunResult dom = Chromium(
+      "--window-size=1280,1000 --dump-dom " +
+          Quote("file://" + html.string()),
+      dir / "profile");
+  ASSERT_EQ(dom.exit_code, 0) << dom.output;
+  std::string console;
+  std::istringstream lines(dom.output);
+  for (std::string line; std::getline(lines, line);)
+    if (line.find(":CONSOLE") != std::string::npos ||
+        line.find("Uncaught") != std::string::npos)
+      console += line + "\n";
+  EXPECT_TRUE(console.empty()) << "the page logged:\n" << console;
+  EXPECT_NE(dom.output.find("data-plots-done=\"1\""), std::string::npos)
+      << "the plotting script did not finish";
+  EXPECT_EQ(dom.output.find("data-js-error=\"1\""), std::string::npos);
+  size_t instances = 0;
+  for (size_t p = dom.output.find("class=\"uplot"); p != std::string::npos;
+       p = dom.output.find("class=\"uplot", p + 1))
+    ++instances;
+  // Per output: measured and predicted, the residual against the leading
+  // temperature, the replay over time; and one curve of P99 for all.
+  EXPECT_EQ(instances, 3 * outputs + 1);
+  EXPECT_NE(dom.output.find("TALC replayed"), std::string::npos);
 }
 
 // Every other kind of measurement (dial, DMIS and probe with and without

@@ -1,7 +1,9 @@
 // The report of a thermal log (thermal-log.md): every model structure
-// compared on a chronological holdout, and per output the measured and the
+// compared on a chronological holdout, per output the measured and the
 // predicted displacement over time and the residual against the leading
-// temperature, as one self-contained HTML page (uPlot embedded).
+// temperature, and the TALC replay of the default strategy (P99 against
+// the measurement interval, the hourly compensation over time), as one
+// self-contained HTML page (uPlot embedded).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -21,8 +23,9 @@ std::string ThermalReportHtml(const nlohmann::json& data,
 bool LooksLikeThermalLog(const std::string& text);
 
 // `ttp report` on a thermal log: compares the structures with the holdout
-// starting at two thirds of the log's span, writes the page (and the data
-// as JSON when json_out is not empty). Returns the data.
+// starting at two thirds of the log's span, replays TALC (data["replay"]),
+// writes the page (and the data as JSON when json_out is not empty).
+// Returns the data.
 nlohmann::json WriteThermalReport(const std::string& log_path,
                                   const std::string& html_out,
                                   const std::string& json_out);
