@@ -65,7 +65,9 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                   "results; not needed for a thermal log (thermal-log.md)");
   cmd->add_option("--log", *log_path,
                   "TALC log (CSV); without it the page shows the piece and "
-                  "its verdict only (e.g. an uncompensated acceptance test)");
+                  "its verdict only (e.g. an uncompensated acceptance test). "
+                  "A thermal log (thermal-log.md) alone gives its page: the "
+                  "thermal error models compared and TALC replayed");
   cmd->add_option("--compare", *compare,
                   "two measured pieces, A (e.g. without compensation) and B "
                   "(with): their figures side by side and the spans over "
