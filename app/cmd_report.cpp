@@ -4,6 +4,8 @@
 // The grade and the diagnosis are computed here by their modules; the report
 // module only renders them.
 // `ttp report-html DATA.json -o report.html`: renders a report data file.
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -97,6 +99,15 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
     limits->Validate();
     if (!log_path->empty() &&
         report::LooksLikeThermalLog(ReadTextFile(*log_path))) {
+      // A thermal log's page is the log's alone: a piece given beside it
+      // would silently not be shown.
+      if (!measurement->empty() || !compare->empty())
+        throw InputError(
+            "report", 0, measurement->empty() ? "--compare" : "MEASUREMENT",
+            fmt::format("{} is a thermal log (thermal-log.md), whose page "
+                        "shows no measured piece: give the piece's TALC log "
+                        "as --log, or the thermal log alone",
+                        *log_path));
       CheckOutputPath(*out, {*log_path}, "--output");
       report::WriteThermalReport(*log_path, *out, *json_out);  // thermal log
       return;

@@ -154,6 +154,15 @@ TEST(CliModels, ReportOnThermalLog) {
     EXPECT_EQ(marked, expected["measurement_times_s"].size());
   }
 
+  // A thermal log's page shows no piece: one given beside it is refused,
+  // not silently left out.
+  const RunResult with_piece =
+      RunTtp("report --log " + log + " " + std::string(TTP_DATA_DIR) +
+             "/samples/run-a/piece.ply -o " + (dir / "y.html").string());
+  EXPECT_EQ(with_piece.exit_code, 2) << with_piece.output;
+  EXPECT_NE(with_piece.output.find("MEASUREMENT"), std::string::npos)
+      << with_piece.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "y.html"));
   // A TALC log still needs its measurement.
   const RunResult talc =
       RunTtp("report --log " + std::string(TTP_DATA_DIR) +
