@@ -143,29 +143,31 @@ json ReplayData(const models::TimeSeries& ts) {
   constexpr double kShownIntervalS = 3600.0;
   try {
     json curve = json::array();
+    // The shown interval's replay keeps its compensation at every sample
+    // for the plots over time (its figures are the curve's point).
+    talc::ReplayResult r;
+    talc::Strategy shown = base;
+    shown.interval_s = kShownIntervalS;
     for (double interval_s : {900.0, 1800.0, 3600.0, 7200.0, 14400.0}) {
       talc::Strategy s = base;
       s.interval_s = interval_s;
-      const talc::ReplayResult r = talc::Replay(ts, s);
-      if (r.status != talc::ReplayStatus::kOk) continue;
+      talc::ReplayOptions options;
+      options.keep_predictions = interval_s == kShownIntervalS;
+      talc::ReplayResult point = talc::Replay(ts, s, options);
+      if (options.keep_predictions) r = point;
+      if (point.status != talc::ReplayStatus::kOk) continue;
       json per = json::object();
-      for (const auto& o : r.outputs)
+      for (const auto& o : point.outputs)
         per[o.name] = {{"talc_p99_um", Finite(o.talc.p99_um)},
                        {"talc_rms_um", Finite(o.talc.rms_um)},
                        {"hold_p99_um", Finite(o.hold.p99_um)},
                        {"static_p99_um", Finite(o.static_model.p99_um)},
                        {"none_p99_um", Finite(o.none.p99_um)}};
       curve.push_back({{"interval_s", interval_s},
-                       {"measurements", r.measurements},
-                       {"q_prod_percent", 100.0 * r.q_prod},
+                       {"measurements", point.measurements},
+                       {"q_prod_percent", 100.0 * point.q_prod},
                        {"outputs", per}});
     }
-    talc::Strategy shown = base;
-    shown.interval_s = kShownIntervalS;
-    talc::ReplayOptions keep;
-    keep.keep_predictions = true;
-    keep.baselines = false;
-    const talc::ReplayResult r = talc::Replay(ts, shown, keep);
     if (curve.empty() || r.status != talc::ReplayStatus::kOk) {
       out["unavailable"] =
           "no sample after the calibration phase has every output measured";
@@ -188,8 +190,8 @@ json ReplayData(const models::TimeSeries& ts) {
     for (size_t i : rows) t.push_back(ts.t_s[i] / 3600.0);
     json outs = json::array(), names = json::array();
     for (size_t k = 0; k < r.outputs.size(); ++k) {
+      // The replay's outputs are the log's (Strategy::outputs empty).
       const int col = ts.OutputIndex(r.outputs[k].name);
-      if (col < 0) continue;
       json m = json::array(), p = json::array(), h = json::array(),
            at = json::array();
       double held = std::numeric_limits<double>::quiet_NaN();

@@ -1,7 +1,7 @@
 // The reports of the sample runs (samples/: a cloud, dial, DMIS and probe
 // measurement, with and without the TALC log, and the comparison of two
-// pieces) and of the real thermal log, built by the `ttp report` binary, opened in headless Chromium
-// with no network. Every uPlot instance must have drawn every data point of
+// pieces) and of the real thermal log, built by the `ttp report` binary,
+// opened in headless Chromium with no network. Every uPlot instance must have drawn every data point of
 // its series inside its plot area (the page's draw hook counts them from
 // uPlot's own data and scales into data-points), the page must log nothing
 // to the console and report no script error, and a screenshot is saved to
@@ -118,6 +118,33 @@ class BrowserTest : public ::testing::Test {
 };
 fs::path BrowserTest::dir_;
 
+// Chromium's output for a page (console lines and the dumped DOM): nothing
+// logged, no uncaught error, and the page's script marked itself done
+// without marking an error.
+void CheckPageRanClean(const std::string& output) {
+  std::string console;
+  std::istringstream lines(output);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find(":CONSOLE") != std::string::npos ||
+        line.find("Uncaught") != std::string::npos) {
+      console += line + "\n";
+    }
+  }
+  EXPECT_TRUE(console.empty()) << "the page logged:\n" << console;
+  EXPECT_NE(output.find("data-plots-done=\"1\""), std::string::npos)
+      << "the plotting script did not finish";
+  EXPECT_EQ(output.find("data-js-error=\"1\""), std::string::npos);
+}
+
+// uPlot instances in a dumped DOM.
+size_t UplotInstances(const std::string& dom) {
+  size_t n = 0;
+  for (size_t p = dom.find("class=\"uplot"); p != std::string::npos;
+       p = dom.find("class=\"uplot", p + 1))
+    ++n;
+  return n;
+}
+
 // Opens `html` in Chromium and checks that every plot drew every point
 // of `expected` (plot name -> points), that nothing was logged to the
 // console and that no script error was raised.
@@ -141,18 +168,7 @@ void CheckPageDrawsEverything(const fs::path& html,
                             html.parent_path() / "profile");
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
   *dom_out = dom.output;
-  std::string console;
-  std::istringstream lines(dom.output);
-  for (std::string line; std::getline(lines, line);) {
-    if (line.find(":CONSOLE") != std::string::npos ||
-        line.find("Uncaught") != std::string::npos) {
-      console += line + "\n";
-    }
-  }
-  EXPECT_TRUE(console.empty()) << "the page logged:\n" << console;
-  EXPECT_NE(dom.output.find("data-plots-done=\"1\""), std::string::npos)
-      << "the plotting script did not finish";
-  EXPECT_EQ(dom.output.find("data-js-error=\"1\""), std::string::npos);
+  CheckPageRanClean(dom.output);
   EXPECT_NE(dom.output.find("<div id=\"js-errors\"></div>"), std::string::npos)
       << "script errors shown on the page";
 
@@ -174,12 +190,7 @@ void CheckPageDrawsEverything(const fs::path& html,
     EXPECT_GT(n, 0) << "plot " << plot << " has no data";
     EXPECT_EQ(drawn[plot], n) << "plot " << plot;
   }
-  size_t instances = 0;
-  for (size_t p = dom.output.find("class=\"uplot"); p != std::string::npos;
-       p = dom.output.find("class=\"uplot", p + 1)) {
-    ++instances;
-  }
-  EXPECT_EQ(instances, expected.size()) << "uPlot instances in the page";
+  EXPECT_EQ(UplotInstances(dom.output), expected.size()) << "uPlot instances in the page";
   EXPECT_NE(dom.output.find("data-verdict=\"" + verdict + "\""),
             std::string::npos);
 }
@@ -250,20 +261,8 @@ TEST_F(BrowserTest, ThermalLogPageDrawsTheComparisonAndTheReplay) {
           Quote("file://" + html.string()),
       dir / "profile");
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
-  std::string console;
-  std::istringstream lines(dom.output);
-  for (std::string line; std::getline(lines, line);)
-    if (line.find(":CONSOLE") != std::string::npos ||
-        line.find("Uncaught") != std::string::npos)
-      console += line + "\n";
-  EXPECT_TRUE(console.empty()) << "the page logged:\n" << console;
-  EXPECT_NE(dom.output.find("data-plots-done=\"1\""), std::string::npos)
-      << "the plotting script did not finish";
-  EXPECT_EQ(dom.output.find("data-js-error=\"1\""), std::string::npos);
-  size_t instances = 0;
-  for (size_t p = dom.output.find("class=\"uplot"); p != std::string::npos;
-       p = dom.output.find("class=\"uplot", p + 1))
-    ++instances;
+  CheckPageRanClean(dom.output);
+  const size_t instances = UplotInstances(dom.output);
   // Per output: measured and predicted, the residual against the leading
   // temperature, the replay over time; and one curve of P99 for all.
   EXPECT_EQ(instances, 3 * outputs + 1);
