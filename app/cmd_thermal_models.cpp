@@ -60,6 +60,11 @@ void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {
   cmd->add_option("--weight-half-life-s", o->weight_half_life_s,
                   "WLSE: halve a sample's weight per this age (default 0: "
                   "ordinary least squares)");
+  cmd->add_flag("!--keep-jumps", o->repair_jumps,
+                "do not shift a temperature sensor that jumps inside the "
+                "fitted span back by its step (default: shift it, in the "
+                "fit and in later predictions; either way it is warned "
+                "about)");
 }
 
 // An invalid option is named as the user wrote it: the command's flag for
@@ -127,6 +132,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
       Warn(global, ts.warnings);
       const models::ThermalModel model =
           models::FitThermalModel(ts, SplitList(*outputs), *o);
+      Warn(global, model.fit_warnings);
       const nlohmann::json j = models::ModelToJson(model);
       WriteJson(*out, j);
       std::string text;
@@ -149,6 +155,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
             {"cv_rms_um", m.cv_rms_um},
             {"fit_rms_um", m.fit_rms_um}};
       }
+      summary["warnings"] = ts.warnings;
+      for (const auto& w : model.fit_warnings) summary["warnings"].push_back(w);
+      summary["fitted_jumps"] = j.at("fitted_jumps");
       if (!global.quiet) WriteText("-", text);
       if (!json_out->empty()) WriteJson(*json_out, summary);
     });

@@ -214,8 +214,9 @@ Diagnosis Diagnose(const TimeSeries& ts, size_t first, int output,
   return d;
 }
 
-CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
+CompareResult CompareModels(const TimeSeries& log, double holdout_from_s,
                             const FitOptions& o) {
+  TimeSeries ts = log;  // with the fitted span's sensor jumps shifted out
   CompareResult res;
   res.source = ts.source;
   res.holdout_from_s = holdout_from_s;
@@ -234,6 +235,10 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
   }
   if (ts.output_names.empty())
     throw InputError(ts.source, 0, "d_*", "the log has no output column");
+  // As `thermal fit` on the fitted span: a sensor that jumps there is
+  // shifted back from the jump on, in the holdout too.
+  const SensorFaults faults =
+      RepairSensorFaults(HeadOf(ts, holdout_from_s), o.repair_jumps, &ts);
   const TimeSeries fit = HeadOf(ts, holdout_from_s);
   const Eigen::Index n_rows = static_cast<Eigen::Index>(ts.rows());
   const int n_out = static_cast<int>(ts.output_names.size());
@@ -243,6 +248,8 @@ CompareResult CompareModels(const TimeSeries& ts, double holdout_from_s,
   res.simplest_um.resize(n_rows, n_out);
   res.leading_values.resize(n_rows, n_out);
   res.warnings = ts.warnings;
+  res.warnings.insert(res.warnings.end(), faults.warnings.begin(),
+                      faults.warnings.end());
 
   std::vector<std::string> names = {"none", "static_all_T", "lag_speed"};
   for (Structure s : AllStructures()) names.push_back(StructureName(s));

@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <set>
 
 #include "ttp/geometry/error.h"
@@ -724,16 +725,189 @@ OutputModel FitFixed(const TimeSeries& fit, int output,
 
 namespace {
 std::vector<InputRange> InputRanges(const TimeSeries& ts);
+
+// The sensor-fault rules (identify.h: FittedJump, StuckSensor).
+constexpr double kJumpMinK = 0.3;           // as PredictOptions::jump_min
+constexpr double kJumpMedianFactor = 20.0;  // times the median |step|
+constexpr double kJumpWindowS = 600.0;      // level before / after, gaps
+// A speed step larger than this share of the speed's range is the
+// program's (the machine changes state there).
+constexpr double kSpeedChangeShare = 0.05;
+constexpr double kStuckMinS = 7200.0;
+constexpr double kStuckMinShare = 0.1;  // of the span
+constexpr double kStuckOthersMoveK = 0.3;
+
+bool IsTemperature(const std::string& name) { return name.rfind("T_", 0) == 0; }
+
+double MedianOfRange(const Eigen::VectorXd& x, size_t from, size_t to) {
+  std::vector<double> v(x.data() + from, x.data() + to);
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Rows within `w` rows of a gap or of a speed change.
+std::vector<char> RowsNearStateChanges(const TimeSeries& ts, size_t w) {
+  const size_t n = ts.rows();
+  std::vector<char> near(n, 0);
+  auto mark = [&](size_t i) {
+    const size_t a = i > w ? i - w : 0, b = std::min(n, i + w + 1);
+    std::fill(near.begin() + static_cast<std::ptrdiff_t>(a),
+              near.begin() + static_cast<std::ptrdiff_t>(b), 1);
+  };
+  for (size_t g : ts.gap_rows)
+    if (g < n) mark(g);
+  for (size_t j = 0; j < ts.input_names.size(); ++j) {
+    if (!IsSpeed(ts.input_names[j])) continue;
+    const auto col = ts.inputs.col(static_cast<Eigen::Index>(j));
+    const double range = col.maxCoeff() - col.minCoeff();
+    for (Eigen::Index i = 1; i < col.size(); ++i)
+      if (std::abs(col(i) - col(i - 1)) > kSpeedChangeShare * range)
+        mark(static_cast<size_t>(i));
+  }
+  return near;
+}
+
 }  // namespace
+
+std::vector<FittedJump> FindFittedJumps(const TimeSeries& span) {
+  std::vector<FittedJump> out;
+  const size_t n = span.rows();
+  const double dt = MedianStep(span);
+  if (n < 8 || !(dt > 0)) return out;
+  const size_t w =
+      std::max<size_t>(4, static_cast<size_t>(std::lround(kJumpWindowS / dt)));
+  if (n < 2 * w + 1) return out;
+  const std::vector<char> near = RowsNearStateChanges(span, w);
+  for (size_t j = 0; j < span.input_names.size(); ++j) {
+    if (!IsTemperature(span.input_names[j])) continue;
+    Eigen::VectorXd x = span.inputs.col(static_cast<Eigen::Index>(j));
+    std::vector<double> steps;
+    steps.reserve(n);
+    for (size_t i = 1; i < n; ++i) steps.push_back(std::abs(x(i) - x(i - 1)));
+    const auto mid =
+        steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+    std::nth_element(steps.begin(), mid, steps.end());
+    // A sensor read to 0.1 K has a median step of 0: the floor keeps the
+    // factor meaningful, kJumpMinK decides there.
+    const double limit =
+        std::max(kJumpMinK, kJumpMedianFactor * std::max(*mid, 1e-3));
+    for (size_t i = w; i + w <= n; ++i) {
+      const double step = x(i) - x(i - 1);
+      if (std::abs(step) < limit || near[i]) continue;
+      const double level =
+          MedianOfRange(x, i, i + w) - MedianOfRange(x, i - w, i);
+      if (level * step <= 0 || std::abs(level) < 0.5 * std::abs(step) ||
+          std::abs(level) > 2.0 * std::abs(step))
+        continue;
+      // The row's step less the sensor's own change over one row there
+      // (the median step around it): the fault alone.
+      std::vector<double> around;
+      for (size_t q = i - w + 1; q < i + w; ++q)
+        if (q != i) around.push_back(x(q) - x(q - 1));
+      const auto m =
+          around.begin() + static_cast<std::ptrdiff_t>(around.size() / 2);
+      std::nth_element(around.begin(), m, around.end());
+      const double fault = step - *m;
+      out.push_back({span.input_names[j], span.t_s[i], fault});
+      x.tail(static_cast<Eigen::Index>(n - i)).array() -= fault;
+    }
+  }
+  return out;
+}
+
+std::vector<StuckSensor> FindStuckSensors(const TimeSeries& span) {
+  std::vector<StuckSensor> out;
+  const size_t n = span.rows();
+  if (n < 3) return out;
+  const double min_s = std::max(
+      kStuckMinS, kStuckMinShare * (span.t_s.back() - span.t_s.front()));
+  std::vector<Eigen::Index> temps;
+  for (size_t j = 0; j < span.input_names.size(); ++j)
+    if (IsTemperature(span.input_names[j]))
+      temps.push_back(static_cast<Eigen::Index>(j));
+  if (temps.size() < 2) return out;
+  for (Eigen::Index j : temps) {
+    const auto x = span.inputs.col(j);
+    size_t a = 0;
+    for (size_t i = 1; i <= n; ++i) {
+      if (i < n &&
+          x(static_cast<Eigen::Index>(i)) == x(static_cast<Eigen::Index>(a)))
+        continue;
+      const size_t b = i - 1;  // rows a..b read the same
+      if (span.t_s[b] - span.t_s[a] >= min_s) {
+        size_t moving = 0;
+        for (Eigen::Index k : temps) {
+          if (k == j) continue;
+          const auto seg =
+              span.inputs.col(k).segment(static_cast<Eigen::Index>(a),
+                                         static_cast<Eigen::Index>(b - a + 1));
+          if (seg.maxCoeff() - seg.minCoeff() > kStuckOthersMoveK) ++moving;
+        }
+        if (2 * moving >= temps.size() - 1)
+          out.push_back({span.input_names[static_cast<size_t>(j)], span.t_s[a],
+                         span.t_s[b], x(static_cast<Eigen::Index>(a))});
+      }
+      a = i;
+    }
+  }
+  return out;
+}
+
+size_t ShiftJumps(const std::vector<FittedJump>& jumps, double t_offset_s,
+                  TimeSeries* ts) {
+  size_t shifted = 0;
+  for (const auto& jmp : jumps) {
+    const int j = ts->InputIndex(jmp.input);
+    if (j < 0) continue;
+    for (size_t i = 0; i < ts->rows(); ++i) {
+      // 1 ms: the two logs' start headers place the rows in one time up to
+      // rounding; rows are seconds apart.
+      if (ts->t_s[i] + t_offset_s < jmp.t_s - 1e-3) continue;
+      ts->inputs(static_cast<Eigen::Index>(i), j) -= jmp.step;
+      ++shifted;
+    }
+  }
+  return shifted;
+}
+
+SensorFaults RepairSensorFaults(const TimeSeries& span, bool repair,
+                                TimeSeries* series) {
+  SensorFaults f;
+  f.jumps = FindFittedJumps(span);
+  f.stuck = FindStuckSensors(span);
+  f.repaired = repair;
+  for (const auto& jmp : f.jumps)
+    f.warnings.push_back(fmt::format(
+        "{} jumps by {:+.2f} K at t = {:g} s in the fitted span and stays "
+        "shifted: a sensor fault (re-seated or re-connected), not the "
+        "machine; {}",
+        jmp.input, jmp.step, jmp.t_s,
+        repair ? "its values from there on are shifted back by the step, in "
+                 "the fit and in every prediction after that time"
+               : "not repaired (--keep-jumps): the model learns the step"));
+  for (const auto& s : f.stuck)
+    f.warnings.push_back(fmt::format(
+        "{} reads {:g} unchanged from t = {:g} to {:g} s ({:.1f} h) while "
+        "the other temperatures move: a stuck or disconnected sensor? The "
+        "model uses it as it is",
+        s.input, s.value, s.from_t_s, s.to_t_s,
+        (s.to_t_s - s.from_t_s) / 3600.0));
+  if (repair) ShiftJumps(f.jumps, 0.0, series);
+  return f;
+}
 
 ThermalModel FitThermalModel(const TimeSeries& ts,
                              const std::vector<std::string>& outputs,
                              const FitOptions& o, double fit_until_s) {
   CheckOptions(o);
-  const TimeSeries fit = HeadOf(ts, fit_until_s);
+  TimeSeries fit = HeadOf(ts, fit_until_s);
   if (fit.rows() < 10)
     throw InputError(ts.source, 0, "t_s",
                      "fewer than 10 rows in the fitted span");
+  // Found before anything is fitted: every structure, the input ranges and
+  // the filters' end state see the sensor as it would have read.
+  SensorFaults faults = RepairSensorFaults(fit, o.repair_jumps, &fit);
   std::vector<int> which;
   if (outputs.empty()) {
     for (size_t j = 0; j < fit.output_names.size(); ++j)
@@ -756,6 +930,8 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   ThermalModel model;
   model.source = ts.source;
   model.options = o;
+  if (faults.repaired) model.fitted_jumps = faults.jumps;
+  model.fit_warnings = std::move(faults.warnings);
   model.fit_t_begin_s = fit.t_s.front();
   model.fit_t_end_s = fit.t_s.back();
   if (StartEpochS(ts)) model.fit_start = ts.header.at("start");
@@ -932,6 +1108,19 @@ Prediction Predict(const ThermalModel& model, const TimeSeries& input_ts,
   TimeSeries ts = input_ts;
   Prediction p;
   p.t_s = ts.t_s;
+  // Both logs' `start` headers place them in one time (a continuation may
+  // count its t_s from its own start); without them, t_s alone.
+  const std::optional<double> fit_start =
+      model.fit_start.empty() ? std::nullopt : Iso8601EpochS(model.fit_start);
+  const std::optional<double> log_start = StartEpochS(ts);
+  const bool absolute = fit_start && log_start;
+  // A jump the fit shifted out stays in the sensor's later values.
+  for (const auto& jmp : model.fitted_jumps)
+    if (ShiftJumps({jmp}, absolute ? *log_start - *fit_start : 0.0, &ts) > 0)
+      p.warnings.push_back(fmt::format(
+          "{}: shifted back by {:+.2f} K from t = {:g} s of the fitted log "
+          "on, as in the fit (a jump of the fitted span)",
+          jmp.input, jmp.step, jmp.t_s));
   p.jumps = FindJumps(model, &ts, po);
   for (const auto& jmp : p.jumps)
     p.warnings.push_back(fmt::format(
@@ -958,12 +1147,6 @@ Prediction Predict(const ThermalModel& model, const TimeSeries& input_ts,
   for (const auto& m : model.outputs) p.cv_rms_um.push_back(m.cv_rms_um);
   p.values_um.resize(static_cast<Eigen::Index>(ts.rows()),
                      static_cast<Eigen::Index>(model.outputs.size()));
-  // Both logs' `start` headers place them in one time (a continuation may
-  // count its t_s from its own start); without them, t_s alone.
-  const std::optional<double> fit_start =
-      model.fit_start.empty() ? std::nullopt : Iso8601EpochS(model.fit_start);
-  const std::optional<double> log_start = StartEpochS(ts);
-  const bool absolute = fit_start && log_start;
   const double step = absolute ? (*log_start + ts.t_s.front()) -
                                      (*fit_start + model.fit_t_end_s)
                                : ts.t_s.front() - model.fit_t_end_s;
@@ -1014,6 +1197,12 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
                       {"max", r.max},
                       {"max_step", r.max_step}});
   j["input_ranges"] = ranges;
+  nlohmann::json jumps = nlohmann::json::array();
+  for (const auto& jmp : model.fitted_jumps)
+    jumps.push_back(
+        {{"input", jmp.input}, {"t_s", jmp.t_s}, {"step_k", jmp.step}});
+  j["fitted_jumps"] = jumps;
+  j["fit_warnings"] = model.fit_warnings;
   const FitOptions& o = model.options;
   j["options"] = {{"model", o.model},
                   {"taus_s", o.taus_s},
@@ -1027,7 +1216,8 @@ nlohmann::json ModelToJson(const ThermalModel& model) {
                   {"criterion", o.criterion},
                   {"min_gain", o.min_gain},
                   {"weight_half_life_s", o.weight_half_life_s},
-                  {"auto_selected", o.auto_selected}};
+                  {"auto_selected", o.auto_selected},
+                  {"repair_jumps", o.repair_jumps}};
   nlohmann::json outs = nlohmann::json::array();
   for (const auto& m : model.outputs) {
     nlohmann::json regs = nlohmann::json::array();
@@ -1080,6 +1270,17 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
         model.input_ranges.push_back(
             {r.at("input").get<std::string>(), r.at("min").get<double>(),
              r.at("max").get<double>(), r.at("max_step").get<double>()});
+    if (j.contains("fitted_jumps"))
+      for (const auto& r : j.at("fitted_jumps")) {
+        FittedJump jmp{r.at("input").get<std::string>(),
+                       r.at("t_s").get<double>(), r.at("step_k").get<double>()};
+        if (!std::isfinite(jmp.t_s) || !std::isfinite(jmp.step))
+          throw InputError(source, 0, "fitted_jumps",
+                           "t_s and step_k must be finite numbers");
+        model.fitted_jumps.push_back(std::move(jmp));
+      }
+    if (j.contains("fit_warnings"))
+      model.fit_warnings = j.at("fit_warnings").get<std::vector<std::string>>();
     const auto& o = j.at("options");
     model.options.model = o.value("model", "auto");
     model.options.taus_s = o.value("taus_s", model.options.taus_s);
@@ -1088,6 +1289,7 @@ ThermalModel ModelFromJson(const nlohmann::json& j, const std::string& source) {
     model.options.criterion = o.value("criterion", "cv");
     model.options.weight_half_life_s = o.value("weight_half_life_s", 0.0);
     model.options.auto_selected = o.value("auto_selected", false);
+    model.options.repair_jumps = o.value("repair_jumps", true);
     for (const auto& oj : j.at("outputs")) {
       OutputModel m;
       m.output = oj.at("output").get<std::string>();

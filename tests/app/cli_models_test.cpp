@@ -97,6 +97,67 @@ TEST(CliModels, FitPredictContinuesAndCompare) {
   EXPECT_NE(r.output.find("simplest"), std::string::npos);
 }
 
+// A temperature sensor that jumps inside the fitted log (3 K added to T_t7
+// from the 1200th row on, 5 h into the excerpt, in a speed block): `fit`
+// warns, shifts it back and keeps the jump in the model file; `predict`
+// shifts the same log's later rows; --keep-jumps warns and keeps it.
+TEST(CliModels, FitWarnsOfAndShiftsOutASensorThatJumps) {
+  const auto dir = TestDir();
+  std::ifstream in(Excerpt(dir / "head.csv", 0, 2400, true));
+  std::string line, text;
+  int column = -1, row = 0;
+  while (std::getline(in, line)) {
+    if (line[0] == '#') {
+      text += line + "\n";
+      continue;
+    }
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    if (column < 0) {
+      for (size_t k = 0; k < cells.size(); ++k)
+        if (cells[k] == "T_t7") column = int(k);
+      ASSERT_GE(column, 0);
+    } else if (row++ >= 1200) {
+      cells[column] = fmt::format("{:.4f}", std::stod(cells[column]) + 3.0);
+    }
+    std::string out;
+    for (const auto& cell : cells) out += (out.empty() ? "" : ",") + cell;
+    text += out + "\n";
+  }
+  const auto log = dir / "jumped.csv";
+  std::ofstream(log) << text;
+  const auto model = dir / "model.json";
+  RunResult r =
+      RunTtp("thermal fit " + log.string() + " -o " + model.string() +
+             " --outputs d_ch3 --json " + (dir / "fit.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("warning: T_t7 jumps by +"), std::string::npos)
+      << r.output;
+  const auto m = ReadJson(model);
+  ASSERT_EQ(m["fitted_jumps"].size(), 1u);
+  EXPECT_EQ(m["fitted_jumps"][0]["input"], "T_t7");
+  EXPECT_NEAR(m["fitted_jumps"][0]["step_k"].get<double>(), 3.0, 0.03);
+  const auto fit = ReadJson(dir / "fit.json");
+  EXPECT_EQ(fit["fitted_jumps"], m["fitted_jumps"]);
+  ASSERT_EQ(fit["warnings"].size(), 1u);
+
+  r = RunTtp("thermal predict --model " + model.string() + " " + log.string() +
+             " -o " + (dir / "pred.csv").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("T_t7: shifted back by +"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("T_t7 jumps"), std::string::npos) << r.output;
+
+  r = RunTtp("thermal fit " + log.string() + " -o " + model.string() +
+             " --outputs d_ch3 --keep-jumps");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("not repaired (--keep-jumps)"), std::string::npos)
+      << r.output;
+  EXPECT_TRUE(ReadJson(model)["fitted_jumps"].empty());
+}
+
 // `ttp report --log` on a thermal log: the comparison page (no measurement).
 TEST(CliModels, ReportOnThermalLog) {
   const auto dir = TestDir();
@@ -129,10 +190,10 @@ TEST(CliModels, ReportOnThermalLog) {
   ASSERT_EQ(replay["curve"].size(), 5u);
   const auto& hourly = replay["curve"][2];
   ASSERT_EQ(hourly["interval_s"].get<double>(), 3600.0);
-  const RunResult cli = RunTtp(
-      fmt::format("talc replay {} --interval-s 3600 --calibration-s {} "
-                  "--json {}",
-                  log, calibration_s, (dir / "replay.json").string()));
+  const RunResult cli =
+      RunTtp(fmt::format("talc replay {} --interval-s 3600 --calibration-s {} "
+                         "--json {}",
+                         log, calibration_s, (dir / "replay.json").string()));
   ASSERT_EQ(cli.exit_code, 0) << cli.output;
   const auto expected = ReadJson(dir / "replay.json");
   EXPECT_EQ(hourly["measurements"], expected["measurements"]);

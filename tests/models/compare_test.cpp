@@ -71,7 +71,7 @@ TEST(Compare, DiagnosesLagAndSensorJump) {
 // A spindle heated by a n + b n^2 (first-order node, 1200 s), measured by
 // two redundant sensors T_s1, T_s2; the displacement follows the spindle
 // temperature through a slower structure (5400 s). Speed blocks of 3 h.
-TimeSeries LaggingStructure(bool jump) {
+TimeSeries LaggingStructure(bool jump, double jump_h = 30) {
   TimeSeries ts;
   ts.source = "lagging-structure";
   ts.input_names = {"n_spindle", "T_s1", "T_s2"};
@@ -93,7 +93,7 @@ TimeSeries LaggingStructure(bool jump) {
     ts.inputs(i, 0) = rpm;
     ts.inputs(i, 1) = temp + 0.01 * std::sin(1.7 * i);
     ts.inputs(i, 2) = temp + 0.01 * std::cos(1.3 * i) +
-                      (jump && t >= 30 * 3600.0 ? 3.0 : 0.0);
+                      (jump && t >= jump_h * 3600.0 ? 3.0 : 0.0);
     ts.outputs_um(i, 0) = 6 * (structure - 20);
   }
   return ts;
@@ -123,6 +123,44 @@ TEST(Compare, NamesTheErrorAndMeasuresTheExtension) {
       text.find(fmt::format("{:.2f} -> {:.2f}", e.rms_um, e.extended_rms_um)),
       std::string::npos)
       << text;
+}
+
+// A jump of one redundant sensor inside the fitted span (in the middle of a
+// speed block) is shifted out of it and of the holdout, as `thermal fit`
+// and `predict` do: the comparison says so, and the models on every
+// temperature are nearly what they are without the jump.
+TEST(Compare, ShiftsOutAJumpInsideTheFittedSpan) {
+  const double from = 34 * 3600.0;
+  const CompareResult clean = CompareModels(LaggingStructure(false), from, {});
+  const CompareResult r = CompareModels(LaggingStructure(true, 31.5), from, {});
+  bool said = false;
+  for (const auto& w : r.warnings)
+    said |= w.rfind("T_s2 jumps by +3.0", 0) == 0 ||
+            w.rfind("T_s2 jumps by +2.9", 0) == 0;
+  EXPECT_TRUE(said) << CompareText(r);
+  EXPECT_NE(r.simplest_diag[0].kind, ErrorKind::kJump);
+  // Kept (--keep-jumps): the models on every temperature learn the step.
+  FitOptions keep;
+  keep.repair_jumps = false;
+  const CompareResult k =
+      CompareModels(LaggingStructure(true, 31.5), from, keep);
+  EXPECT_NE(k.warnings.back().find("not repaired"), std::string::npos);
+  // The entries that use every temperature (a forward selection may choose
+  // differently on a series that differs by the step's estimate, 0.01 K).
+  ASSERT_EQ(r.entries.size(), clean.entries.size());
+  ASSERT_EQ(k.entries.size(), clean.entries.size());
+  int checked = 0;
+  for (size_t e = 0; e < r.entries.size(); ++e) {
+    const std::string& name = r.entries[e].name;
+    if (name != "static_all_T" && name != "joint" && name != "auto" &&
+        name != "static_T_ols")
+      continue;
+    ++checked;
+    const double want = clean.entries[e].stats[0].rms_um;
+    EXPECT_NEAR(r.entries[e].stats[0].rms_um, want, 0.05 + 0.02 * want) << name;
+    EXPECT_GT(k.entries[e].stats[0].rms_um, want + 1.0) << name;
+  }
+  EXPECT_EQ(checked, 4);
 }
 
 // The README's simple models are shown fitted its way: the static entry is

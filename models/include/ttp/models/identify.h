@@ -70,6 +70,9 @@ struct FitOptions {
   // (each scored by nested CV, which refits the selection in every fold:
   // about a hundred times the cost of the fixed candidates).
   bool auto_selected = false;
+  // Shift a temperature sensor that jumps inside the fitted span back by
+  // its step (FindFittedJumps); false: warn only, the model learns the step.
+  bool repair_jumps = true;
 
   bool IsValid(std::string* error) const;
 };
@@ -100,6 +103,51 @@ struct InputRange {
   double max_step = 0;
 };
 
+// A temperature sensor that jumps inside a fitted span: one row-to-row step
+// of at least 0.3 K and 20 times the sensor's median step, after which the
+// sensor stays shifted (the median over the 10 min after the step differs
+// from the median over the 10 min before by 0.5 to 2 times the step, same
+// sign), not within 10 min of a gap or of a speed change (the program's: a
+// sensor near the heat may step with it). A re-seated or re-connected
+// sensor, not the machine: a structure does not step by degrees in one
+// sample, and a burst that comes back (an air sensor in a draught) does not
+// stay shifted.
+struct FittedJump {
+  std::string input;
+  double t_s = 0;   // the first row after the step, in the fitted log's t_s
+  double step = 0;  // K
+};
+// A temperature sensor that reads the same value, unchanged to the last
+// digit, for at least 2 h and a tenth of the span while at least half of
+// the other temperature sensors each move by more than 0.3 K: stuck or
+// disconnected. Only warned about: the model uses it as it is.
+struct StuckSensor {
+  std::string input;
+  double from_t_s = 0, to_t_s = 0;
+  double value = 0;
+};
+// Sensor faults of a fitted span, found in `span` (jumps one after the
+// other, each found on the series with the earlier ones shifted out).
+std::vector<FittedJump> FindFittedJumps(const TimeSeries& span);
+std::vector<StuckSensor> FindStuckSensors(const TimeSeries& span);
+// Shifts each jump's sensor back by its step at every row of `ts` whose
+// t_s + t_offset_s is at or after the jump's t_s (t_offset_s maps ts's
+// t_s into the fitted log's; a sensor ts does not have is skipped).
+// Returns the number of values shifted.
+size_t ShiftJumps(const std::vector<FittedJump>& jumps, double t_offset_s,
+                  TimeSeries* ts);
+struct SensorFaults {
+  std::vector<FittedJump> jumps;  // shifted out when repaired
+  std::vector<StuckSensor> stuck;
+  bool repaired = false;
+  std::vector<std::string> warnings;  // one line per fault
+};
+// The faults of `span` (the fitted rows), and with `repair` the jumps
+// shifted out of `series` from each jump on (the rows after the span too:
+// the sensor stays shifted). `series` may be `span` itself.
+SensorFaults RepairSensorFaults(const TimeSeries& span, bool repair,
+                                TimeSeries* series);
+
 struct ThermalModel {
   std::string source;
   std::vector<InputRange> input_ranges;       // every input of the fitted span
@@ -112,10 +160,16 @@ struct ThermalModel {
   std::vector<std::string> inputs;  // columns the model needs
   FitOptions options;
   std::vector<OutputModel> outputs;
+  // Jumps shifted out of the fitted span; Predict shifts them out of every
+  // later row too (in the time of the two logs' start headers).
+  std::vector<FittedJump> fitted_jumps;
+  std::vector<std::string> fit_warnings;  // sensor faults of the fitted span
 };
 
 // Fits every output in `outputs` (empty: every d_ column) on the rows with
-// t_s < fit_until_s.
+// t_s < fit_until_s, after looking there for sensor faults: a jump is
+// shifted out (options.repair_jumps) and kept in `fitted_jumps`; every
+// fault is said in `fit_warnings`.
 ThermalModel FitThermalModel(
     const TimeSeries& ts, const std::vector<std::string>& outputs,
     const FitOptions& options,
