@@ -200,8 +200,7 @@ json ReplayData(const models::TimeSeries& ts) {
         // The last measurement strictly before this sample (the
         // compensation at a sample is decided before its own measurement).
         for (; next < i; ++next)
-          if (measured_row[next])
-            held = ts.outputs_um(Eigen::Index(next), col);
+          if (measured_row[next]) held = ts.outputs_um(Eigen::Index(next), col);
         const double y = ts.outputs_um(Eigen::Index(i), col);
         m.push_back(Finite(y));
         p.push_back(Finite(r.predictions_um(Eigen::Index(i), Eigen::Index(k))));
@@ -335,8 +334,9 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
     const json& rp = data.at("replay");
     replay = "<h2>TALC replayed (thesis chapter 6)</h2>\n";
     if (rp.contains("unavailable")) {
-      replay += "<p>No replay: " +
-                Escape(rp.at("unavailable").get<std::string>()) + ".</p>\n";
+      replay +=
+          "<p>No replay: " + Escape(rp.at("unavailable").get<std::string>()) +
+          ".</p>\n";
     } else {
       const json& st = rp.at("strategy");
       replay += fmt::format(
@@ -354,8 +354,9 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
               ? " (shortened to a third of the log)"
               : "",
           rp.at("evaluated_from_h").get<double>());
-      replay += "<table><tr><th>interval</th><th>measurements</th>"
-                "<th>Q_Prod</th>";
+      replay +=
+          "<table><tr><th>interval</th><th>measurements</th>"
+          "<th>Q_Prod</th>";
       for (const auto& o : rp.at("output_names"))
         replay += "<th>" + Escape(o.get<std::string>()) + "</th>";
       replay += "</tr>\n";
@@ -364,11 +365,11 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
                              : std::string("-");
       };
       for (const auto& p : rp.at("curve")) {
-        replay += fmt::format(
-            "<tr><td>{:g} min</td><td>{}</td><td>{:.1f} %</td>",
-            p.at("interval_s").get<double>() / 60.0,
-            p.at("measurements").get<int>(),
-            p.at("q_prod_percent").get<double>());
+        replay +=
+            fmt::format("<tr><td>{:g} min</td><td>{}</td><td>{:.1f} %</td>",
+                        p.at("interval_s").get<double>() / 60.0,
+                        p.at("measurements").get<int>(),
+                        p.at("q_prod_percent").get<double>());
         for (const auto& o : rp.at("output_names")) {
           const json& e = p.at("outputs").at(o.get<std::string>());
           replay += "<td>" + cell(e.at("talc_p99_um")) + " / " +
@@ -381,6 +382,14 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
         replay += fmt::format("<div class=\"out\" id=\"replay{}\"></div>\n", k);
     }
   }
+  // What the log's reading and the fitted span's sensor faults gave.
+  std::string warnings;
+  if (data.contains("warnings"))
+    for (const auto& w : data.at("warnings"))
+      warnings += "<li>" + Escape(w.get<std::string>()) + "</li>\n";
+  if (!warnings.empty())
+    warnings =
+        "<p>Warnings:</p>\n<ul class=\"warnings\">\n" + warnings + "</ul>\n";
   std::string payload = data.dump();
   // Keep "</script>" out of the embedded JSON.
   for (size_t p = 0; (p = payload.find("</", p)) != std::string::npos; p += 3)
@@ -399,7 +408,8 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
              "a cell for P99, peak-to-valley and the reduction.</p>\n",
              Escape(data.at("log").get<std::string>()),
              data.at("holdout_from_s").get<double>()) +
-         table + "<h2>What the best and the simplest get wrong</h2>\n" + diag +
+         warnings + table +
+         "<h2>What the best and the simplest get wrong</h2>\n" + diag +
          "<h2>Per output</h2>\n" + plots + replay +
          "<script type=\"application/json\" id=\"data\">" + payload +
          "</script>\n<script>" + Joined(report_assets::kUplotJsPieces) +

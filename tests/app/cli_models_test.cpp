@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 
@@ -149,6 +150,17 @@ TEST(CliModels, FitWarnsOfAndShiftsOutASensorThatJumps) {
   EXPECT_NE(r.output.find("T_t7: shifted back by +"), std::string::npos)
       << r.output;
   EXPECT_EQ(r.output.find("T_t7 jumps"), std::string::npos) << r.output;
+
+  // The thermal page says it too (its comparison's fitted span has the
+  // jump).
+  const auto page = dir / "page.html";
+  r = RunTtp("report --log " + log.string() + " -o " + page.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream html(page);
+  const std::string body((std::istreambuf_iterator<char>(html)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_NE(body.find("<ul class=\"warnings\">\n<li>T_t7 jumps by +"),
+            std::string::npos);
 
   r = RunTtp("thermal fit " + log.string() + " -o " + model.string() +
              " --outputs d_ch3 --keep-jumps");
