@@ -726,16 +726,13 @@ OutputModel FitFixed(const TimeSeries& fit, int output,
 namespace {
 std::vector<InputRange> InputRanges(const TimeSeries& ts);
 
-// The sensor-fault rules (identify.h: FittedJump, StuckSensor).
+// The rule for a sensor that jumps (identify.h: FittedJump).
 constexpr double kJumpMinK = 0.3;           // as PredictOptions::jump_min
 constexpr double kJumpMedianFactor = 20.0;  // times the median |step|
 constexpr double kJumpWindowS = 600.0;      // level before / after, gaps
 // A speed step larger than this share of the speed's range is the
 // program's (the machine changes state there).
 constexpr double kSpeedChangeShare = 0.05;
-constexpr double kStuckMinS = 7200.0;
-constexpr double kStuckMinShare = 0.1;  // of the span
-constexpr double kStuckOthersMoveK = 0.3;
 
 bool IsTemperature(const std::string& name) { return name.rfind("T_", 0) == 0; }
 
@@ -816,44 +813,6 @@ std::vector<FittedJump> FindFittedJumps(const TimeSeries& span) {
   return out;
 }
 
-std::vector<StuckSensor> FindStuckSensors(const TimeSeries& span) {
-  std::vector<StuckSensor> out;
-  const size_t n = span.rows();
-  if (n < 3) return out;
-  const double min_s = std::max(
-      kStuckMinS, kStuckMinShare * (span.t_s.back() - span.t_s.front()));
-  std::vector<Eigen::Index> temps;
-  for (size_t j = 0; j < span.input_names.size(); ++j)
-    if (IsTemperature(span.input_names[j]))
-      temps.push_back(static_cast<Eigen::Index>(j));
-  if (temps.size() < 2) return out;
-  for (Eigen::Index j : temps) {
-    const auto x = span.inputs.col(j);
-    size_t a = 0;
-    for (size_t i = 1; i <= n; ++i) {
-      if (i < n &&
-          x(static_cast<Eigen::Index>(i)) == x(static_cast<Eigen::Index>(a)))
-        continue;
-      const size_t b = i - 1;  // rows a..b read the same
-      if (span.t_s[b] - span.t_s[a] >= min_s) {
-        size_t moving = 0;
-        for (Eigen::Index k : temps) {
-          if (k == j) continue;
-          const auto seg =
-              span.inputs.col(k).segment(static_cast<Eigen::Index>(a),
-                                         static_cast<Eigen::Index>(b - a + 1));
-          if (seg.maxCoeff() - seg.minCoeff() > kStuckOthersMoveK) ++moving;
-        }
-        if (2 * moving >= temps.size() - 1)
-          out.push_back({span.input_names[static_cast<size_t>(j)], span.t_s[a],
-                         span.t_s[b], x(static_cast<Eigen::Index>(a))});
-      }
-      a = i;
-    }
-  }
-  return out;
-}
-
 size_t ShiftJumps(const std::vector<FittedJump>& jumps, double t_offset_s,
                   TimeSeries* ts) {
   size_t shifted = 0;
@@ -875,7 +834,6 @@ SensorFaults RepairSensorFaults(const TimeSeries& span, bool repair,
                                 TimeSeries* series) {
   SensorFaults f;
   f.jumps = FindFittedJumps(span);
-  f.stuck = FindStuckSensors(span);
   f.repaired = repair;
   for (const auto& jmp : f.jumps)
     f.warnings.push_back(fmt::format(
@@ -886,13 +844,6 @@ SensorFaults RepairSensorFaults(const TimeSeries& span, bool repair,
         repair ? "its values from there on are shifted back by the step, in "
                  "the fit and in every prediction after that time"
                : "not repaired (--keep-jumps): the model learns the step"));
-  for (const auto& s : f.stuck)
-    f.warnings.push_back(fmt::format(
-        "{} reads {:g} unchanged from t = {:g} to {:g} s ({:.1f} h) while "
-        "the other temperatures move: a stuck or disconnected sensor? The "
-        "model uses it as it is",
-        s.input, s.value, s.from_t_s, s.to_t_s,
-        (s.to_t_s - s.from_t_s) / 3600.0));
   if (repair) ShiftJumps(f.jumps, 0.0, series);
   return f;
 }

@@ -556,7 +556,7 @@ std::vector<Rms> RealSplit(const TimeSeries& ts, double holdout_from_s) {
   return out;
 }
 
-// Sensor faults in the fitted span, on the real log: its 16 sensors have
+// Sensors that jump in the fitted span, on the real log: its 16 sensors have
 // none (T_t16 has bursts of up to 2.9 K between two rows that come back
 // within minutes: an air sensor, not a fault), and a fault put into one
 // sensor is found where it was put.
@@ -575,7 +575,6 @@ size_t RowAt(const TimeSeries& ts, double t_s) {
 TEST(Identify, FindsNoSensorFaultInTheRealLog) {
   const TimeSeries ts = RealFirstHalf(1e9);
   EXPECT_TRUE(FindFittedJumps(ts).empty());
-  EXPECT_TRUE(FindStuckSensors(ts).empty());
   // The largest step of T_t16 is far above the jump limits: only its
   // coming back keeps it from being a jump.
   const int j = ts.InputIndex("T_t16");
@@ -683,31 +682,6 @@ TEST(Identify, BurstsSpeedStepsAndTheSpansEdgeAreNotJumps) {
   TimeSeries edge = clean;
   edge.inputs.col(j).tail(5).array() += 3.0;
   EXPECT_TRUE(FindFittedJumps(edge).empty());
-}
-
-TEST(Identify, WarnsOfAStuckSensor) {
-  const TimeSeries clean = RealFirstHalf(54000);
-  const int j = clean.InputIndex("T_t3");
-  ASSERT_GE(j, 0);
-  const size_t a = RowAt(clean, 20000), b = RowAt(clean, 40000);
-  TimeSeries stuck = clean;
-  stuck.inputs.col(j).segment(a, b - a).setConstant(clean.inputs(a, j));
-  const std::vector<StuckSensor> s = FindStuckSensors(stuck);
-  ASSERT_EQ(s.size(), 1u);
-  EXPECT_EQ(s[0].input, "T_t3");
-  EXPECT_EQ(s[0].from_t_s, clean.t_s[a]);
-  EXPECT_EQ(s[0].to_t_s, clean.t_s[b - 1]);
-  FitOptions o;
-  o.model = "static";
-  const ThermalModel m = FitThermalModel(stuck, {"d_ch1"}, o);
-  bool said = false;
-  for (const auto& w : m.fit_warnings)
-    said |= w.find("T_t3 reads") != std::string::npos;
-  EXPECT_TRUE(said);
-  // An hour unchanged is not stuck (below 2 h and a tenth of the span).
-  TimeSeries hour = clean;
-  hour.inputs.col(j).segment(a, 240).setConstant(clean.inputs(a, j));
-  EXPECT_TRUE(FindStuckSensors(hour).empty());
 }
 
 // Fit on the first 15 h (1250 and 2500 1/min), predict the next 8 h (3750

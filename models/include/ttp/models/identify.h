@@ -117,19 +117,9 @@ struct FittedJump {
   double t_s = 0;   // the first row after the step, in the fitted log's t_s
   double step = 0;  // K
 };
-// A temperature sensor that reads the same value, unchanged to the last
-// digit, for at least 2 h and a tenth of the span while at least half of
-// the other temperature sensors each move by more than 0.3 K: stuck or
-// disconnected. Only warned about: the model uses it as it is.
-struct StuckSensor {
-  std::string input;
-  double from_t_s = 0, to_t_s = 0;
-  double value = 0;
-};
-// Sensor faults of a fitted span, found in `span` (jumps one after the
-// other, each found on the series with the earlier ones shifted out).
+// The jumps of a fitted span, one after the other (each found on the
+// series with the earlier ones shifted out).
 std::vector<FittedJump> FindFittedJumps(const TimeSeries& span);
-std::vector<StuckSensor> FindStuckSensors(const TimeSeries& span);
 // Shifts each jump's sensor back by its step at every row of `ts` whose
 // t_s + t_offset_s is at or after the jump's t_s (t_offset_s maps ts's
 // t_s into the fitted log's; a sensor ts does not have is skipped).
@@ -138,11 +128,10 @@ size_t ShiftJumps(const std::vector<FittedJump>& jumps, double t_offset_s,
                   TimeSeries* ts);
 struct SensorFaults {
   std::vector<FittedJump> jumps;  // shifted out when repaired
-  std::vector<StuckSensor> stuck;
   bool repaired = false;
   std::vector<std::string> warnings;  // one line per fault
 };
-// The faults of `span` (the fitted rows), and with `repair` the jumps
+// The jumps of `span` (the fitted rows), and with `repair` the jumps
 // shifted out of `series` from each jump on (the rows after the span too:
 // the sensor stays shifted). `series` may be `span` itself.
 SensorFaults RepairSensorFaults(const TimeSeries& span, bool repair,
@@ -163,13 +152,13 @@ struct ThermalModel {
   // Jumps shifted out of the fitted span; Predict shifts them out of every
   // later row too (in the time of the two logs' start headers).
   std::vector<FittedJump> fitted_jumps;
-  std::vector<std::string> fit_warnings;  // sensor faults of the fitted span
+  std::vector<std::string> fit_warnings;  // jumps of the fitted span
 };
 
 // Fits every output in `outputs` (empty: every d_ column) on the rows with
-// t_s < fit_until_s, after looking there for sensor faults: a jump is
-// shifted out (options.repair_jumps) and kept in `fitted_jumps`; every
-// fault is said in `fit_warnings`.
+// t_s < fit_until_s, after looking there for sensors that jump: a jump is
+// shifted out (options.repair_jumps) and kept in `fitted_jumps`; each is
+// said in `fit_warnings`.
 ThermalModel FitThermalModel(
     const TimeSeries& ts, const std::vector<std::string>& outputs,
     const FitOptions& options,
