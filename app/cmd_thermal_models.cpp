@@ -130,8 +130,12 @@ void Register(CLI::App& root, GlobalOptions& global) {
       CheckFitOptions(*o, cmd);
       const models::TimeSeries ts = ReadLog(*log);
       Warn(global, ts.warnings);
+      const std::vector<std::string> wanted = SplitList(*outputs);
+      if (!outputs->empty() && wanted.empty())
+        throw InputError("thermal fit", 0, "--outputs",
+                         "names no column (give d_ columns, comma separated)");
       const models::ThermalModel model =
-          models::FitThermalModel(ts, SplitList(*outputs), *o);
+          models::FitThermalModel(ts, wanted, *o);
       Warn(global, model.fit_warnings);
       const nlohmann::json j = models::ModelToJson(model);
       WriteJson(*out, j);

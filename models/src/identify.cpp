@@ -865,6 +865,8 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
       which.push_back(static_cast<int>(j));
   } else {
     for (const auto& name : outputs) {
+      if (std::count(outputs.begin(), outputs.end(), name) > 1)
+        throw InputError(ts.source, 0, name, "output asked for more than once");
       const int j = fit.OutputIndex(name);
       if (j < 0)
         throw InputError(

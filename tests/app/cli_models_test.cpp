@@ -275,6 +275,19 @@ TEST(CliModels, BadInputExitsTwoNamingLineAndColumn) {
   r = RunTtp("thermal fit " + kTrain + " -o " + (dir / "m.json").string() +
              " --model neural");
   EXPECT_EQ(r.exit_code, 2) << r.output;
+  // --outputs naming nothing, or one output twice.
+  r = RunTtp("thermal fit " + kTrain + " -o " + (dir / "m.json").string() +
+             " --outputs ,,");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--outputs: names no column"), std::string::npos)
+      << r.output;
+  r = RunTtp("thermal fit " + kTrain + " -o " + (dir / "m.json").string() +
+             " --outputs d_ch1,d_ch1");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("d_ch1: output asked for more than once"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.json"));
   r = RunTtp("thermal compare " + kTrain + " --holdout-from 99999999");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   r = RunTtp("thermal predict --model " + bad.string() + " " + kTrain + " -o " +

@@ -372,6 +372,18 @@ TEST(Identify, AnInputAskedForAsAnOutputIsNamedAsAnInput) {
   }
 }
 
+TEST(Identify, AnOutputAskedForTwiceIsBadInput) {
+  const TimeSeries ts = TwoNodeNetwork(11);
+  try {
+    FitThermalModel(ts, {"d_z", "d_z"}, FitOptions{}, kSplit);
+    ADD_FAILURE() << "d_z was fitted twice";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("asked for more than once"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Identify, AutoNeverSeesTheHoldout) {
   const TimeSeries ts = TwoNodeNetwork(5);
   FitOptions o;
