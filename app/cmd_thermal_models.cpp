@@ -138,7 +138,6 @@ void Register(CLI::App& root, GlobalOptions& global) {
           models::FitThermalModel(ts, wanted, *o);
       Warn(global, model.fit_warnings);
       const nlohmann::json j = models::ModelToJson(model);
-      WriteJson(*out, j);
       std::string text;
       nlohmann::json summary = {{"log", *log}, {"model_file", *out}};
       for (const auto& m : model.outputs) {
@@ -162,8 +161,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
       summary["warnings"] = ts.warnings;
       for (const auto& w : model.fit_warnings) summary["warnings"].push_back(w);
       summary["fitted_jumps"] = j.at("fitted_jumps");
+      OutputBatch outputs;  // the model and its summary, or neither
+      outputs.Add(*out, j.dump(2) + "\n");
+      if (!json_out->empty()) outputs.Add(*json_out, summary.dump(2) + "\n");
+      outputs.Commit();
       if (!global.quiet) WriteText("-", text);
-      if (!json_out->empty()) WriteJson(*json_out, summary);
     });
   }
   {
@@ -193,8 +195,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
       const models::TimeSeries ts = ReadLog(*log);
       const models::Prediction p = models::Predict(model, ts, *po);
       Warn(global, p.warnings);
-      WriteFileAtomic(*out, PredictionCsv(p));
-      if (!json_out->empty()) WriteJson(*json_out, PredictionSummaryJson(p));
+      OutputBatch outputs;  // the prediction and its summary, or neither
+      outputs.Add(*out, PredictionCsv(p));
+      if (!json_out->empty())
+        outputs.Add(*json_out, PredictionSummaryJson(p).dump(2) + "\n");
+      outputs.Commit();
       if (!global.quiet)
         std::fprintf(stderr, "%zu rows predicted (%s) -> %s\n", p.t_s.size(),
                      p.continued ? "continuing the fitted log"

@@ -195,8 +195,10 @@ json WriteReport(const Config& config, const ReportInputs& inputs,
                  const ReportOptions& options) {
   json data = AssembleReportData(config, inputs, options);
   const std::string html = RenderReportHtml(data);
-  if (!json_path.empty()) WriteFileAtomic(json_path, data.dump(2) + "\n");
-  WriteFileAtomic(html_path, html);
+  OutputBatch outputs;  // the page and its data, or neither
+  outputs.Add(html_path, html);
+  if (!json_path.empty()) outputs.Add(json_path, data.dump(2) + "\n");
+  outputs.Commit();
   return data;
 }
 
@@ -284,8 +286,10 @@ json WriteComparison(const Config& config, const ComparedPiece& a,
                      const std::string& title) {
   json data = AssembleComparisonData(config, a, b, title);
   const std::string html = RenderComparisonHtml(data);
-  if (!json_path.empty()) WriteFileAtomic(json_path, data.dump(2) + "\n");
-  WriteFileAtomic(html_path, html);
+  OutputBatch outputs;  // the page and its data, or neither
+  outputs.Add(html_path, html);
+  if (!json_path.empty()) outputs.Add(json_path, data.dump(2) + "\n");
+  outputs.Commit();
   return data;
 }
 

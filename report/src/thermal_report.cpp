@@ -428,9 +428,11 @@ json WriteThermalReport(const std::string& log_path,
       models::CompareModels(ts, from, models::FitOptions());
   json data = ThermalReportData(r);
   data["replay"] = ReplayData(ts);
-  WriteFileAtomic(html_out,
-                  ThermalReportHtml(data, "Thermal error models: " + log_path));
-  if (!json_out.empty()) WriteFileAtomic(json_out, data.dump(1) + "\n");
+  OutputBatch outputs;  // the page and its data, or neither
+  outputs.Add(html_out,
+              ThermalReportHtml(data, "Thermal error models: " + log_path));
+  if (!json_out.empty()) outputs.Add(json_out, data.dump(1) + "\n");
+  outputs.Commit();
   return data;
 }
 

@@ -288,6 +288,28 @@ TEST(CliModels, BadInputExitsTwoNamingLineAndColumn) {
             std::string::npos)
       << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "m.json"));
+  // Nothing half-written: the model and its summary, the prediction and
+  // its summary, a page and its data are written all or none (here the
+  // summary's path is a folder).
+  const auto folder = dir / "a_folder";
+  std::filesystem::create_directories(folder);
+  r = RunTtp("thermal fit " + kTrain + " -o " + (dir / "m.json").string() +
+             " --outputs d_ch1 --model static --json " + folder.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.json"));
+  r = RunTtp("thermal fit " + kTrain + " -o " + (dir / "m.json").string() +
+             " --outputs d_ch1 --model static");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = RunTtp("thermal predict --model " + (dir / "m.json").string() + " " +
+             kTrain + " -o " + (dir / "p.csv").string() + " --json " +
+             folder.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "p.csv"));
+  r = RunTtp("report --log " + Excerpt(dir / "short.csv", 0, 1200, true) +
+             " -o " + (dir / "page.html").string() + " --json " +
+             folder.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "page.html"));
   r = RunTtp("thermal compare " + kTrain + " --holdout-from 99999999");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   r = RunTtp("thermal predict --model " + bad.string() + " " + kTrain + " -o " +
