@@ -6,11 +6,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "command.h"
 #include "ttp/geometry/error.h"
+#include "ttp/models/identify.h"
 #include "ttp/models/time_series.h"
 #include "ttp/talc/replay.h"
 #include "ttp/talc/sweep.h"
@@ -32,6 +34,19 @@ models::TimeSeries ReadLog(const fs::path& path) {
   if (first.rfind("# talc-log", 0) == 0)
     return thermal::TalcLogToTimeSeries(thermal::ReadTalcLog(path));
   return models::ReadThermalLog(path);
+}
+
+// A temperature that jumps and stays shifted (models::FindFittedJumps) is a
+// sensor fault the replayed controller reads as logged, as a real one
+// would: said, not repaired.
+std::vector<std::string> SensorJumpWarnings(const models::TimeSeries& series) {
+  std::vector<std::string> out;
+  for (const auto& j : models::FindFittedJumps(series))
+    out.push_back(fmt::format(
+        "{} jumps by {:+.2f} K at t = {:g} s and stays shifted: a sensor "
+        "fault, not the machine; the replayed controller reads it as logged",
+        j.input, j.step, j.t_s));
+  return out;
 }
 
 fs::path SelfPath() {
@@ -117,7 +132,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
                                        ro->static_window_from_s,
                                        ro->static_window_to_s, *log));
       }
-      const talc::ReplayResult r = talc::Replay(series, s, *ro);
+      talc::ReplayResult r = talc::Replay(series, s, *ro);
+      for (auto& w : SensorJumpWarnings(series))
+        r.warnings.push_back(std::move(w));
       if (!global.quiet || json_out->empty())
         WriteText("-", talc::ReplayText(r, s));
       if (!json_out->empty()) WriteJson(*json_out, talc::ReplayToJson(r, s));
@@ -200,6 +217,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
         return;
       }
       const models::TimeSeries series = ReadLog(*log);
+      if (!global.quiet)
+        for (const auto& w : SensorJumpWarnings(series))
+          std::fprintf(stderr, "warning: %s\n", w.c_str());
       emit(talc::RunSweep(series, g, fs::path(*log).filename().string(),
                           *threads));
     });

@@ -3,6 +3,7 @@
 // through GNU parallel and through a real single-node Slurm (job array),
 // all three merged results byte-identical.
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/file.h>
 #include <unistd.h>
@@ -48,6 +49,50 @@ TEST(CliTalc, ReplayOnTheRealDataBeatsHoldingTheLastMeasurement) {
   const double q = j["q_prod_percent"];
   EXPECT_GT(q, 80.0);
   EXPECT_LT(q, 100.0);
+  EXPECT_TRUE(j["warnings"].empty()) << j["warnings"];
+}
+
+// A log whose T_t7 jumps by 3 K (the real log with the step put in at
+// 30000 s): the replay says so and replays it as logged.
+TEST(CliTalc, ReplayNamesASensorThatJumps) {
+  const fs::path dir = test::TestDir("talc");
+  {
+    std::ifstream in(kTrain);
+    std::ofstream out(dir / "jumped.csv");
+    std::string line;
+    int column = -1;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') {
+        out << line << "\n";
+        continue;
+      }
+      std::vector<std::string> cells;
+      std::stringstream ss(line);
+      std::string c;
+      while (std::getline(ss, c, ',')) cells.push_back(c);
+      if (column < 0) {
+        for (size_t k = 0; k < cells.size(); ++k)
+          if (cells[k] == "T_t7") column = int(k);
+        ASSERT_GE(column, 0);
+      } else if (std::stod(cells[0]) >= 30000) {
+        cells[column] = fmt::format("{:.4f}", std::stod(cells[column]) + 3.0);
+      }
+      for (size_t k = 0; k < cells.size(); ++k)
+        out << (k ? "," : "") << cells[k];
+      out << "\n";
+    }
+  }
+  const fs::path json = dir / "replay.json";
+  const auto r = test::RunTtp("talc replay " + (dir / "jumped.csv").string() +
+                              " --interval-s 3600 --json " + json.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("warning: T_t7 jumps by +"), std::string::npos)
+      << r.output;
+  const auto j = test::ReadJson(json);
+  ASSERT_EQ(j["warnings"].size(), 1u);
+  EXPECT_NE(j["warnings"][0].get<std::string>().find("at t = 30000 s"),
+            std::string::npos)
+      << j["warnings"];
 }
 
 TEST(CliTalc, ReplayReadsATalcLogWithItsRTestsAsSparseOutputs) {
