@@ -9,6 +9,7 @@
 #include <string>
 
 #include "run_ttp.h"
+#include "thermal_log_text.h"
 
 namespace ttp::test {
 namespace {
@@ -28,10 +29,7 @@ std::string Excerpt(const std::filesystem::path& path, size_t first,
       text += line + "\n";
       continue;
     }
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) cells.push_back(c);
+    const std::vector<std::string> cells = CsvCells(line);
     if (keep.empty()) {
       for (size_t k = 0; k < cells.size(); ++k)
         if (with_outputs || cells[k].rfind("d_", 0) != 0)
@@ -99,36 +97,14 @@ TEST(CliModels, FitPredictContinuesAndCompare) {
 }
 
 // A temperature sensor that jumps inside the fitted log (3 K added to T_t7
-// from the 1200th row on, 5 h into the excerpt, in a speed block): `fit`
+// from t = 18000 s on, 5 h into the excerpt, in a speed block): `fit`
 // warns, shifts it back and keeps the jump in the model file; `predict`
 // shifts the same log's later rows; --keep-jumps warns and keeps it.
 TEST(CliModels, FitWarnsOfAndShiftsOutASensorThatJumps) {
   const auto dir = TestDir();
-  std::ifstream in(Excerpt(dir / "head.csv", 0, 2400, true));
-  std::string line, text;
-  int column = -1, row = 0;
-  while (std::getline(in, line)) {
-    if (line[0] == '#') {
-      text += line + "\n";
-      continue;
-    }
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) cells.push_back(c);
-    if (column < 0) {
-      for (size_t k = 0; k < cells.size(); ++k)
-        if (cells[k] == "T_t7") column = int(k);
-      ASSERT_GE(column, 0);
-    } else if (row++ >= 1200) {
-      cells[column] = fmt::format("{:.4f}", std::stod(cells[column]) + 3.0);
-    }
-    std::string out;
-    for (const auto& cell : cells) out += (out.empty() ? "" : ",") + cell;
-    text += out + "\n";
-  }
-  const auto log = dir / "jumped.csv";
-  std::ofstream(log) << text;
+  const std::filesystem::path log =
+      WriteWithStep(Excerpt(dir / "head.csv", 0, 2400, true),
+                    dir / "jumped.csv", "T_t7", 1200 * 15.0, 3.0);
   const auto model = dir / "model.json";
   RunResult r =
       RunTtp("thermal fit " + log.string() + " -o " + model.string() +

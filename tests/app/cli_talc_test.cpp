@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "run_ttp.h"
+#include "thermal_log_text.h"
 
 namespace ttp {
 namespace {
@@ -56,34 +57,10 @@ TEST(CliTalc, ReplayOnTheRealDataBeatsHoldingTheLastMeasurement) {
 // 30000 s): the replay says so and replays it as logged.
 TEST(CliTalc, ReplayNamesASensorThatJumps) {
   const fs::path dir = test::TestDir("talc");
-  {
-    std::ifstream in(kTrain);
-    std::ofstream out(dir / "jumped.csv");
-    std::string line;
-    int column = -1;
-    while (std::getline(in, line)) {
-      if (line.empty() || line[0] == '#') {
-        out << line << "\n";
-        continue;
-      }
-      std::vector<std::string> cells;
-      std::stringstream ss(line);
-      std::string c;
-      while (std::getline(ss, c, ',')) cells.push_back(c);
-      if (column < 0) {
-        for (size_t k = 0; k < cells.size(); ++k)
-          if (cells[k] == "T_t7") column = int(k);
-        ASSERT_GE(column, 0);
-      } else if (std::stod(cells[0]) >= 30000) {
-        cells[column] = fmt::format("{:.4f}", std::stod(cells[column]) + 3.0);
-      }
-      for (size_t k = 0; k < cells.size(); ++k)
-        out << (k ? "," : "") << cells[k];
-      out << "\n";
-    }
-  }
+  const std::string log =
+      test::WriteWithStep(kTrain, dir / "jumped.csv", "T_t7", 30000, 3.0);
   const fs::path json = dir / "replay.json";
-  const auto r = test::RunTtp("talc replay " + (dir / "jumped.csv").string() +
+  const auto r = test::RunTtp("talc replay " + log +
                               " --interval-s 3600 --json " + json.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("warning: T_t7 jumps by +"), std::string::npos)
