@@ -107,15 +107,18 @@ struct InputRange {
 // of at least 0.3 K and 20 times the sensor's median step, after which the
 // sensor stays shifted (the median over the 10 min after the step differs
 // from the median over the 10 min before by 0.5 to 2 times the step, same
-// sign), not within 10 min of a gap or of a speed change (the program's: a
-// sensor near the heat may step with it). A re-seated or re-connected
+// sign), not within 10 min of a gap or of a speed change (a step of a speed
+// by more than 5 % of its range: the program's, and a sensor near the heat
+// may step with it). A re-seated or re-connected
 // sensor, not the machine: a structure does not step by degrees in one
 // sample, and a burst that comes back (an air sensor in a draught) does not
 // stay shifted.
 struct FittedJump {
   std::string input;
-  double t_s = 0;   // the first row after the step, in the fitted log's t_s
-  double step = 0;  // K
+  double t_s = 0;  // the first row after the step, in the fitted log's t_s
+  // K: the row's step less the sensor's own change over a row there (the
+  // median step around it)
+  double step = 0;
 };
 // The jumps of a fitted span, one after the other (each found on the
 // series with the earlier ones shifted out).
