@@ -97,14 +97,15 @@ TEST(CliModels, FitPredictContinuesAndCompare) {
 }
 
 // A temperature sensor that jumps inside the fitted log (3 K added to T_t7
-// from t = 18000 s on, 5 h into the excerpt, in a speed block): `fit`
+// from t = 9000 s on, 2.5 h into a 6.7 h excerpt, in a speed block, inside
+// the span the thermal page's comparison fits): `fit`
 // warns, shifts it back and keeps the jump in the model file; `predict`
 // shifts the same log's later rows; --keep-jumps warns and keeps it.
 TEST(CliModels, FitWarnsOfAndShiftsOutASensorThatJumps) {
   const auto dir = TestDir();
   const std::filesystem::path log =
-      WriteWithStep(Excerpt(dir / "head.csv", 0, 2400, true),
-                    dir / "jumped.csv", "T_t7", 1200 * 15.0, 3.0);
+      WriteWithStep(Excerpt(dir / "head.csv", 0, 1600, true),
+                    dir / "jumped.csv", "T_t7", 9000, 3.0);
   const auto model = dir / "model.json";
   RunResult r =
       RunTtp("thermal fit " + log.string() + " -o " + model.string() +
@@ -281,7 +282,7 @@ TEST(CliModels, BadInputExitsTwoNamingLineAndColumn) {
              folder.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "p.csv"));
-  r = RunTtp("report --log " + Excerpt(dir / "short.csv", 0, 1200, true) +
+  r = RunTtp("report --log " + Excerpt(dir / "short.csv", 0, 300, true) +
              " -o " + (dir / "page.html").string() + " --json " +
              folder.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
