@@ -40,6 +40,9 @@ void CheckOutputPath(const std::string& out,
     throw InputError(option, 0, "output",
                      "the folder '" + dir.string() + "' does not exist");
   std::error_code ec;
+  if (fs::is_directory(p, ec))
+    throw InputError(option, 0, "output",
+                     "'" + out + "' is a folder, not a file");
   for (const std::string& in : inputs) {
     if (!in.empty() && fs::exists(p) && fs::equivalent(p, in, ec))
       throw InputError(option, 0, "output",
@@ -109,6 +112,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                         "as --log, or the thermal log alone",
                         *log_path));
       CheckOutputPath(*out, {*log_path}, "--output");
+      if (!json_out->empty()) CheckOutputPath(*json_out, {*log_path}, "--json");
       report::WriteThermalReport(*log_path, *out, *json_out);  // thermal log
       return;
     }

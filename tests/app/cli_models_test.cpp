@@ -266,8 +266,8 @@ TEST(CliModels, BadInputExitsTwoNamingLineAndColumn) {
       << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "m.json"));
   // Nothing half-written: the model and its summary, the prediction and
-  // its summary, a page and its data are written all or none (here the
-  // summary's path is a folder).
+  // its summary are written all or none (here the summary's path is a
+  // folder); the thermal page refuses such a --json before it computes.
   const auto folder = dir / "a_folder";
   std::filesystem::create_directories(folder);
   r = RunTtp("thermal fit " + kTrain + " -o " + (dir / "m.json").string() +
@@ -286,6 +286,10 @@ TEST(CliModels, BadInputExitsTwoNamingLineAndColumn) {
              " -o " + (dir / "page.html").string() + " --json " +
              folder.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--json: output: '" + folder.string() +
+                          "' is a folder, not a file"),
+            std::string::npos)
+      << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "page.html"));
   r = RunTtp("thermal compare " + kTrain + " --holdout-from 99999999");
   EXPECT_EQ(r.exit_code, 2) << r.output;
