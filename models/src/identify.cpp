@@ -432,14 +432,20 @@ OutputModel Finish(const Data& d, const Grams& g,
   return m;
 }
 
+// The upper median (the middle value; of two, the larger), of a non-empty
+// list.
+double UpperMedian(std::vector<double> v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
 double MedianStep(const TimeSeries& ts) {
   if (ts.rows() < 2) return 0;
   std::vector<double> steps;
   for (size_t i = 1; i < ts.rows(); ++i)
     steps.push_back(ts.t_s[i] - ts.t_s[i - 1]);
-  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2,
-                   steps.end());
-  return steps[steps.size() / 2];
+  return UpperMedian(std::move(steps));
 }
 
 void CheckOptions(const FitOptions& o) {
@@ -737,10 +743,7 @@ constexpr double kSpeedChangeShare = 0.05;
 bool IsTemperature(const std::string& name) { return name.rfind("T_", 0) == 0; }
 
 double MedianOfRange(const Eigen::VectorXd& x, size_t from, size_t to) {
-  std::vector<double> v(x.data() + from, x.data() + to);
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+  return UpperMedian(std::vector<double>(x.data() + from, x.data() + to));
 }
 
 // Rows within `w` rows of a gap or of a speed change.
@@ -782,13 +785,11 @@ std::vector<FittedJump> FindFittedJumps(const TimeSeries& span) {
     std::vector<double> steps;
     steps.reserve(n);
     for (size_t i = 1; i < n; ++i) steps.push_back(std::abs(x(i) - x(i - 1)));
-    const auto mid =
-        steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
-    std::nth_element(steps.begin(), mid, steps.end());
     // A sensor read to 0.1 K has a median step of 0: the floor keeps the
     // factor meaningful, kJumpMinK decides there.
     const double limit =
-        std::max(kJumpMinK, kJumpMedianFactor * std::max(*mid, 1e-3));
+        std::max(kJumpMinK, kJumpMedianFactor *
+                                std::max(UpperMedian(std::move(steps)), 1e-3));
     for (size_t i = w; i + w <= n; ++i) {
       const double step = x(i) - x(i - 1);
       if (std::abs(step) < limit || near[i]) continue;
@@ -802,10 +803,7 @@ std::vector<FittedJump> FindFittedJumps(const TimeSeries& span) {
       std::vector<double> around;
       for (size_t q = i - w + 1; q < i + w; ++q)
         if (q != i) around.push_back(x(q) - x(q - 1));
-      const auto m =
-          around.begin() + static_cast<std::ptrdiff_t>(around.size() / 2);
-      std::nth_element(around.begin(), m, around.end());
-      const double fault = step - *m;
+      const double fault = step - UpperMedian(std::move(around));
       out.push_back({span.input_names[j], span.t_s[i], fault});
       x.tail(static_cast<Eigen::Index>(n - i)).array() -= fault;
     }
@@ -834,7 +832,6 @@ SensorFaults RepairSensorFaults(const TimeSeries& span, bool repair,
                                 TimeSeries* series) {
   SensorFaults f;
   f.jumps = FindFittedJumps(span);
-  f.repaired = repair;
   for (const auto& jmp : f.jumps)
     f.warnings.push_back(fmt::format(
         "{} jumps by {:+.2f} K at t = {:g} s in the fitted span and stays "
@@ -883,7 +880,7 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   ThermalModel model;
   model.source = ts.source;
   model.options = o;
-  if (faults.repaired) model.fitted_jumps = faults.jumps;
+  if (o.repair_jumps) model.fitted_jumps = faults.jumps;
   model.fit_warnings = std::move(faults.warnings);
   model.fit_t_begin_s = fit.t_s.front();
   model.fit_t_end_s = fit.t_s.back();

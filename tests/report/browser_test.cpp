@@ -1,11 +1,12 @@
 // The reports of the sample runs (samples/: a cloud, dial, DMIS and probe
 // measurement, with and without the TALC log, and the comparison of two
 // pieces) and of the real thermal log, built by the `ttp report` binary,
-// opened in headless Chromium with no network. Every uPlot instance must have drawn every data point of
-// its series inside its plot area (the page's draw hook counts them from
-// uPlot's own data and scales into data-points), the page must log nothing
-// to the console and report no script error, and a screenshot is saved to
-// <build>/docs/report.png (copied into docs/report.png for the README).
+// opened in headless Chromium with no network. Every uPlot instance must have
+// drawn every data point of its series inside its plot area (the page's draw
+// hook counts them from uPlot's own data and scales into data-points), the page
+// must log nothing to the console and report no script error, and a screenshot
+// is saved to <build>/docs/report.png (copied into docs/report.png for the
+// README).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -190,7 +191,8 @@ void CheckPageDrawsEverything(const fs::path& html,
     EXPECT_GT(n, 0) << "plot " << plot << " has no data";
     EXPECT_EQ(drawn[plot], n) << "plot " << plot;
   }
-  EXPECT_EQ(UplotInstances(dom.output), expected.size()) << "uPlot instances in the page";
+  EXPECT_EQ(UplotInstances(dom.output), expected.size())
+      << "uPlot instances in the page";
   EXPECT_NE(dom.output.find("data-verdict=\"" + verdict + "\""),
             std::string::npos);
 }
@@ -249,16 +251,15 @@ TEST_F(BrowserTest, ThermalLogPageDrawsTheComparisonAndTheReplay) {
   const fs::path data_path = fs::absolute(dir / "thermal.json");
   const RunResult report = RunCommand(
       "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
-      "/app/ttp report --log reference/fl-thermal/train.csv -o " +
-      Quote(html) + " --json " + Quote(data_path) + " 2>&1");
+      "/app/ttp report --log reference/fl-thermal/train.csv -o " + Quote(html) +
+      " --json " + Quote(data_path) + " 2>&1");
   ASSERT_EQ(report.exit_code, 0) << report.output;
   const json data = json::parse(ReadFile(data_path));
   const size_t outputs = data["outputs"].size();
   ASSERT_EQ(outputs, 5u);
   ASSERT_EQ(data["replay"]["outputs"].size(), outputs);
   const RunResult dom = Chromium(
-      "--window-size=1280,1000 --dump-dom " +
-          Quote("file://" + html.string()),
+      "--window-size=1280,1000 --dump-dom " + Quote("file://" + html.string()),
       dir / "profile");
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
   CheckPageRanClean(dom.output);

@@ -130,8 +130,7 @@ std::vector<FittedJump> FindFittedJumps(const TimeSeries& span);
 size_t ShiftJumps(const std::vector<FittedJump>& jumps, double t_offset_s,
                   TimeSeries* ts);
 struct SensorFaults {
-  std::vector<FittedJump> jumps;  // shifted out when repaired
-  bool repaired = false;
+  std::vector<FittedJump> jumps;      // shifted out with `repair`
   std::vector<std::string> warnings;  // one line per fault
 };
 // The jumps of `span` (the fitted rows), and with `repair` the jumps
