@@ -339,8 +339,22 @@ CompareResult CompareModels(const TimeSeries& log, double holdout_from_s,
     {
       FitOptions ols = o;
       ols.ridge = {0};
+      // Without a ridge, a chronological fold needs more measured values
+      // before it than the model has parameters; with sparse outputs (one
+      // every 30 min) the folds have fewer. The OLS fit of the whole
+      // fitted span is still determined: then the lag's time constant is
+      // chosen by the in-sample criterion (MDL) instead of the CV.
+      auto fit_ols = [&](const std::vector<Regressor>& regs, Structure s) {
+        try {
+          return FitFixed(fit, j, regs, s, ols);
+        } catch (const InputError&) {
+          FitOptions in_sample = ols;
+          in_sample.criterion = "mdl";
+          return FitFixed(fit, j, regs, s, in_sample);
+        }
+      };
       if (!all_t.empty()) {
-        const OutputModel m = FitFixed(fit, j, all_t, Structure::kStatic, ols);
+        const OutputModel m = fit_ols(all_t, Structure::kStatic);
         record(entry, PredictOutput(m, ts), "static", int(all_t.size()));
       } else {
         record(entry, Eigen::VectorXd::Zero(n_rows), "none", 0);
@@ -352,7 +366,7 @@ CompareResult CompareModels(const TimeSeries& log, double holdout_from_s,
       for (double tau : o.taus_s) {
         const std::vector<Regressor> regs = SpeedLagRegressors(fit, {tau});
         if (regs.empty()) break;
-        const OutputModel m = FitFixed(fit, j, regs, Structure::kLag, ols);
+        const OutputModel m = fit_ols(regs, Structure::kLag);
         if (m.cv_score < score) score = m.cv_score, best_lag = m;
       }
       record(entry,

@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <optional>
 #include <set>
 
@@ -305,6 +306,10 @@ double Sse(const Eigen::MatrixXd& v, const std::vector<int>& idx,
   return std::max(0.0, sse);
 }
 
+// A fold is scored only when at least this many measured values lie
+// before it: an intercept and a penalised slope, and one value to spare.
+constexpr double kMinFoldRows = 3;
+
 struct Score {
   double score = std::numeric_limits<double>::infinity();
   double cv_rms = kNaN;
@@ -319,17 +324,31 @@ Score Evaluate(const Grams& g, const std::vector<int>& idx, double lambda,
   s.lambda = lambda;
   double sse = 0, count = 0;
   Eigen::VectorXd theta;
+  // Without a ridge, a fit needs more values than parameters; with one, the
+  // penalty determines what the values do not (outputs measured every 30
+  // min leave fewer values before a fold than the joint model's 42
+  // regressors). Which folds count does not depend on lambda, so every
+  // ridge value is scored on the same folds.
+  const double parameters = static_cast<double>(idx.size());
+  const bool unpenalised = !(lambda > 0);
+  if (unpenalised && g.n < parameters + 1) return s;
+  bool cv_determined = true;
   for (int k = o.cv_first_validation_block; k < o.cv_blocks; ++k) {
     const Eigen::MatrixXd& v = g.after[k];
     const double nv = v(0, 0);
     if (nv <= 0) continue;
-    if (g.train[k](0, 0) < idx.size() + 1) continue;
-    if (!Solve(g.train[k], idx, lambda, &theta)) return s;
+    const double rows_before = g.after[0](0, 0) - nv;  // unweighted
+    if (rows_before < kMinFoldRows) continue;
+    if ((unpenalised && rows_before < parameters + 1) ||
+        !Solve(g.train[k], idx, lambda, &theta)) {
+      cv_determined = false;
+      break;
+    }
     const double fold = Sse(v, idx, theta);
     sse += fold;
     count += nv;
   }
-  if (count > 0) s.cv_rms = std::sqrt(sse / count);
+  if (cv_determined && count > 0) s.cv_rms = std::sqrt(sse / count);
   if (!Solve(g.all, idx, lambda, &theta)) return s;
   // In-sample RMS unweighted: the sum of the validation-style Grams.
   Eigen::MatrixXd u = Eigen::MatrixXd::Zero(g.all.rows(), g.all.cols());
@@ -402,15 +421,29 @@ Selection ForwardSelect(const Grams& g, const Pool& pool, const FitOptions& o) {
 OutputModel Finish(const Data& d, const Grams& g,
                    const std::vector<Regressor>& pool,
                    const std::vector<int>& chosen, const Score& score,
-                   const std::string& output, Structure structure) {
+                   const TimeSeries& fit, int output, Structure structure,
+                   const FitOptions& o) {
   std::vector<int> idx = {0};
   for (int c : chosen) idx.push_back(c + 1);
+  if (!std::isfinite(score.score)) {
+    throw InputError(
+        fit.source, 0, fit.output_names[output],
+        fmt::format(
+            "{} measured values: the chronological CV scores no ridge value "
+            "of the grid for {} regressors ({} blocks, validation from block "
+            "{}: a fold needs {} values before it, and a ridge of 0 more "
+            "values than parameters); give more measured values or ridge "
+            "values above 0",
+            g.n, idx.size() - 1, o.cv_blocks, o.cv_first_validation_block,
+            kMinFoldRows));
+  }
+  const std::string& output_name = fit.output_names[output];
   Eigen::VectorXd theta;
   if (!Solve(g.all, idx, score.lambda, &theta)) {
-    throw std::runtime_error("least-squares solve failed for " + output);
+    throw std::runtime_error("least-squares solve failed for " + output_name);
   }
   OutputModel m;
-  m.output = output;
+  m.output = output_name;
   m.structure = structure;
   m.ridge = score.lambda;
   m.cv_score = score.score;
@@ -553,8 +586,8 @@ OutputModel FitOutput(const TimeSeries& fit, int output, Structure structure,
     const Grams g = BuildGrams(d, o);
     const Selection sel = ForwardSelect(g, pool, o);
     if (have && !(sel.score.score < best.cv_score)) continue;
-    best = Finish(d, g, pool.regs, sel.chosen, sel.score,
-                  fit.output_names[output], structure);
+    best = Finish(d, g, pool.regs, sel.chosen, sel.score, fit, output,
+                  structure, o);
     best.selection_log = sel.log;
     if (structure == Structure::kArx)
       best.selection_log.insert(best.selection_log.begin(), pool.label);
@@ -640,6 +673,7 @@ OutputModel FitAuto(const TimeSeries& fit, int output, const FitOptions& o) {
     double cv_rms = kNaN;
   };
   std::vector<Candidate> cands;
+  std::exception_ptr first_error;
   const int n_rows = [&] {
     int n = 0;
     for (Eigen::Index i = 0; i < fit.outputs_um.rows(); ++i)
@@ -655,7 +689,15 @@ OutputModel FitAuto(const TimeSeries& fit, int output, const FitOptions& o) {
     if (regs.empty()) return;
     Candidate c;
     c.label = label;
-    c.model = FitFixed(fit, output, regs, s, o);
+    try {
+      c.model = FitFixed(fit, output, regs, s, o);
+    } catch (const InputError&) {
+      // Too few measured values for this many regressors: the smaller
+      // candidates may still be scored; if none is, the first error says
+      // why.
+      if (!first_error) first_error = std::current_exception();
+      return;
+    }
     c.score = c.model.cv_score;
     c.cv_rms = c.model.cv_rms_um;
     cands.push_back(std::move(c));
@@ -684,13 +726,19 @@ OutputModel FitAuto(const TimeSeries& fit, int output, const FitOptions& o) {
                         Structure::kArx, Structure::kCombined}) {
       Candidate c;
       c.label = std::string(StructureName(s)) + " (forward-selected)";
-      c.model = FitOutput(fit, output, s, o);
+      try {
+        c.model = FitOutput(fit, output, s, o);
+      } catch (const InputError&) {
+        if (!first_error) first_error = std::current_exception();
+        continue;
+      }
       c.cv_rms = NestedCvRms(fit, output, s, o);
       if (!std::isfinite(c.cv_rms)) continue;
       const double base = o.criterion == "mdl" ? c.model.fit_rms_um : c.cv_rms;
       c.score = base * mdl(c.model.regressors.size());
       cands.push_back(std::move(c));
     }
+  if (cands.empty() && first_error) std::rethrow_exception(first_error);
   if (cands.empty())
     throw InputError(fit.source, 0, fit.output_names[output],
                      "no model structure applies to the log's inputs");
@@ -725,8 +773,7 @@ OutputModel FitFixed(const TimeSeries& fit, int output,
     chosen.push_back(static_cast<int>(j));
   }
   const Score s = BestRidge(g, idx, o);
-  return Finish(d, g, regressors, chosen, s, fit.output_names[output],
-                structure);
+  return Finish(d, g, regressors, chosen, s, fit, output, structure, o);
 }
 
 namespace {
