@@ -36,6 +36,10 @@ nlohmann::json CanonToJson(const std::vector<CanonStatement>& statements) {
     j["line"] = s.source_line;
     j["end_mm"] = {s.end_mm.x(), s.end_mm.y(), s.end_mm.z()};
     j["end_c_deg"] = s.end_c_rad * 180.0 / M_PI;
+    // The controlled point is the tip only with the spindle tool's offset.
+    j["length_offset_mm"] = s.length_offset_mm;
+    if (s.length_offset_tool >= 0)
+      j["length_offset_tool"] = s.length_offset_tool;
     if (s.kind == CanonKind::kFeed || s.kind == CanonKind::kProbe)
       j["feed_per_min"] = s.feed_per_min;
     j["value"] = s.value;
@@ -164,7 +168,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
                            (own_lines ? "" : " (its LinuxCNC translation)") +
                            ": " + e.problem());
     }
-    const ToolpathDifference d = CompareToolpaths(ours, rs.statements);
+    const ToolpathDifference d =
+        CompareToolpaths(ours, rs.statements, rs.ResolutionMm());
     if (d.same) {
       if (!global.quiet)
         std::cout << fmt::format(

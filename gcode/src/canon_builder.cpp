@@ -22,6 +22,8 @@ CanonStatement& CanonBuilder::PushRaw(CanonKind kind) {
   s.kind = kind;
   s.end_mm = position_mm_;
   s.end_c_rad = c_deg_ * kDegToRad;
+  s.length_offset_mm = tool_length_offset_mm_;
+  s.length_offset_tool = tool_length_offset_tool_;
   s.source_line = line_;
   out_.push_back(s);
   return out_.back();

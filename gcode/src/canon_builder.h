@@ -38,10 +38,12 @@ class CanonBuilder {
   void SetClamp(bool clamp);
   void ChangeTool(int tool);
   // G43/G49: the programmed position of the unchanged physical position moves
-  // by the change of the length offset (as rs274 does).
-  void SetToolLengthOffset(double length_mm) {
+  // by the change of the length offset (as rs274 does). `tool`: the tool
+  // whose length it is (-1: G49, or not known).
+  void SetToolLengthOffset(double length_mm, int tool = -1) {
     position_mm_.z() -= length_mm - tool_length_offset_mm_;
     tool_length_offset_mm_ = length_mm;
+    tool_length_offset_tool_ = tool;
   }
   void Report(const std::string& text);
   void Comment(const std::string& text);
@@ -69,6 +71,7 @@ class CanonBuilder {
   Eigen::Vector3d position_mm_ = Eigen::Vector3d::Zero();
   double c_deg_ = 0;
   double tool_length_offset_mm_ = 0;
+  int tool_length_offset_tool_ = -1;
   Spindle spindles_[2];
   bool coolant_ = false;
   std::optional<bool> clamp_;

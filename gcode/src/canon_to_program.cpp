@@ -21,13 +21,49 @@ Program ProgramFromCanon(const std::vector<CanonStatement>& statements,
   p.name = name;
   p.number = number;
   p.title = title;
+  // The tool-length compensation in effect: switched before the first
+  // motion that has another (a translated program keeps its G43 and G49).
+  double offset_mm = 0;
+  int offset_tool = -1;
+  // Where the previous motion ended (the machine's start is not known: the
+  // first motion is written absolute).
+  Eigen::Vector3d position_mm = Eigen::Vector3d::Constant(std::nan(""));
+  double c_rad = std::nan("");
   for (const CanonStatement& s : statements) {
+    const bool motion = s.kind == CanonKind::kTraverse ||
+                        s.kind == CanonKind::kFeed ||
+                        s.kind == CanonKind::kProbe;
+    if (motion && (s.length_offset_mm != offset_mm ||
+                   s.length_offset_tool != offset_tool)) {
+      if (s.length_offset_tool < 0 && s.length_offset_mm != 0)
+        throw InputError(source, s.source_line, "G43",
+                         "a tool-length offset without its tool number");
+      p.statements.push_back(LengthCompensation{s.length_offset_tool});
+      offset_mm = s.length_offset_mm;
+      offset_tool = s.length_offset_tool;
+    }
+    // A turn of C alone by half a turn or more is written incremental: on
+    // a table with roll-over an absolute target takes the short way.
+    const double dc_deg = (s.end_c_rad - c_rad) * 180.0 / M_PI;
+    const bool c_turn =
+        motion && s.end_mm == position_mm && std::abs(dc_deg) >= 180.0 - 1e-9;
+    if (motion) {
+      position_mm = s.end_mm;
+      c_rad = s.end_c_rad;
+    }
     switch (s.kind) {
       case CanonKind::kTraverse:
-        p.statements.push_back(Rapid{AllAxes(s)});
+        if (c_turn)
+          p.statements.push_back(Rapid{Axes{{}, {}, {}, dc_deg}, true});
+        else
+          p.statements.push_back(Rapid{AllAxes(s)});
         break;
       case CanonKind::kFeed:
-        p.statements.push_back(Feed{AllAxes(s), s.feed_per_min});
+        if (c_turn)
+          p.statements.push_back(
+              Feed{Axes{{}, {}, {}, dc_deg}, s.feed_per_min, true});
+        else
+          p.statements.push_back(Feed{AllAxes(s), s.feed_per_min});
         break;
       case CanonKind::kProbe:
         throw InputError(source, s.source_line, "probe",

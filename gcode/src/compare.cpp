@@ -33,6 +33,9 @@ std::string Differ(const CanonStatement& a, const CanonStatement& b,
           "{:.6f}) mm",
           a.end_mm.x(), a.end_mm.y(), a.end_mm.z(), b.end_mm.x(), b.end_mm.y(),
           b.end_mm.z());
+    if (std::abs(a.length_offset_mm - b.length_offset_mm) > tolerance_mm)
+      return fmt::format("tool-length offset {:.6f} vs {:.6f} mm",
+                         a.length_offset_mm, b.length_offset_mm);
     if (std::abs(a.end_c_rad - b.end_c_rad) > tolerance_rad)
       return fmt::format("C {:.9f} vs {:.9f} rad", a.end_c_rad, b.end_c_rad);
     if (a.kind != CanonKind::kTraverse &&

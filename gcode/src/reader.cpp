@@ -15,8 +15,8 @@
 #include "ttp/gcode/writer.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
-#include "ttp/geometry/limits.h"
 #include "ttp/geometry/frames.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp::gcode {
 namespace {
@@ -126,7 +126,14 @@ class Lexer {
       if (ch == ' ' || ch == '\t') {
         ++i;
       } else if (ch == ';') {
-        break;  // LinuxCNC: comment to end of line; FANUC: end of block
+        // LinuxCNC: a comment to the end of the line. FANUC: the end of the
+        // block; a block after it on the same line is refused rather than
+        // read under this line's number or dropped.
+        if (dialect_ == Dialect::kFanuc && !Trim(text.substr(i + 1)).empty())
+          Fail(Trim(text.substr(i)).substr(0, 20),
+               "a block after the end of block ';' on the same line (give "
+               "each block its own line)");
+        break;
       } else if (ch == '(') {
         const size_t close = text.find(')', i + 1);
         if (close == std::string::npos) Fail("(", "comment is not closed");
@@ -199,8 +206,12 @@ class Lexer {
     if (digits > 15) Fail(w.raw, "more than 15 digits in a number");
     w.value = std::strtod(number.c_str(), nullptr);
     if (!std::isfinite(w.value)) Fail(w.raw, "bad number");
+    // FANUC values without a point count least increments (0.001 mm or
+    // finer): the limit is on the length they give.
+    const double length =
+        dialect_ == Dialect::kFanuc && !w.has_point ? w.value * 0.001 : w.value;
     if (std::string("XYZABCUVWIJKR").find(w.letter) != std::string::npos &&
-        std::abs(w.value) > limits::kMaxProgramCoordinate)
+        std::abs(length) > limits::kMaxProgramCoordinate)
       Fail(w.raw, "coordinate beyond the limit of " +
                       std::to_string(
                           static_cast<long>(limits::kMaxProgramCoordinate)));
@@ -491,6 +502,7 @@ class Interpreter {
       builder_.StopSpindle(0);
       builder_.StopSpindle(1);
       builder_.ChangeTool(selected_tool_);
+      loaded_tool_ = selected_tool_;
     }
     if (HasM(block, 3)) builder_.StartSpindle(spindle, true);
     if (HasM(block, 4)) builder_.StartSpindle(spindle, false);
@@ -528,12 +540,19 @@ class Interpreter {
       const Word* h = Find(block, 'H');
       if (h && !(h->value >= 0 && h->value <= 99999))
         Fail(h->raw, "H must be 0..99999");
-      const int tool = h ? static_cast<int>(h->value) : selected_tool_;
+      // Without H: LinuxCNC takes the tool in the spindle (a tool selected
+      // since, T without M6, is not it); FANUC's H is modal.
+      int tool =
+          h ? static_cast<int>(h->value) : (Fanuc() ? modal_h_ : loaded_tool_);
+      if (tool < 0)
+        Fail("G43", Fanuc() ? "G43 without H and no H given before"
+                            : "G43 without H and no tool in the spindle");
+      if (h) modal_h_ = tool;
       const ToolSpec* spec = config_.process.ToolByNumber(tool);
       if (!spec)
         Fail(h ? h->raw : "G43",
              fmt::format("no tool {} in the process", tool));
-      builder_.SetToolLengthOffset(spec->length_mm);
+      builder_.SetToolLengthOffset(spec->length_mm, tool);
     }
     if (HasG(block, 490)) {
       builder_.SetToolLengthOffset(0.0);
@@ -679,7 +698,9 @@ class Interpreter {
   bool absolute_ = true;
   Motion motion_ = Motion::kNone;
   std::optional<double> feed_;
-  int selected_tool_ = -1;
+  int selected_tool_ = -1;  // T: the next M6's tool
+  int loaded_tool_ = -1;    // in the spindle (M6)
+  int modal_h_ = -1;        // FANUC: H stays until another is given
   bool length_offset_on_ = false;
 };
 

@@ -80,6 +80,9 @@ std::string PrepareProgram(const std::string& ngc_text) {
   std::string line, out;
   int number = 0;
   static const std::regex print_re(R"(\(\s*print\s*,)", std::regex::icase);
+  // The program's own block number (after an optional block delete) gives
+  // way to the line's: a block takes one N word.
+  static const std::regex number_re(R"(^\s*(/?)\s*[nN]\s*[0-9]+(\.[0-9]*)?)");
   while (std::getline(in, line)) {
     ++number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -90,7 +93,16 @@ std::string PrepareProgram(const std::string& ngc_text) {
     }
     line = std::regex_replace(line, print_re,
                               std::string("(debug,") + kReportPrefix);
-    out += fmt::format("N{} {}\n", number, line);
+    std::smatch m;
+    std::string slash;
+    if (std::regex_search(line, m, number_re)) {
+      slash = m[1].str();
+      line = m.suffix().str();
+    } else if (t[0] == '/') {
+      slash = "/";
+      line = line.substr(line.find('/') + 1);
+    }
+    out += fmt::format("{}N{} {}\n", slash, number, line);
   }
   return out;
 }
@@ -214,8 +226,8 @@ std::vector<CanonStatement> ParseRs274Canon(const std::string& canon_text,
                              ? selected_tool
                              : static_cast<int>(Numbers(call, source).at(0)));
     } else if (n == "USE_TOOL_LENGTH_OFFSET") {
-      // (x y z a b c u v w), in program units (mm here).
-      builder.SetToolLengthOffset(Numbers(call, source).at(2));
+      // (x y z a b c u v w), in program units (inches under G20).
+      builder.SetToolLengthOffset(Numbers(call, source).at(2) * units);
     } else if (n == "SET_AUX_OUTPUT_BIT" || n == "CLEAR_AUX_OUTPUT_BIT") {
       if (static_cast<int>(Numbers(call, source).at(0)) == c_clamp_output)
         builder.SetClamp(n == "SET_AUX_OUTPUT_BIT");
@@ -265,6 +277,7 @@ Rs274Result RunRs274(const std::string& ngc_text, const Config& config) {
     if (lock_fd >= 0) close(lock_fd);  // releases the lock
   }
   Rs274Result result;
+  result.inches = false;
   result.stderr_text = ReadTextFile(dir.path / "stderr.txt");
   if (fs::exists(dir.path / "out.canon"))
     result.canon_text = ReadTextFile(dir.path / "out.canon");
@@ -286,6 +299,8 @@ Rs274Result RunRs274(const std::string& ngc_text, const Config& config) {
     throw InputError("rs274", line, "", message);
   }
   const Eigen::Vector3d start(0, 0, -WorkpieceOriginHeightMm(config));
+  result.inches =
+      result.canon_text.find("CANON_UNITS_INCHES") != std::string::npos;
   result.statements =
       ParseRs274Canon(result.canon_text, "rs274 canon",
                       config.machine.linuxcnc_c_clamp_output, start);

@@ -129,6 +129,9 @@ class Writer {
     if (l.tool < 0) Fail("tool number must be >= 0");
     Line(fmt::format("G0 G43 H{} Z{}", l.tool, Mm(l.z_mm)));
   }
+  void Emit(const LengthCompensation& l) {
+    Line(l.tool >= 0 ? fmt::format("G43 H{}", l.tool) : std::string("G49"));
+  }
   void Emit(const BZeroClamp&) {
     const MachineProfile& m = config_.machine;
     if (dialect_ == Dialect::kFanuc) {

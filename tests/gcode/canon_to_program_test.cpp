@@ -26,6 +26,28 @@ TEST(CanonToProgramTest, TranslatesBetweenDialects) {
   EXPECT_NEAR(TotalDuration(fanuc), TotalDuration(linuxcnc), 1e-9);
 }
 
+// A translation keeps the tool-length compensation (G43 H, G49) and turns
+// C by whole turns as turns: an absolute C target on a table with roll-over
+// would take the short way.
+TEST(CanonToProgramTest, KeepsLengthCompensationAndTurnsOfC) {
+  const Config config;
+  const char* text =
+      "G21 G90\nT1 M6\nG0 G43 H1 Z50\nG0 X100 Y0\nM3 S1000\n"
+      "G1 Z0 F500\nG91 G1 C-360 F600\nG90\nG1 C-370 F600\n"
+      "G49 G53 G0 Z0\nM30\n";
+  const auto canon = ReadProgram(text, Dialect::kLinuxCnc, config, "l");
+  const Program translated = ProgramFromCanon(canon, "t", 1, "t", "l");
+  for (Dialect d : {Dialect::kFanuc, Dialect::kLinuxCnc}) {
+    const std::string out = WriteProgram(translated, d, config);
+    EXPECT_NE(out.find("G43 H1"), std::string::npos) << out;
+    EXPECT_NE(out.find("G49"), std::string::npos) << out;
+    EXPECT_NE(out.find("G91 G1 C-360.000"), std::string::npos) << out;
+    const auto back = ReadProgram(out, d, config, "t");
+    const ToolpathDifference diff = CompareToolpaths(canon, back, 1e-9, 1e-12);
+    EXPECT_TRUE(diff.same) << diff.what << "\n" << out;
+  }
+}
+
 TEST(CanonToProgramTest, ReportsKeepFeatureAndAngle) {
   const auto canon = ReadProgram("(print,cut,Y1-4,-12.500)\n",
                                  Dialect::kLinuxCnc, Config{}, "l");

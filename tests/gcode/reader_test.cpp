@@ -1,5 +1,6 @@
 #include "ttp/gcode/reader.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "golden.h"
@@ -146,6 +147,38 @@ TEST(ReaderTest, FanucLeastIncrementsFollowTheUnits) {
   EXPECT_NEAR(got[0].end_mm.x(), 1.0, 1e-12);              // 0.001 mm
   EXPECT_NEAR(got[0].end_c_rad, 0.5 * M_PI / 180, 1e-15);  // 0.001 deg
   EXPECT_NEAR(got[1].end_mm.x(), 0.1 * 25.4, 1e-12);       // 0.0001 inch
+  // The coordinate limit is on the length: X450000 is 450 mm, not 450 m.
+  const auto far = ReadProgram("G21\nG0 X450000 Z-450000\n", Dialect::kFanuc,
+                               Config{}, "p.nc");
+  ASSERT_EQ(far.size(), 1u);
+  EXPECT_NEAR(far[0].end_mm.x(), 450.0, 1e-12);
+}
+
+// G43 without H: LinuxCNC takes the tool in the spindle, not one selected
+// since (rs274 agrees: Rs274Test.ShopEditsMatchOurReader); FANUC's H is
+// modal. Every statement carries the offset in effect and its tool.
+TEST(ReaderTest, LengthOffsetWithoutHIsTheSpindlesTool) {
+  const Config config;
+  const ToolSpec& t1 = config.process.roughing;
+  const ToolSpec& t2 = config.process.finishing;
+  const auto lin = ReadProgram(
+      fmt::format("G21\nT{} M6\nT{}\nG43\nG0 Z50\nG49\nG0 Z60\nM30\n",
+                  t1.number, t2.number),
+      Dialect::kLinuxCnc, config, "p.ngc");
+  ASSERT_GE(lin.size(), 3u);
+  EXPECT_EQ(lin[1].kind, CanonKind::kTraverse);
+  EXPECT_EQ(lin[1].length_offset_tool, t1.number);
+  EXPECT_EQ(lin[1].length_offset_mm, t1.length_mm);
+  EXPECT_EQ(lin[2].length_offset_tool, -1);
+  EXPECT_EQ(lin[2].length_offset_mm, 0);
+  const auto fan = ReadProgram(
+      fmt::format("O1\nG21\nT{} M6\nG43 H{}\nG0 Z50.\nG49\nG0 Z60.\n"
+                  "G43\nG0 Z50.\nM30\n",
+                  t1.number, t2.number),
+      Dialect::kFanuc, config, "p.nc");
+  ASSERT_GE(fan.size(), 4u);
+  EXPECT_EQ(fan[3].length_offset_tool, t2.number);
+  EXPECT_EQ(fan[3].length_offset_mm, t2.length_mm);
 }
 
 struct BadProgram {
@@ -195,6 +228,10 @@ TEST(ReaderTest, BadProgramsNameLineAndWord) {
        1, "DPRNT"},
       {Dialect::kFanuc, "IF[ABS[#99999999999999-1.0]GT0.5]THEN#3000=1\n", 1,
        "IF"},
+      // FANUC ';' ends the block: another block after it is not dropped.
+      {Dialect::kFanuc, "G21\nG0 X10.; G0 Y20.\n", 2, "; G0 Y20."},
+      {Dialect::kFanuc, "G21\nG43 Z50.\n", 2, "G43"},
+      {Dialect::kLinuxCnc, "G21\nG43\n", 2, "G43"},
   };
   for (const BadProgram& c : cases) {
     SCOPED_TRACE(c.text);

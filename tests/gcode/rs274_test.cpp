@@ -137,6 +137,39 @@ TEST(Rs274Test, RandomProgramsMatchOurReader) {
   }
 }
 
+// A machinist's edits of a LinuxCNC program, read by rs274 and by us alike:
+// the program's own block numbers, G43 without H after another tool was
+// selected (the spindle's tool counts), the length offset in inches under
+// G20, and coordinates finer than rs274 prints (4 decimals in the
+// program's units: the comparison allows that rounding, no more).
+TEST(Rs274Test, ShopEditsMatchOurReader) {
+  SKIP_WITHOUT_RS274();
+  const Config config;
+  const char* programs[] = {
+      "N10 G21 G90\nN20 T1 M6\nN30 T2\nN40 G43\nN50 G0 X10.12345 Z50\n"
+      "N60 G49 G0 Z80\nN70 M30\n",
+      "G20 G90\nT2 M6\nG43 H2\nG0 X1.23456 Y0.5 Z2\nG1 Z1.5 F10\n"
+      "G49\nG0 Z3\nM30\n",
+  };
+  for (const char* text : programs) {
+    SCOPED_TRACE(text);
+    const auto ours = ReadProgram(text, Dialect::kLinuxCnc, config, "shop");
+    const Rs274Result rs = RunRs274(text, config);
+    const ToolpathDifference d =
+        CompareToolpaths(ours, rs.statements, rs.ResolutionMm());
+    EXPECT_TRUE(d.same) << d.what << "\n" << rs.canon_text;
+    bool offset = false;
+    for (const CanonStatement& s : rs.statements)
+      offset |= s.kind == CanonKind::kTraverse && s.length_offset_mm > 40;
+    EXPECT_TRUE(offset) << "no G43 seen in rs274's canon";
+  }
+  // Without H after T2 preselected: tool 1's length (rs274's reading).
+  const auto rs = RunRs274(programs[0], config);
+  for (const CanonStatement& s : rs.statements)
+    if (s.kind == CanonKind::kTraverse && s.length_offset_mm > 0)
+      EXPECT_NEAR(s.length_offset_mm, config.process.roughing.length_mm, 1e-3);
+}
+
 TEST(Rs274Test, ToolTableIsConvertedToInches) {
   SKIP_WITHOUT_RS274();
   Config config;

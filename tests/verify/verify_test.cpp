@@ -2,6 +2,7 @@
 // right finding.
 #include "ttp/verify/verify.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "test_programs.h"
@@ -83,6 +84,58 @@ TEST(VerifyTest, FacetCutTooDeepFails) {
   // The program text rounds coordinates to 0.1 um.
   EXPECT_NEAR(failed[0]->measured, 50.0, 0.1);
   EXPECT_GT(failed[0]->source_line, 0);
+}
+
+// The programs give the tool tip only through G43 H of the tool in the
+// spindle: without G43 the tip runs a tool length below every programmed
+// point, with another tool's H by the difference of the two lengths.
+gcode::Program WithLengthOffsets(gcode::Program p, int h_tool) {
+  for (gcode::Statement& s : p.statements)
+    if (const auto* l = std::get_if<gcode::LengthOffset>(&s)) {
+      if (h_tool < 0)
+        s = gcode::Rapid{gcode::Axes{{}, {}, l->z_mm, {}}};
+      else
+        s = gcode::LengthOffset{h_tool, l->z_mm};
+    }
+  return p;
+}
+
+TEST(VerifyTest, CutWithoutTheToolsLengthOffsetFails) {
+  const Config config;
+  const gcode::Program pre = MakePreProgram(config);
+  const VerifyReport none =
+      Simulate(WithLengthOffsets(pre, -1), VerifyStage::kPre);
+  const Finding* f = none.Find("tool-length offset of the tool in the spindle");
+  ASSERT_NE(f, nullptr);
+  EXPECT_FALSE(f->pass);
+  EXPECT_NEAR(f->measured, config.process.roughing.length_mm, 1e-9);
+  EXPECT_NE(f->detail.find("no G43"), std::string::npos) << f->detail;
+  EXPECT_GT(f->source_line, 0);
+  // The cut itself is simulated where the tip goes: far too deep.
+  const Finding* top = none.Find("surface TOP");
+  ASSERT_NE(top, nullptr);
+  EXPECT_FALSE(top->pass);
+
+  // Another tool's length (H of the notch cutter on the roughing tool).
+  const int other = config.process.notch.number;
+  const double diff =
+      config.process.roughing.length_mm - config.process.notch.length_mm;
+  ASSERT_GT(std::abs(diff), 1e-3);
+  const VerifyReport wrong =
+      Simulate(WithLengthOffsets(pre, other), VerifyStage::kPre);
+  const Finding* g =
+      wrong.Find("tool-length offset of the tool in the spindle");
+  ASSERT_NE(g, nullptr);
+  EXPECT_FALSE(g->pass);
+  EXPECT_NE(g->detail.find(fmt::format("H{}", other)), std::string::npos)
+      << g->detail;
+  // The correct program passes the check with nothing to spare.
+  const VerifyReport right = Simulate(pre, VerifyStage::kPre);
+  const Finding* h =
+      right.Find("tool-length offset of the tool in the spindle");
+  ASSERT_NE(h, nullptr);
+  EXPECT_TRUE(h->pass);
+  EXPECT_EQ(h->measured, 0);
 }
 
 TEST(VerifyTest, FacetTooShallowFails) {

@@ -23,6 +23,8 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 // Removal below this (mm) along a ray is numerical noise, not a cut.
 constexpr double kCutEpsMm = 1e-6;
+// A tool-length offset within this of the tool's length is that tool's.
+constexpr double kLengthOffsetEpsMm = 1e-6;
 // Probe rays start this far inside the nominal surface and reach
 // kProbeOutsideMm outside it.
 constexpr double kProbeInsideMm = 1.0;
@@ -470,6 +472,56 @@ struct Worst {
   }
 };
 
+// Stage 2b: where the tool tip really is. A statement gives the controlled
+// point, which is the tip only when the tool-length offset in effect is the
+// length of the tool in the spindle (G43 H of that tool): the spindle's
+// gauge line stands at the point plus the offset, the tip a tool length
+// below it. Without G43, or with another tool's H, every cut runs lower or
+// higher by the difference, and the simulation cuts there.
+struct TipPath {
+  std::vector<CanonStatement> statements;
+  Worst offset;  // |offset - tool length| (mm) over feeds and probe moves
+  std::string detail;
+};
+
+TipPath ToolTipPath(const std::vector<CanonStatement>& program,
+                    const Config& config) {
+  TipPath out;
+  out.statements = program;
+  int tool = -1;
+  for (int i = 0; i < static_cast<int>(out.statements.size()); ++i) {
+    CanonStatement& st = out.statements[i];
+    if (st.kind == CanonKind::kToolChange) {
+      tool = static_cast<int>(std::lround(st.value));
+      continue;
+    }
+    const ToolSpec* spec = config.process.ToolByNumber(tool);
+    if (!spec) continue;  // judged by "tools in the process"
+    const double shift = st.length_offset_mm - spec->length_mm;
+    st.end_mm.z() += shift;
+    if (st.kind != CanonKind::kFeed && st.kind != CanonKind::kProbe) continue;
+    if (std::abs(shift) <= kLengthOffsetEpsMm ||
+        std::abs(shift) <= out.offset.value)
+      continue;
+    out.offset.Take(std::abs(shift), i);
+    out.detail =
+        st.length_offset_tool < 0 && st.length_offset_mm == 0
+            ? fmt::format(
+                  "feed without tool-length compensation (no G43) on T{} "
+                  "({:.3f} mm long): the tip runs {:.3f} mm below the "
+                  "programmed point",
+                  tool, spec->length_mm, spec->length_mm)
+            : fmt::format(
+                  "feed with the length offset of H{} ({:.3f} mm) on T{} "
+                  "({:.3f} mm long): the tip runs {:.3f} mm {} the "
+                  "programmed point",
+                  st.length_offset_tool, st.length_offset_mm, tool,
+                  spec->length_mm, std::abs(shift),
+                  shift < 0 ? "below" : "above");
+  }
+  return out;
+}
+
 // Stage 3: the tool swept along a program through the model, with the
 // checks of each move.
 struct MoveChecks {
@@ -731,12 +783,21 @@ VerifyReport VerifyStatements(const std::vector<CanonStatement>& statements,
   report.rays = sim.rays;
   MoveChecks checks;
   if (options.after)
-    CutProgram(*options.after, config, false, &sim.model, &checks);
-  CutProgram(statements, config, true, &sim.model, &checks);
-  AddMoveFindings(checks, statements, config, &report.findings);
-  AddSurfaceFindings(sim, statements, options, &report.findings);
+    CutProgram(ToolTipPath(*options.after, config).statements, config, false,
+               &sim.model, &checks);
+  const TipPath tip = ToolTipPath(statements, config);
+  {
+    Finding f = MakeFinding("tool-length offset of the tool in the spindle",
+                            tip.offset.value, kLengthOffsetEpsMm, "mm");
+    SetWhere(&f, tip.statements, tip.offset.statement);
+    if (!f.pass) f.detail = tip.detail;
+    report.findings.push_back(f);
+  }
+  CutProgram(tip.statements, config, true, &sim.model, &checks);
+  AddMoveFindings(checks, tip.statements, config, &report.findings);
+  AddSurfaceFindings(sim, tip.statements, options, &report.findings);
   if (options.stage == VerifyStage::kCycle)
-    AddCycleFindings(checks.cuts, statements, config, options,
+    AddCycleFindings(checks.cuts, tip.statements, config, options,
                      &report.findings);
   return report;
 }

@@ -48,6 +48,13 @@ struct CanonStatement {
   double value = 0;         // rpm, dwell seconds, tool, on/off
   bool clockwise = true;
   std::string text;
+  // Tool-length compensation in effect at the statement: the length (mm)
+  // G43 applies, 0 after G49 or before any G43; and the tool whose length
+  // it is (G43 H), -1 when none or not known (rs274's canon gives only the
+  // length). end_mm is the controlled point: the tool tip only when the
+  // offset is the length of the tool in the spindle.
+  double length_offset_mm = 0;
+  int length_offset_tool = -1;
   int source_line = 0;  // line in the program text
   double start_s = 0;   // program time at start (time model)
   double duration_s = 0;

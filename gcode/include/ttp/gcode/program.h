@@ -53,6 +53,13 @@ struct LengthOffset {
   int tool;
   double z_mm;
 };
+// Tool-length compensation alone in its block: G43 H<tool> (tool >= 0) or
+// G49 (tool < 0). The programmed position of the unmoved tool changes by
+// the offset (as the readers and rs274 take it); the next move goes to
+// its target with the new offset.
+struct LengthCompensation {
+  int tool = -1;
+};
 // B axis to 0 and clamped (the spindle axis stays vertical).
 struct BZeroClamp {};
 struct Dwell {
@@ -131,7 +138,7 @@ using Statement =
     std::variant<Comment, Rapid, Feed, Dwell, SpindleOn, SpindleOff, Coolant,
                  ToolChange, CSpin, TableClamp, Report, Probe, ProgramEnd,
                  MachineRapid, LengthOffset, BZeroClamp, SpindleOrient,
-                 ProbeSignal, ProbeLog>;
+                 ProbeSignal, ProbeLog, LengthCompensation>;
 
 struct Program {
   std::string name;   // "pre" or "cycle"

@@ -14,6 +14,14 @@ struct Rs274Result {
   std::vector<CanonStatement> statements;  // parsed, time model applied
   std::string canon_text;                  // rs274's canon file
   std::string stderr_text;                 // rs274's diagnostics
+  bool inches = false;  // the program switched to inches (G20) somewhere
+  // How far rs274's positions may be from the exact ones: its canon text
+  // prints 4 decimals in the program's units, a position and the work
+  // offset it is printed against each rounded (0.2 um in mm, 2.54 um in
+  // inches). The tolerance a comparison with our reading takes.
+  double ResolutionMm() const {
+    return inches ? 2 * 0.5e-4 * 25.4 + 1e-6 : 1.5e-4;
+  }
 };
 
 // True when /usr/bin/rs274 exists and is executable.
@@ -47,10 +55,10 @@ struct ToolpathDifference {
   std::string what;            // human-readable reason
 };
 
-// Compares motions (kind, end position within tolerance_mm, C within
-// tolerance_rad, feed), dwells, spindle and C turning (rpm, direction),
-// coolant, clamp, tool changes, reports (text) and the end, in order.
-// Comments are ignored; times are not compared.
+// Compares motions (kind, end position and tool-length offset within
+// tolerance_mm, C within tolerance_rad, feed), dwells, spindle and C turning
+// (rpm, direction), coolant, clamp, tool changes, reports (text) and the end,
+// in order. Comments are ignored; times are not compared.
 ToolpathDifference CompareToolpaths(const std::vector<CanonStatement>& a,
                                     const std::vector<CanonStatement>& b,
                                     double tolerance_mm = 1e-6,
