@@ -7,6 +7,7 @@
 
 #include "command.h"
 #include "ttp/gcode/writer.h"
+#include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/frames.h"
 #include "ttp/geometry/part_mesh.h"
@@ -18,6 +19,16 @@
 
 namespace ttp::app {
 namespace {
+
+// `-o` names a folder: one that exists, or a path where one can be made (the
+// output batch makes it); a file there is the user's mistake, not ours.
+void RequireFolderOrNothing(const std::string& dir) {
+  std::error_code ec;
+  if (std::filesystem::exists(dir, ec) &&
+      !std::filesystem::is_directory(dir, ec))
+    throw InputError("-o", 0, "output", dir + " is a file, not a folder");
+}
+
 
 namespace fs = std::filesystem;
 
@@ -148,7 +159,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
       PrintProgramCheck(std::cerr, check);
       throw std::logic_error("the written DMIS program fails its own check");
     }
-    fs::create_directories(o->dir);
+    RequireFolderOrNothing(o->dir);  // the batch creates it
     const fs::path csv = fs::path(o->dir) / "cmm_points.csv";
     const fs::path dmis = fs::path(o->dir) / "cmm_program.dmi";
     OutputBatch outputs;
@@ -211,7 +222,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
       ->default_val("plan");
   dial->callback([&global, o] {
     const Config config = global.LoadConfig();
-    fs::create_directories(o->dir);
+    RequireFolderOrNothing(o->dir);  // the batch creates it
     const fs::path html = fs::path(o->dir) / "dial_sheet.html";
     const fs::path csv = fs::path(o->dir) / "dial_readings.csv";
     OutputBatch outputs;

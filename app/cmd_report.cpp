@@ -124,6 +124,11 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
         throw InputError("--compare", 0, "compare",
                          "give either --compare A B or one MEASUREMENT "
                          "(with --log)");
+      std::error_code same_ec;
+      if (std::filesystem::equivalent((*compare)[0], (*compare)[1], same_ec))
+        std::fprintf(stderr,
+                     "warning: --compare: %s and %s are the same file\n",
+                     (*compare)[0].c_str(), (*compare)[1].c_str());
       CheckOutputPath(*out, *compare, "--output");
       if (!json_out->empty()) CheckOutputPath(*json_out, *compare, "--json");
       const inspect::Measurement a =
@@ -141,6 +146,10 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
         std::fprintf(stderr, "comparison written to %s (A %s, B %s)\n",
                      out->c_str(), inspect::VerdictName(ga.overall),
                      inspect::VerdictName(gb.overall));
+      // As for one piece: exit 1 unless both verdicts are pass.
+      if (ga.overall != inspect::Verdict::kPass ||
+          gb.overall != inspect::Verdict::kPass)
+        global.exit_code = kExitJudgedFailure;
       return;
     }
     if (measurement->empty())

@@ -416,6 +416,13 @@ TEST(CliHardening, SeveralOutputsAllOrNone) {
                              " --points-csv " + Q(dir / "blocked.json"));
   EXPECT_EQ(p.exit_code, 2) << p.output;
   EXPECT_FALSE(fs::exists(dir / "probe.nc"));
+  // A file where a command writes its folder (or above it) is the user's.
+  Put(dir / "afile", "x\n");
+  for (const char* plan : {"plan cmm -o ", "plan dial -o "}) {
+    ExpectBadInput(RunTtp(plan + Q(dir / "afile")), {"afile"});
+    ExpectBadInput(RunTtp(plan + Q(dir / "afile" / "sub")), {"afile"});
+  }
+  EXPECT_EQ(Slurp(dir / "afile"), "x\n");
   // The twin: an existing run survives a failure untouched.
   fs::create_directories(dir / "twin" / "truth.json");
   Put(dir / "twin" / "talc.csv", "previous run\n");
