@@ -29,7 +29,6 @@ void RequireFolderOrNothing(const std::string& dir) {
     throw InputError("-o", 0, "output", dir + " is a file, not a folder");
 }
 
-
 namespace fs = std::filesystem;
 
 struct PlanCliOptions {

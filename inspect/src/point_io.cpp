@@ -1,14 +1,17 @@
 #include "ttp/inspect/point_io.h"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/io/pcd_io.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -929,8 +932,79 @@ PointCloud ReadPointCloud(const std::filesystem::path& path,
   return ParsePointCloud(file.view(), path.string(), options);
 }
 
+namespace {
+
+// A point given twice with the same coordinates (a double hit, or a cloud
+// written twice) is one measurement: counted twice it would shrink every
+// uncertainty by sqrt(2) and weigh its place twice. Exact repeats are
+// dropped, the first kept, the order otherwise unchanged.
+void DropRepeatedPoints(PointCloud* cloud) {
+  const Eigen::Index n = cloud->size();
+  if (n < 2) return;
+  const auto bits = [&](Eigen::Index i, int a) {
+    // +0 and -0 are one coordinate.
+    const double v = cloud->xyz_mm(a, i) + 0.0;
+    uint64_t u;
+    std::memcpy(&u, &v, sizeof u);
+    return u;
+  };
+  std::vector<std::pair<uint64_t, Eigen::Index>> keys(static_cast<size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    uint64_t h = 1469598103934665603ull;
+    for (int a = 0; a < 3; ++a) h = (h ^ bits(i, a)) * 1099511628211ull;
+    keys[static_cast<size_t>(i)] = {h, i};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<char> repeat(static_cast<size_t>(n), 0);
+  size_t repeats = 0;
+  for (size_t k = 0; k < keys.size();) {
+    size_t end = k + 1;
+    while (end < keys.size() && keys[end].first == keys[k].first) ++end;
+    for (size_t a = k; a < end; ++a) {
+      if (repeat[static_cast<size_t>(keys[a].second)]) continue;
+      for (size_t b = a + 1; b < end; ++b) {
+        const Eigen::Index i = keys[a].second, j = keys[b].second;
+        if (!repeat[static_cast<size_t>(j)] &&
+            cloud->xyz_mm.col(i) == cloud->xyz_mm.col(j)) {
+          repeat[static_cast<size_t>(j)] = 1;  // i < j: the first is kept
+          ++repeats;
+        }
+      }
+    }
+    k = end;
+  }
+  if (repeats == 0) return;
+  Eigen::Index kept = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (repeat[static_cast<size_t>(i)]) continue;
+    cloud->xyz_mm.col(kept) = cloud->xyz_mm.col(i);
+    if (cloud->has_normals) cloud->normals.col(kept) = cloud->normals.col(i);
+    ++kept;
+  }
+  cloud->xyz_mm.conservativeResize(3, kept);
+  if (cloud->has_normals) cloud->normals.conservativeResize(3, kept);
+  cloud->warnings.push_back(fmt::format(
+      "{} of {} points repeat another point exactly (double hits) and were "
+      "dropped: a repeated point is one measurement",
+      repeats, n));
+}
+
+PointCloud ParseAnyPointCloud(std::string_view data, const std::string& source,
+                              const ReadOptions& options);
+
+}  // namespace
+
 PointCloud ParsePointCloud(std::string_view data, const std::string& source,
                            const ReadOptions& options) {
+  PointCloud cloud = ParseAnyPointCloud(data, source, options);
+  DropRepeatedPoints(&cloud);
+  return cloud;
+}
+
+namespace {
+
+PointCloud ParseAnyPointCloud(std::string_view data, const std::string& source,
+                              const ReadOptions& options) {
   const double scale = MillimetresPer(options.units);
   const std::string ext =
       Lower(std::filesystem::path(source).extension().string());
@@ -966,6 +1040,8 @@ PointCloud ParsePointCloud(std::string_view data, const std::string& source,
       source, 0, "",
       "unknown point cloud format (PCD, PLY or .xyz/.txt/.csv text)");
 }
+
+}  // namespace
 
 void WritePointCloud(const std::filesystem::path& path, const PointCloud& cloud,
                      CloudFormat format) {

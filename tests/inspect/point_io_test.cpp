@@ -90,6 +90,43 @@ TEST_F(PointIoTest, EveryFormatRoundTripsToTheSameFigures) {
   }
 }
 
+// A point given twice (double hits, a cloud written twice, one point
+// repeated many times) is one measurement: the repeats are dropped with a
+// warning, and the figures and their uncertainties are the single cloud's.
+TEST_F(PointIoTest, RepeatedPointsCountOnce) {
+  const SynthPiece s = SmallPiece();
+  const Config config;
+  const fs::path once = dir_ / "once.xyz";
+  WritePointCloud(once, s.cloud, CloudFormat::kXyz);
+  PointCloud twice = s.cloud;
+  const Eigen::Index n = s.cloud.size();
+  twice.xyz_mm.conservativeResize(3, 2 * n + 500);
+  twice.xyz_mm.middleCols(n, n) = s.cloud.xyz_mm;
+  for (Eigen::Index k = 0; k < 500; ++k)
+    twice.xyz_mm.col(2 * n + k) = s.cloud.xyz_mm.col(n / 2);
+  for (CloudFormat f :
+       {CloudFormat::kXyz, CloudFormat::kPlyAscii, CloudFormat::kPcdBinary}) {
+    const fs::path p = dir_ / (std::string("twice-") + CloudFormatName(f) +
+                               CloudFormatExtension(f));
+    WritePointCloud(p, twice, f);
+    const PointCloud back = ReadPointCloud(p);
+    ASSERT_EQ(back.size(), n) << CloudFormatName(f);
+    EXPECT_EQ(back.xyz_mm, s.cloud.xyz_mm) << "order kept, first kept";
+    ASSERT_EQ(back.warnings.size(), 1u);
+    EXPECT_NE(back.warnings[0].find(
+                  fmt::format("{} of {} points repeat", n + 500, 2 * n + 500)),
+              std::string::npos)
+        << back.warnings[0];
+    const Measurement a = LoadMeasurement(config, once);
+    const Measurement b = LoadMeasurement(config, p);
+    ASSERT_EQ(a.result.figures.size(), b.result.figures.size());
+    for (size_t c = 0; c < a.result.figures.size(); ++c) {
+      EXPECT_EQ(a.result.figures[c].e_z_mm, b.result.figures[c].e_z_mm);
+      EXPECT_EQ(a.result.figures[c].u_b_rad, b.result.figures[c].u_b_rad);
+    }
+  }
+}
+
 TEST_F(PointIoTest, BadFilesNameTheProblem) {
   const SynthPiece s = SmallPiece();
   const fs::path ply = dir_ / "good.ply";
@@ -224,10 +261,9 @@ TEST_F(PointIoTest, LimitsBeforeAllocation) {
                           "double z\nend_header\n1 2 3\n"))
                 .find("too short"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(Write("short.pcd", head +
-                                           "COUNT 1 1 1\nWIDTH 50000000\n"
-                                           "HEIGHT 1\nPOINTS 50000000\n"
-                                           "DATA ascii\n1 2 3\n"))
+  EXPECT_NE(ErrorOf(Write("short.pcd", head + "COUNT 1 1 1\nWIDTH 50000000\n"
+                                              "HEIGHT 1\nPOINTS 50000000\n"
+                                              "DATA ascii\n1 2 3\n"))
                 .find("too short"),
             std::string::npos);
   // Blank space only: no points (and no exception other than InputError).
