@@ -247,6 +247,13 @@ std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
     if (cf.cycle < 1 || cf.cycle > cycles)
       throw InputError(source, 0, where + ".cycle",
                        "outside 1.." + std::to_string(cycles));
+    // A cycle given twice has no one value: each command would pick another.
+    for (size_t k = 0; k < out.size(); ++k)
+      if (out[k].cycle == cf.cycle)
+        throw InputError(source, 0, where + ".cycle",
+                         fmt::format("cycle {} is given twice (also in "
+                                     "figures[{}])",
+                                     cf.cycle, k));
     const nlohmann::json u = f.contains("U") && f["U"].is_object()
                                  ? f["U"]
                                  : nlohmann::json::object();
@@ -347,7 +354,8 @@ InspectionResult FromInspectionJson(const PartSpec& part,
   // The answer of a simulated run (`ttp twin`, samples/*/truth.json) holds
   // noise-free figures: grading or diagnosing it would judge the
   // simulation, not a piece.
-  if (doc.contains("cause") && (doc.contains("noise_um") || doc.contains("params")))
+  if (doc.contains("cause") &&
+      (doc.contains("noise_um") || doc.contains("params")))
     throw InputError(source, 0, "cause",
                      "this is a truth file (the answer of a simulated run), "
                      "not a measurement: give the measured piece (e.g. "

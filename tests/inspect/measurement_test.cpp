@@ -83,7 +83,8 @@ TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
     fr.var_angle_rad2 = std::pow(u(rng) * 1e-2, 2);
     r.features[f.Key()] = fr;
   }
-  r.features[FeatureId::Facet(Segment::kY2, 3)].present = false;  // cycle of index 3 loses E_Y, E_TTP
+  r.features[FeatureId::Facet(Segment::kY2, 3)].present =
+      false;  // cycle of index 3 loses E_Y, E_TTP
   ComputeResultFigures(part, &r);
   const nlohmann::json doc = InspectionToJson(r);
   const fs::path p = Write("inspection.json", doc.dump(1));
@@ -264,6 +265,11 @@ TEST_F(MeasurementTest, BadFilesNameTheProblem) {
   EXPECT_NE(ErrorOf(Write("cycle.json", R"({"figures": [{"cycle": 9}]})"))
                 .find("figures[0].cycle: outside 1..8"),
             std::string::npos);
+  EXPECT_NE(ErrorOf(Write("twice.json",
+                          R"({"figures": [{"cycle": 1, "E_X": 1},
+                          {"cycle": 2}, {"cycle": 1, "E_X": 2}]})"))
+                .find("figures[2].cycle: cycle 1 is given twice"),
+            std::string::npos);
   EXPECT_NE(ErrorOf(Write("angle.json", R"({"figures": [{"cycle": 1}],
                           "facet_angle_err_urad": {"Z3": 1}})"))
                 .find("facet_angle_err_urad.Z3: is not a facet"),
@@ -311,8 +317,9 @@ TEST(MeasurementOptions, IsValidNamesTheMemberAndField) {
   EXPECT_TRUE(o.IsValid(&error));
   o.dial.repeatability_um = -1;
   EXPECT_FALSE(o.IsValid(&error));
-  EXPECT_EQ(error.rfind("MeasurementOptions.dial.DialOptions.repeatability_um:", 0),
-            0u)
+  EXPECT_EQ(
+      error.rfind("MeasurementOptions.dial.DialOptions.repeatability_um:", 0),
+      0u)
       << error;
   o = MeasurementOptions();
   o.probe.repeatability_um = std::nan("");
