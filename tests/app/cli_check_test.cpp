@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "run_ttp.h"
+#include "ttp/geometry/file_io.h"
 
 namespace ttp {
 namespace {
@@ -199,6 +200,26 @@ TEST(CliCheck, LogEndsBeforeTheLastCut) {
                rows.end());
   });
   ExpectBadLog(Check(log), {"ends.csv", "t_s", "ends at", "last cut"});
+}
+
+// Without the schedule check, a log that ends after cycle 4 simulates only
+// cycles 1-4: the measured figures of cycles 5-8 are not compared, and a
+// run not compared in full does not agree.
+TEST(CliCheck, LogEndsBeforeTheLastCutWithoutTheScheduleCheck) {
+  const auto log = Mutated("short", [](auto& rows) {
+    rows.erase(std::remove_if(
+                   rows.begin(), rows.end(),
+                   [](const std::string& r) { return TimeOf(r) > 4.5 * 3600; }),
+               rows.end());
+  });
+  const fs::path json = test::TestDir("check") / "short.json";
+  const auto r = Check(log, "--no-schedule-check --json " + json.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(ReadTextFile(json));
+  EXPECT_FALSE(j["agree"].get<bool>());
+  EXPECT_GT(j["not_simulated"].get<int>(), 0);
+  EXPECT_NE(r.output.find("have no simulated value"), std::string::npos)
+      << r.output;
 }
 
 TEST(CliCheck, LogStartsAfterTheFirstCut) {

@@ -227,6 +227,15 @@ CheckResult CheckPiece(const TalcLog& log, const Config& config,
     }
     out.cycles.push_back(cc);
   }
+  for (const CycleFigures& m : measured) {
+    const CycleFigures* s = nullptr;
+    for (const CycleFigures& f : sim.figures)
+      if (f.cycle == m.cycle) s = &f;
+    const auto mv = Values(m);
+    for (int f = 0; f < kFigureCount; ++f)
+      if (std::isfinite(mv[f]) && (!s || !std::isfinite(Values(*s)[f])))
+        ++out.not_simulated;
+  }
   JudgeRun(options.run_false_alarm, &out);
   return out;
 }
@@ -261,6 +270,7 @@ nlohmann::json CheckToJson(const CheckResult& r) {
                                      "cut time (ErrorSigmaAt), k = 2"
                                    : "none";
   j["compared"] = r.compared;
+  j["not_simulated"] = r.not_simulated;
   j["disagreements"] = r.disagreements;
   j["run_limit_k"] = r.run_limit_k;
   j["beyond_run_limit"] = r.beyond_run_limit;
@@ -360,6 +370,12 @@ std::string CheckTable(const CheckResult& r) {
       r.run_limit_k, 100 * r.run_false_alarm,
       r.agree() ? ": measured and simulated agree"
                 : ": measured and simulated DISAGREE");
+  if (r.not_simulated > 0)
+    s += fmt::format(
+        "{} measured figures have no simulated value: the log does not "
+        "cover the cuts of their features, so the run is not compared in "
+        "full\n",
+        r.not_simulated);
   return s;
 }
 
