@@ -1,4 +1,7 @@
 // ttp: the thermal test piece toolkit.
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <iostream>
 
 #include "command.h"
@@ -53,6 +56,14 @@ int main(int argc, char** argv) {
     std::cerr << "ttp: internal error (a bug in ttp, not your input): "
                  "unknown exception\n";
     return kExitInternalError;
+  }
+  // What went to standard output must have arrived: a full disk or a
+  // closed pipe behind `> file` loses the result as surely as a failed -o.
+  std::cout.flush();
+  if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    std::cerr << "ttp: error: cannot write to standard output: "
+              << std::strerror(errno) << "\n";
+    return kExitBadInput;
   }
   return global.exit_code;
 }

@@ -450,6 +450,16 @@ TEST(CliHardening, SeveralOutputsAllOrNone) {
   EXPECT_NE(Slurp(dir / "twin" / "talc.csv"), "previous run\n");
 }
 
+// A result that cannot reach standard output (a full disk behind `>`) is
+// an error, as a failed -o is.
+TEST(CliHardening, StandardOutputThatCannotBeWritten) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  for (const char* command : {"gcode pre", "schedule", "config"})
+    EXPECT_EQ(RunTtp(std::string(command) + " > /dev/full").exit_code, 2)
+        << command;
+  EXPECT_EQ(RunTtp("gcode pre > /dev/null").exit_code, 0);
+}
+
 // ---------------------------------------------------------------- fits
 
 TEST(CliHardening, FitsThePointsDoNotDetermine) {
