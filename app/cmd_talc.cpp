@@ -24,16 +24,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A thermal log (thermal-log.md) or a TALC log (talc-log.md), by the first
-// header key.
 models::TimeSeries ReadLog(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string(), 0, "", "cannot open the log");
-  std::string first;
-  std::getline(in, first);
-  if (first.rfind("# talc-log", 0) == 0)
-    return thermal::TalcLogToTimeSeries(thermal::ReadTalcLog(path));
-  return models::ReadThermalLog(path);
+  return thermal::ReadThermalOrTalcLog(path.string());
 }
 
 // A temperature that jumps and stays shifted (models::FindFittedJumps) is a
@@ -133,13 +125,21 @@ void Register(CLI::App& root, GlobalOptions& global) {
                                        ro->static_window_to_s, *log));
       }
       talc::ReplayResult r = talc::Replay(series, s, *ro);
+      // Nothing compensated was measured: nothing to judge (the log's
+      // measured outputs all lie in the calibration phase).
+      if (r.status != talc::ReplayStatus::kOk)
+        throw InputError(
+            *log, 0, "d_",
+            fmt::format("no output is measured after the calibration phase "
+                        "(t_s >= {:g} s): no compensated sample to judge; "
+                        "shorten the calibration or give a log measured "
+                        "after it",
+                        r.evaluated_from_s));
       for (auto& w : SensorJumpWarnings(series))
         r.warnings.push_back(std::move(w));
       if (!global.quiet || json_out->empty())
         WriteText("-", talc::ReplayText(r, s));
       if (!json_out->empty()) WriteJson(*json_out, talc::ReplayToJson(r, s));
-      if (r.status != talc::ReplayStatus::kOk)
-        global.exit_code = kExitJudgedFailure;
     });
   }
   {

@@ -31,16 +31,8 @@ std::vector<std::string> SplitList(const std::string& s) {
   return out;
 }
 
-// A thermal log, or a TALC log (talc-log.md) converted into the same series.
 models::TimeSeries ReadLog(const std::string& path) {
-  const std::string text = ReadTextFile(path);
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line) && !line.empty() && line[0] == '#') {
-    if (line.find("talc-log:") != std::string::npos)
-      return thermal::TalcLogToTimeSeries(thermal::ParseTalcLog(text, path));
-  }
-  return models::ParseThermalLog(text, path);
+  return thermal::ReadThermalOrTalcLog(path);
 }
 
 void AddFitOptions(CLI::App* cmd, models::FitOptions* o) {

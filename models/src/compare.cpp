@@ -235,6 +235,45 @@ CompareResult CompareModels(const TimeSeries& log, double holdout_from_s,
   }
   if (ts.output_names.empty())
     throw InputError(ts.source, 0, "d_*", "the log has no output column");
+  // An output is compared only where it is measured on both sides of the
+  // split: fitted without values it has no model, judged without values
+  // every model would score 0 um.
+  std::vector<std::string> left_out;
+  {
+    std::vector<Eigen::Index> keep;
+    const Eigen::Index f = static_cast<Eigen::Index>(first);
+    for (Eigen::Index j = 0; j < ts.outputs_um.cols(); ++j) {
+      const auto col = ts.outputs_um.col(j).array();
+      const bool before = col.head(f).isFinite().any();
+      const bool after = col.tail(col.size() - f).isFinite().any();
+      if (before && after) {
+        keep.push_back(j);
+        continue;
+      }
+      left_out.push_back(fmt::format(
+          "{} has no measured value {} --holdout-from {:g} s: left out of "
+          "the comparison",
+          ts.output_names[static_cast<size_t>(j)], before ? "after" : "before",
+          holdout_from_s));
+    }
+    if (keep.empty())
+      throw InputError(ts.source, 0, "--holdout-from",
+                       fmt::format("no output is measured both before and "
+                                   "after {:g} s: nothing to fit and judge",
+                                   holdout_from_s));
+    if (static_cast<Eigen::Index>(keep.size()) != ts.outputs_um.cols()) {
+      Eigen::MatrixXd kept(ts.outputs_um.rows(),
+                           static_cast<Eigen::Index>(keep.size()));
+      std::vector<std::string> names;
+      for (size_t k = 0; k < keep.size(); ++k) {
+        kept.col(static_cast<Eigen::Index>(k)) = ts.outputs_um.col(keep[k]);
+        names.push_back(ts.output_names[static_cast<size_t>(keep[k])]);
+      }
+      ts.outputs_um = std::move(kept);
+      ts.output_names = std::move(names);
+      res.outputs = ts.output_names;
+    }
+  }
   // As `thermal fit` on the fitted span: a sensor that jumps there is
   // shifted back from the jump on, in the holdout too.
   const SensorFaults faults =
@@ -250,6 +289,7 @@ CompareResult CompareModels(const TimeSeries& log, double holdout_from_s,
   res.warnings = ts.warnings;
   res.warnings.insert(res.warnings.end(), faults.warnings.begin(),
                       faults.warnings.end());
+  res.warnings.insert(res.warnings.end(), left_out.begin(), left_out.end());
 
   std::vector<std::string> names = {"none", "static_all_T", "lag_speed"};
   for (Structure s : AllStructures()) names.push_back(StructureName(s));

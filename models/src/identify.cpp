@@ -904,9 +904,26 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   // the filters' end state see the sensor as it would have read.
   SensorFaults faults = RepairSensorFaults(fit, o.repair_jumps, &fit);
   std::vector<int> which;
+  std::vector<std::string> unmeasured;
   if (outputs.empty()) {
-    for (size_t j = 0; j < fit.output_names.size(); ++j)
-      which.push_back(static_cast<int>(j));
+    // Every output the fitted span measures; one it never measures (a
+    // channel not connected) is left out and said, not a reason to refuse
+    // the others. Named with --outputs, it is refused (PrepareData).
+    for (size_t j = 0; j < fit.output_names.size(); ++j) {
+      if (fit.outputs_um.col(static_cast<Eigen::Index>(j))
+              .array()
+              .isFinite()
+              .any())
+        which.push_back(static_cast<int>(j));
+      else
+        unmeasured.push_back(fmt::format(
+            "{} is never measured in the fitted span: no model for it",
+            fit.output_names[j]));
+    }
+    if (which.empty() && !fit.output_names.empty())
+      throw InputError(ts.source, 0, "d_*",
+                       "no output column holds a measured value in the "
+                       "fitted span");
   } else {
     for (const auto& name : outputs) {
       if (std::count(outputs.begin(), outputs.end(), name) > 1)
@@ -929,6 +946,8 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   model.options = o;
   if (o.repair_jumps) model.fitted_jumps = faults.jumps;
   model.fit_warnings = std::move(faults.warnings);
+  model.fit_warnings.insert(model.fit_warnings.end(), unmeasured.begin(),
+                            unmeasured.end());
   model.fit_t_begin_s = fit.t_s.front();
   model.fit_t_end_s = fit.t_s.back();
   if (StartEpochS(ts)) model.fit_start = ts.header.at("start");

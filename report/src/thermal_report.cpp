@@ -424,8 +424,18 @@ json WriteThermalReport(const std::string& log_path,
   const models::TimeSeries ts = models::ReadThermalLog(log_path);
   const double from =
       ts.t_s.front() + (ts.t_s.back() - ts.t_s.front()) * 2.0 / 3.0;
-  const models::CompareResult r =
-      models::CompareModels(ts, from, models::FitOptions());
+  models::CompareResult r;
+  try {
+    r = models::CompareModels(ts, from, models::FitOptions());
+  } catch (const InputError& e) {
+    // The page holds out its last third itself: say so, not an option the
+    // user did not give.
+    if (e.field() != "--holdout-from") throw;
+    throw InputError(e.source(), e.line(), "holdout",
+                     fmt::format("the page fits the first two thirds of the "
+                                 "log and judges the last (from t_s {:g}): {}",
+                                 from, e.problem()));
+  }
   json data = ThermalReportData(r);
   data["replay"] = ReplayData(ts);
   OutputBatch outputs;  // the page and its data, or neither

@@ -166,12 +166,33 @@ ReplayResult Replay(const models::TimeSeries& s, const Regressors& reg,
                     const Strategy& st, const ReplayOptions& opt) {
   std::string why;
   if (!st.IsValid(&why)) throw InputError("strategy", 0, "", why);
-  const std::vector<int> outs = OutputColumns(s, st);
+  ReplayResult res;
+  res.regressor_names = reg.names;
+  // TALC measures the outputs it compensates together: an output the log
+  // never measures would leave it without a single measurement. Left out
+  // (said) when the strategy does not name it; bad input when it does.
+  std::vector<int> outs;
+  for (int c : OutputColumns(s, st)) {
+    if (s.outputs_um.col(c).array().isFinite().any()) {
+      outs.push_back(c);
+      continue;
+    }
+    const std::string& name = s.output_names[size_t(c)];
+    if (!st.outputs.empty())
+      throw InputError(s.source, 0, name,
+                       "the strategy compensates it, but the log never "
+                       "measures it");
+    res.warnings.push_back(fmt::format(
+        "{} is never measured in the log: left out of the replay (the "
+        "outputs are measured together)",
+        name));
+  }
+  if (outs.empty())
+    throw InputError(s.source, 0, "d_",
+                     "no output column holds a measured value");
   const int m = int(outs.size());
   const size_t n = s.rows();
   const int p = int(reg.rows.cols());
-  ReplayResult res;
-  res.regressor_names = reg.names;
   if (n == 0) {
     res.status = ReplayStatus::kNoEvaluatedSamples;
     return res;

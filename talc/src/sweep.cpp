@@ -62,6 +62,13 @@ Grid GridFromJson(const nlohmann::json& j, const std::string& source) {
         const std::string f = "grid." + g_it.key();
         if (!g_it.value().is_array() || g_it.value().empty())
           throw InputError(source, 0, f, "expected a non-empty list");
+        // The points are ranked against each other by their outputs'
+        // figures: every point judges the same outputs.
+        if (g_it.key() == "outputs")
+          throw InputError(source, 0, f,
+                           "the outputs cannot vary over the grid (points "
+                           "judged on other outputs do not compare): give "
+                           "them in base, one sweep per set");
         for (std::size_t i = 0; i < g_it.value().size(); ++i) {
           nlohmann::json one = g.base;
           one[g_it.key()] = g_it.value()[i];
@@ -355,6 +362,20 @@ std::string SweepText(const nlohmann::json& d) {
         p["p99_mean_um"].get<double>(), p["rms_mean_um"].get<double>(),
         p["q_prod_percent"].get<double>());
   };
+  std::string skipped;
+  int n_skipped = 0;
+  for (const auto& p : pts)
+    if (p["status"] != "ok") {
+      if (++n_skipped <= 5)
+        skipped += fmt::format(" #{} {}", p["index"].get<std::size_t>(),
+                               p["params"].dump());
+    }
+  if (n_skipped > 0)
+    t += fmt::format(
+        "warning: {} of {} points compensate nothing that is measured (the "
+        "calibration reaches past the log's end, or no output is measured "
+        "after it): ranked nowhere, their figures 0:{}{}\n",
+        n_skipped, pts.size(), skipped, n_skipped > 5 ? " ..." : "");
   t += "best sets:\n";
   for (auto& [k, v] : d["best"].items())
     t += fmt::format("  {:<28} {}\n", k, describe(v));
@@ -395,8 +416,15 @@ std::string Quote(const std::string& s) {
 ShardPlan PlanShards(const Grid& grid, const fs::path& log, int shards,
                      const fs::path& dir_in, const fs::path& ttp) {
   if (shards < 1) throw InputError("--plan", 0, "N", "must be >= 1");
-  const fs::path dir = fs::absolute(dir_in).lexically_normal();
   const std::size_t n = grid.size();
+  // Every shard runs at least one point (the merge refuses an empty one,
+  // after the cluster's work; so does the plan, before it).
+  if (static_cast<std::size_t>(shards) > n)
+    throw InputError("--plan", 0, "N",
+                     fmt::format("{} shards for a grid of {} points: at most "
+                                 "one shard per point",
+                                 shards, n));
+  const fs::path dir = fs::absolute(dir_in).lexically_normal();
   nlohmann::json plan;
   plan["grid"] = GridToJson(grid);
   plan["grid_source"] = grid.source;

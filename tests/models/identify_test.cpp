@@ -192,6 +192,38 @@ double ContinuationOffset(const ThermalModel& m, const TimeSeries& log,
       .maxCoeff();
 }
 
+// A channel the fitted span never measures gets no model and a warning;
+// the others are fitted as without it. Named with --outputs it is refused.
+// compare leaves out an output not measured on both sides of the split,
+// and refuses when none is.
+TEST(Identify, AnOutputNeverMeasuredGetsNoModel) {
+  const TimeSeries ts = TwoNodeNetwork(5);
+  TimeSeries with = ts;
+  with.output_names.push_back("d_unplugged");
+  with.outputs_um.conservativeResize(Eigen::NoChange,
+                                     with.outputs_um.cols() + 1);
+  with.outputs_um.col(with.outputs_um.cols() - 1)
+      .setConstant(std::numeric_limits<double>::quiet_NaN());
+  FitOptions o;
+  const ThermalModel a = FitThermalModel(ts, {}, o, kSplit);
+  const ThermalModel b = FitThermalModel(with, {}, o, kSplit);
+  ASSERT_EQ(b.outputs.size(), a.outputs.size());
+  EXPECT_EQ(b.outputs[0].coef, a.outputs[0].coef);
+  ASSERT_FALSE(b.fit_warnings.empty());
+  EXPECT_NE(b.fit_warnings.back().find("d_unplugged is never measured"),
+            std::string::npos);
+  EXPECT_THROW(FitThermalModel(with, {"d_unplugged"}, o, kSplit), InputError);
+  const CompareResult c = CompareModels(with, kSplit, o);
+  EXPECT_EQ(c.outputs, ts.output_names);
+  // Outputs measured only before the split: nothing to judge.
+  TimeSeries early = ts;
+  for (size_t i = 0; i < early.rows(); ++i)
+    if (early.t_s[i] >= kSplit)
+      early.outputs_um.row(static_cast<Eigen::Index>(i))
+          .setConstant(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_THROW(CompareModels(early, kSplit, o), InputError);
+}
+
 TEST(Identify, ModelFileRoundTripAndContinuation) {
   const TimeSeries ts = TwoNodeNetwork(5);
   FitOptions o;  // auto: the joint model

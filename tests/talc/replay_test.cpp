@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 
 #include "synthetic_series.h"
+#include "ttp/geometry/error.h"
 #include "ttp/models/time_series.h"
 
 namespace ttp::talc {
@@ -87,6 +89,34 @@ TEST(Replay, FixedScheduleMeasuringTimeAndQProd) {
     EXPECT_EQ(slow.measurement_times_s[size_t(k)] -
                   slow.measurement_times_s[size_t(k) - 1],
               210);
+}
+
+// An output the log never measures (a channel not connected) would stop
+// every measurement, as the outputs are measured together: it is left out
+// and said; the others replay exactly as without it. Named by the strategy,
+// it is bad input.
+TEST(Replay, AnOutputNeverMeasuredIsLeftOut) {
+  const auto s = test::LaggedLinearSeries(20 * 3600, 15, 0, 2);
+  auto with = s;
+  with.output_names.push_back("d_unplugged");
+  with.outputs_um.conservativeResize(Eigen::NoChange,
+                                     with.outputs_um.cols() + 1);
+  with.outputs_um.col(with.outputs_um.cols() - 1)
+      .setConstant(std::numeric_limits<double>::quiet_NaN());
+  Strategy st;
+  st.calibration_s = 4 * 3600;
+  const ReplayResult a = Replay(s, st);
+  const ReplayResult b = Replay(with, st);
+  ASSERT_EQ(b.outputs.size(), a.outputs.size());
+  EXPECT_EQ(b.measurement_times_s, a.measurement_times_s);
+  for (size_t o = 0; o < a.outputs.size(); ++o)
+    EXPECT_EQ(b.outputs[o].talc.rms_um, a.outputs[o].talc.rms_um);
+  bool said = false;
+  for (const auto& w : b.warnings)
+    said |= w.find("d_unplugged is never measured") != std::string::npos;
+  EXPECT_TRUE(said);
+  st.outputs = {s.output_names[0], "d_unplugged"};
+  EXPECT_THROW(Replay(with, st), InputError);
 }
 
 // A measurement still running at the log's end counts up to the end:

@@ -63,6 +63,9 @@ TEST(Grid, ABadFieldIsNamed) {
   EXPECT_EQ(field_of(R"({"base": {"ridge": -1}})"), "base.ridge");
   EXPECT_EQ(field_of(R"({"limit_p99_um": "low"})"), "limit_p99_um");
   EXPECT_EQ(field_of(R"({"grids": {}})"), "grids");
+  // Points are ranked by their outputs' figures: the outputs cannot vary.
+  EXPECT_EQ(field_of(R"({"grid": {"outputs": [["d_a"], ["d_a", "d_b"]]}})"),
+            "grid.outputs");
   // A combination that is invalid only together is named as well.
   EXPECT_EQ(field_of(R"({"base": {"mode": "adaptive"},
                          "grid": {"min_interval_s": [600, 9000],
@@ -152,6 +155,10 @@ TEST(Sweep, ShardedRunsMergeToTheInProcessResultByteForByte) {
   const Grid g = SmallGrid();
   const std::string in_process = RunSweep(series, g, "plant.csv", 2).dump(2);
   EXPECT_EQ(RunSweep(series, g, "plant.csv", 1).dump(2), in_process);
+  // More shards than points: refused by the plan, not after the cluster ran
+  // the empty ones.
+  EXPECT_THROW(PlanShards(g, log, int(g.size()) + 1, dir / "plan_many", "ttp"),
+               InputError);
   for (int shards : {1, 3, 16}) {
     const auto plan_dir = dir / fmt::format("plan{}", shards);
     const ShardPlan plan = PlanShards(g, log, shards, plan_dir, "ttp");

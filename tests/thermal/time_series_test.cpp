@@ -4,9 +4,14 @@
 #include "ttp/thermal/time_series.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
 
 namespace ttp::thermal {
 namespace {
@@ -48,6 +53,69 @@ TEST(TalcTimeSeries, InputsHeldAndRTestsAsSparseOutputs) {
   EXPECT_NEAR(ts.outputs_um(4, 4), 5.0 * 0.2, 1e-9);
   EXPECT_NEAR(ts.outputs_um(4, 6), 7.0 * 0.2, 1e-9);
   EXPECT_TRUE(ts.gap_rows.empty());
+}
+
+// Compensation on: the R-test sees the residual, and the machine's own
+// error is the residual plus the prediction in force (talc-log.md section
+// 2), linear between the rows giving pred_ and held after the last.
+TEST(TalcTimeSeries, CompensatedRTestsBecomeTheMachinesOwnError) {
+  const std::string log_on =
+      "# talc-log: 1\n"
+      "# start: 2026-03-02T06:00:00+01:00\n"
+      "# compensation: on\n"
+      "# sphere_distance_mm: 200\n"
+      "t_s,event,T_env,EX0C,EY0C,EZ0T,ER0T,EA0C,EB0C,EC0C,pred_EX0C,"
+      "pred_EY0C,pred_EZ0T,pred_ER0T,pred_EA0C,pred_EB0C,pred_EC0C,dur_s\n"
+      "0,sample,20.0,,,,,,,,0,0,0,0,0,0,0,\n"
+      "95,rtest,,1,0,0,0,0,0,0,,,,,,,,90\n"
+      "200,sample,20.1,,,,,,,,2,0,-1,0,0,0,0,\n"
+      "300,sample,20.1,,,,,,,,4,0,-2,0,5,0,0,\n"
+      "395,rtest,,3,0,0,0,0,0,0,,,,,,,,90\n";
+  const models::TimeSeries ts =
+      TalcLogToTimeSeries(ParseTalcLog(log_on, "on.csv"));
+  // R-tests at 50 s (pred a quarter of the way to the 200 s row: EX0C
+  // 0.5 um, EZ0T -0.25 um) and 350 s (pred held at 4 um, -2 um, 5 um/m):
+  // EX0C (3 + 4) - (1 + 0.5) = 5.5 um; EZ0T -2 + 0.25 = -1.75 um; EA0C
+  // 5 um/m at 200 mm = 1 um.
+  ASSERT_EQ(ts.t_s.back(), 350);
+  const Eigen::Index last = static_cast<Eigen::Index>(ts.rows()) - 1;
+  EXPECT_NEAR(ts.outputs_um(last, 0), 5.5, 1e-9);
+  EXPECT_NEAR(ts.outputs_um(last, 2), -1.75, 1e-9);
+  EXPECT_NEAR(ts.outputs_um(last, 4), 1.0, 1e-9);
+  // Without the pred_ columns the machine's error cannot be recovered.
+  std::string no_pred =
+      "# talc-log: 1\n# start: 2026-03-02T06:00:00+01:00\n"
+      "# compensation: on\n# sphere_distance_mm: 200\n"
+      "t_s,event,T_env,EX0C,EY0C,EZ0T,ER0T,EA0C,EB0C,EC0C,dur_s\n"
+      "0,sample,20.0,,,,,,,,\n95,rtest,,1,0,0,0,0,0,0,90\n"
+      "395,rtest,,3,0,0,0,0,0,0,90\n";
+  try {
+    TalcLogToTimeSeries(ParseTalcLog(no_pred, "no_pred.csv"));
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.field(), "pred_EX0C") << e.what();
+  }
+}
+
+// `ttp thermal` and `ttp talc` tell the two kinds of log apart by the
+// talc-log key, a byte-order mark before it or not.
+TEST(TalcTimeSeries, ReadsEitherKindOfLogWithOrWithoutAByteOrderMark) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("ttp-ts-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string talc_path = (dir / "talc.csv").string();
+  const std::string bom_path = (dir / "bom.csv").string();
+  WriteFileAtomic(talc_path, kLog);
+  WriteFileAtomic(bom_path, "\xEF\xBB\xBF" + kLog);
+  const models::TimeSeries a = ReadThermalOrTalcLog(talc_path);
+  const models::TimeSeries b = ReadThermalOrTalcLog(bom_path);
+  EXPECT_EQ(a.header.at("converted-from"), "TALC log (talc-log.md)");
+  EXPECT_EQ(b.header.at("converted-from"), "TALC log (talc-log.md)");
+  EXPECT_EQ(a.t_s, b.t_s);
+  const models::TimeSeries thermal = ReadThermalOrTalcLog(
+      std::string(TTP_DATA_DIR) + "/reference/fl-thermal/train.csv");
+  EXPECT_EQ(thermal.header.count("converted-from"), 0u);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(TalcTimeSeries, ReadsTheSampleRun) {

@@ -5,6 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
+
+#include "ttp/geometry/error.h"
+#include "ttp/geometry/file_io.h"
+#include "ttp/geometry/series.h"
 
 namespace ttp::thermal {
 namespace {
@@ -24,6 +29,19 @@ const char* const kOutputNames[7] = {
     "d_EX0C", "d_EY0C", "d_EZ0T", "d_ER0T", "d_EA0C_r", "d_EB0C_r", "d_EC0C_r"};
 
 }  // namespace
+
+models::TimeSeries ReadThermalOrTalcLog(const std::string& path) {
+  const std::string text = ReadTextFile(path);
+  const size_t start = text.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;
+  std::istringstream in(text.substr(start));
+  std::string line;
+  while (std::getline(in, line) && !line.empty() && line[0] == '#') {
+    const size_t key = line.find_first_not_of("# \t");
+    if (key != std::string::npos && line.compare(key, 9, "talc-log:") == 0)
+      return TalcLogToTimeSeries(ParseTalcLog(text, path));
+  }
+  return models::ParseThermalLog(text, path);
+}
 
 models::TimeSeries TalcLogToTimeSeries(const TalcLog& log) {
   models::TimeSeries ts;
@@ -67,10 +85,37 @@ models::TimeSeries TalcLogToTimeSeries(const TalcLog& log) {
         held[c] = r.values[used[c].column];
         break;
       }
+  // The machine's own error at an R-test: as logged with compensation
+  // off; with it on, the R-test sees the residual, and the machine's error
+  // is the residual plus the prediction in force (talc-log.md section 2,
+  // thesis 6.4.2), linear between the rows that give all seven pred_
+  // values, as the estimator takes it.
+  std::vector<double> pred_t;
+  std::vector<CAxisErrors> pred;
+  if (log.compensation) {
+    for (const auto& row : log.rows) {
+      bool all = true;
+      for (int i = 0; i < 7; ++i) all &= row.Has(NumericColumn(kPredEX0C + i));
+      if (!all || (!pred_t.empty() && row.t_s == pred_t.back())) continue;
+      std::array<double, 7> micro;
+      for (int i = 0; i < 7; ++i) micro[i] = row.values[kPredEX0C + i];
+      pred_t.push_back(row.t_s);
+      pred.push_back(CAxisErrors::FromMicro(micro));
+    }
+    if (pred_t.empty() && !log.rtests.empty())
+      throw InputError(log.source, 0, "pred_EX0C",
+                       "compensation on but no row gives the pred_ values: "
+                       "the machine's own error cannot be recovered from "
+                       "the R-tests");
+  }
+  auto machine_error = [&](const RTestRecord& r) {
+    return log.compensation ? r.measured + Interpolate(pred_t, pred, r.t_ref_s)
+                            : r.measured;
+  };
   std::array<double, 7> first_rtest;
   first_rtest.fill(kNaN);
   if (!log.rtests.empty()) {
-    const auto v = log.rtests.front().measured.AsVector();
+    const auto v = machine_error(log.rtests.front()).AsVector();
     for (int e = 0; e < 7; ++e) first_rtest[e] = v(e);
   }
 
@@ -87,7 +132,7 @@ models::TimeSeries TalcLogToTimeSeries(const TalcLog& log) {
     }
     std::vector<double> out(7, kNaN);
     if (r.rtest >= 0) {
-      const auto v = log.rtests[r.rtest].measured.AsVector();  // mm, rad
+      const auto v = machine_error(log.rtests[r.rtest]).AsVector();  // mm, rad
       for (int e = 0; e < 7; ++e) {
         const double rel = v(e) - first_rtest[e];
         out[e] = e < 4 ? rel * 1000.0 : rel * radius_um;

@@ -19,4 +19,9 @@ namespace ttp::thermal {
 // Rows: every sample row and every R-test reference time, in time order.
 models::TimeSeries TalcLogToTimeSeries(const TalcLog& log);
 
+// A thermal log (thermal-log.md) or a TALC log (talc-log.md, converted as
+// above), told apart by a `talc-log` key among the leading `#` lines (a
+// UTF-8 byte-order mark skipped). What `ttp thermal` and `ttp talc` read.
+models::TimeSeries ReadThermalOrTalcLog(const std::string& path);
+
 }  // namespace ttp::thermal
