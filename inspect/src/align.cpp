@@ -28,6 +28,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <pcl/sample_consensus/impl/ransac.hpp>
 #include <pcl/sample_consensus/impl/sac_model_perpendicular_plane.hpp>
@@ -217,50 +218,83 @@ TopFace FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
   TopFace best;
   best.plane.summary.status = fit::FitStatus::kDegenerate;
   Indices best_idx;
-  // The points near each end; the end with more of them is searched first,
-  // the other only for a larger face than the first end's.
-  Indices near_end[2];
-  for (int e = 0; e < 2; ++e) {
-    const double sign = e == 0 ? 1.0 : -1.0;
-    std::vector<double> hs(n);
-    for (Index k = 0; k < n; ++k) hs[k] = sign * h[k];
-    const double end = Quantile(hs, 0.995);
-    for (Index k = 0; k < n; ++k) {
-      if (hs[k] > end - 3.0 && hs[k] < end + 2.0) near_end[e].push_back(sub[k]);
-    }
-  }
-  const int first = near_end[1].size() > near_end[0].size() ? 1 : 0;
-  for (int e : {first, 1 - first}) {
-    const double sign = e == 0 ? 1.0 : -1.0;
-    const Indices& cand = near_end[e];
-    // A face of at least 10 % of the points near its end is found.
-    const double min_share =
-        std::max(0.1, static_cast<double>(best.plane.summary.points) /
-                          std::max<size_t>(1, cand.size()));
-    if (min_share > 1) continue;
-    Eigen::Vector3d point, normal;
-    if (!LargestPlaneAcross(p, cand, sign * axis, 10 * kDeg, kTopConsensusMm,
-                            min_share, &point, &normal)) {
-      continue;
-    }
-    fit::PlaneFit pl;
-    Indices idx;
-    int consensus = 0;
-    for (double band : {kTopConsensusMm, 0.02}) {
-      idx.clear();
-      for (Index i : sub) {
-        if (std::abs((p.col(i) - point).dot(normal)) < band) idx.push_back(i);
+  // Each end's height: the 0.995 quantile along the axis, which lies on the
+  // face when fewer than 0.5 % of the points are strays above it. When more
+  // are (dust, a fixture's edge, double hits above the face), no face is
+  // found there; the second attempt takes the highest 0.25 mm layer that
+  // holds at least 1 % of the points (a face is a dense layer, strays are
+  // spread out).
+  for (int attempt = 0;
+       attempt < 2 && (!Usable(best.plane) || best.plane.summary.points < 20);
+       ++attempt) {
+    // The points near each end; the end with more of them is searched first,
+    // the other only for a larger face than the first end's.
+    Indices near_end[2];
+    for (int e = 0; e < 2; ++e) {
+      const double sign = e == 0 ? 1.0 : -1.0;
+      std::vector<double> hs(n);
+      for (Index k = 0; k < n; ++k) hs[k] = sign * h[k];
+      double end = Quantile(hs, 0.995);
+      if (attempt == 1) {
+        constexpr double kLayerMm = 0.25;
+        const double lo = *std::min_element(hs.begin(), hs.end());
+        std::map<long, Index> layers;
+        for (double v : hs)
+          ++layers[std::lround(std::floor((v - lo) / kLayerMm))];
+        const Index dense = std::max<Index>(20, n / 100);
+        for (auto it = layers.rbegin(); it != layers.rend(); ++it)
+          if (it->second >= dense) {
+            end = lo + (it->first + 1) * kLayerMm;
+            break;
+          }
       }
-      if (band == kTopConsensusMm) consensus = static_cast<int>(idx.size());
-      pl = PlaneThrough(p, idx, sign * axis, axis.unitOrthogonal());
-      if (!Usable(pl)) break;
-      point = pl.point;
-      normal = pl.normal;
+      for (Index k = 0; k < n; ++k) {
+        if (hs[k] > end - 3.0 && hs[k] < end + 2.0)
+          near_end[e].push_back(sub[k]);
+      }
     }
-    if (Usable(pl) && pl.summary.points > best.plane.summary.points) {
-      best.plane = pl;
-      best.consensus = consensus;
-      best_idx = idx;
+    const int first = near_end[1].size() > near_end[0].size() ? 1 : 0;
+    for (int e : {first, 1 - first}) {
+      const double sign = e == 0 ? 1.0 : -1.0;
+      const Indices& cand = near_end[e];
+      // A face of at least 10 % of the points near its end is found.
+      const double min_share =
+          std::max(0.1, static_cast<double>(best.plane.summary.points) /
+                            std::max<size_t>(1, cand.size()));
+      if (min_share > 1) continue;
+      Eigen::Vector3d point, normal;
+      if (!LargestPlaneAcross(p, cand, sign * axis, 10 * kDeg, kTopConsensusMm,
+                              min_share, &point, &normal)) {
+        continue;
+      }
+      fit::PlaneFit pl;
+      Indices idx;
+      int consensus = 0;
+      for (double band : {kTopConsensusMm, 0.02}) {
+        idx.clear();
+        for (Index i : sub) {
+          if (std::abs((p.col(i) - point).dot(normal)) < band) idx.push_back(i);
+        }
+        if (band == kTopConsensusMm) consensus = static_cast<int>(idx.size());
+        pl = PlaneThrough(p, idx, sign * axis, axis.unitOrthogonal());
+        if (!Usable(pl)) break;
+        point = pl.point;
+        normal = pl.normal;
+      }
+      // The second attempt's layer may be a floor inside the piece (the big
+      // notch's): a face is the piece's end, with nothing but strays beyond
+      // it (at most 2 % of the points more than 2 mm outside).
+      if (attempt == 1 && Usable(pl)) {
+        Index beyond = 0;
+        for (Index i : sub)
+          beyond += (p.col(i) - pl.point).dot(sign * axis) > 2.0;
+        if (beyond > n / 50) continue;
+      }
+      if (Usable(pl) && pl.summary.points > best.plane.summary.points) {
+        best.plane = pl;
+        best.consensus = consensus;
+        best_idx = idx;
+      }
     }
   }
   if (!Usable(best.plane) || best.plane.summary.points < 20)
