@@ -67,14 +67,14 @@ void Register(CLI::App& root, GlobalOptions& global) {
     auto* i_opt = cmd->add_option("--interval-s", *interval,
                                   "fixed measurement interval after the "
                                   "calibration phase (other fields default)")
-                      ->check(CLI::PositiveNumber);
+                      ->check(FiniteRange(1e-3, 1e9));
     s_opt->excludes(i_opt);
     auto calibration = std::make_shared<double>(-1.0);
     auto* c_opt =
         cmd->add_option("--calibration-s", *calibration,
                         "with --interval-s: length of the calibration phase "
                         "from the log's start (s; default 30600, 8.5 h)")
-            ->check(CLI::NonNegativeNumber);
+            ->check(FiniteRange(0.0, 1e9));
     c_opt->excludes(s_opt);
     cmd->add_option("--json", *json_out, "also write the result as JSON");
     auto ro = std::make_shared<talc::ReplayOptions>();

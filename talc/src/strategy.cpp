@@ -56,6 +56,10 @@ Strategy StrategyFromJson(const nlohmann::json& j, const std::string& source,
     throw InputError(source, 0, prefix.empty() ? "strategy" : prefix,
                      "expected a table/object");
   Strategy s;
+  // One length of the calibration: two would leave one silently unused.
+  if (j.contains("calibration_s") && j.contains("calibration_h"))
+    throw InputError(source, 0, prefix + "calibration_h",
+                     "give calibration_s or calibration_h, not both");
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string& k = it.key();
     const nlohmann::json& v = it.value();

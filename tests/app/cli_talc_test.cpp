@@ -152,6 +152,47 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
   EXPECT_NE(r.output.find("grid.interval_s[1]"), std::string::npos) << r.output;
   r = test::RunTtp("talc replay " + kTrain);  // neither option
   EXPECT_EQ(r.exit_code, 2) << r.output;
+  // Numbers that are not: refused, not replaced by a default.
+  for (const char* bad : {" --interval-s 3600 --calibration-s nan",
+                          " --interval-s inf", " --interval-s nan"}) {
+    r = test::RunTtp("talc replay " + kTrain + bad);
+    EXPECT_EQ(r.exit_code, 2) << bad << "\n" << r.output;
+    EXPECT_NE(r.output.find("is not a number in"), std::string::npos)
+        << r.output;
+  }
+  // Outputs measured only within the calibration: nothing compensated is
+  // measured, said instead of an exit 1 with zeros.
+  {
+    std::ifstream in(kTrain);
+    std::ofstream out(dir / "early_outputs.csv");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (!line.empty() && std::isdigit(static_cast<unsigned char>(line[0])) &&
+          std::stod(line) > 3000) {
+        // t_s,n_spindle,d_ch1..d_ch5,T_...: the five d_ cells emptied.
+        std::vector<std::string> cells;
+        std::stringstream ss(line);
+        for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+        line.clear();
+        for (size_t k = 0; k < cells.size(); ++k)
+          line += (k ? "," : "") + (k >= 2 && k <= 6 ? "" : cells[k]);
+      }
+      out << line << "\n";
+    }
+  }
+  r = test::RunTtp("talc replay " + (dir / "early_outputs.csv").string() +
+                   " --interval-s 1800 --calibration-s 3600");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("no output is measured after the calibration"),
+            std::string::npos)
+      << r.output;
+  // A plan of more shards than points fails before the cluster runs.
+  std::ofstream(dir / "g3.toml") << "[grid]\ninterval_s = [1800, 3600, 7200]\n";
+  r = test::RunTtp("talc sweep " + (dir / "g3.toml").string() + " --log " +
+                   kTrain + " --plan 4 " + (dir / "plan4").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("4 shards for a grid of 3 points"), std::string::npos)
+      << r.output;
 }
 
 // A small grid on the real data: 12 strategies.

@@ -52,6 +52,8 @@ TEST(Strategy, ABadFieldIsNamed) {
   EXPECT_EQ(field_of({{"min_interval_s", 7200}, {"max_interval_s", 3600}}),
             "max_interval_s");
   EXPECT_EQ(field_of({{"ng_measurements", 2.5}}), "ng_measurements");
+  EXPECT_EQ(field_of({{"calibration_s", 7200}, {"calibration_h", 1}}),
+            "calibration_h");
   EXPECT_EQ(field_of({{"interval_s", 60}}), "(accepted)");
 }
 
