@@ -91,9 +91,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
                   "sphere distance from the C axis, d/2 (default: machine)")
       ->check(FiniteRange(1.0, 10000.0));
   cmd->add_option("--height-mm", args->height_mm,
-                  "sphere centre above the table (default: machine)");
+                  "sphere centre above the table (default: machine)")
+      ->check(FiniteRange(-10000.0, 10000.0));
   cmd->add_option("--phi0-deg", args->phi0_deg,
-                  "sphere direction on the table at C = 0");
+                  "sphere direction on the table at C = 0")
+      ->check(FiniteRange(-360.0, 360.0));
   cmd->add_flag("--resolution", args->resolution,
                 "print the resolution of each error (thesis table 5.4)");
   cmd->add_option("--axis-resolution-um", args->axis_resolution_um,

@@ -191,6 +191,19 @@ void ApplyTo(CLI::App* app) {
           },
           "", "case-insensitive");
     }
+    // An output given as an empty word (`--json ""`, a shell variable
+    // left unset) would be skipped without a word: refused instead.
+    if (long_name == "--json" || long_name == "--output" ||
+        long_name == "--csv" || long_name == "--points-csv") {
+      o->check(CLI::Validator(
+          [](std::string& v) {
+            return v.empty() ? std::string(
+                                   "needs a file name (- for "
+                                   "standard output)")
+                             : std::string();
+          },
+          "", "output path"));
+    }
     if (NonNegativeOptions().count(long_name)) {
       o->check(CLI::Validator(
           [](std::string& v) {

@@ -251,6 +251,13 @@ TEST(CliHardening, DialReadingsHugeAndHeaderOnly) {
 TEST(CliHardening, OptionLimits) {
   const fs::path dir = TestDir("hard");
   const std::string out = " -o " + Q(dir / "p.nc");
+  // An output given as an empty word is refused, not skipped.
+  ExpectBadInput(
+      RunTtp("grade " +
+             Q(std::string(TTP_DATA_DIR) + "/samples/run-b/piece.xyz") +
+             " --json ''"),
+      {"--json", "file name"});
+  ExpectBadInput(RunTtp("gcode pre -o ''"), {"--output", "file name"});
   ExpectBadInput(RunTtp("plan probe --facet-columns 100000 --facet-rows "
                         "100000" +
                         out),
