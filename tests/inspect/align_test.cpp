@@ -47,19 +47,24 @@ PointCloud Without(const SynthPiece& s,
   return out;
 }
 
+// W = R cloud + t must invert the generator's cloud = rotation W +
+// translation.
+void ExpectPoseUndone(const AlignedCloud& a, const SynthPiece& s) {
+  EXPECT_LT(
+      (a.alignment.rotation * s.rotation - Eigen::Matrix3d::Identity()).norm(),
+      1e-4);
+  EXPECT_LT(
+      (a.alignment.rotation * s.translation + a.alignment.translation).norm(),
+      2e-3);
+}
+
 TEST(AlignCloud, UndoesAnyPose) {
   for (uint32_t seed : {3u, 4u}) {
     const SynthPiece s = Piece(seed);
     const AlignedCloud a = AlignCloud(PartSpec{}, s.cloud, InspectOptions{});
     EXPECT_TRUE(a.alignment.mark_found);
     EXPECT_EQ(a.alignment.mark_points_opposite, 0);
-    // W = R cloud + t must invert cloud = rotation W + translation.
-    EXPECT_LT((a.alignment.rotation * s.rotation - Eigen::Matrix3d::Identity())
-                  .norm(),
-              1e-4);
-    EXPECT_LT(
-        (a.alignment.rotation * s.translation + a.alignment.translation).norm(),
-        2e-3);
+    ExpectPoseUndone(a, s);
     EXPECT_NEAR(a.alignment.circle_diameter_mm, 199.0, 1e-3);
     EXPECT_GT(a.origin_covariance_mm2(0, 0), 0);
     EXPECT_TRUE(a.warnings.empty());
@@ -93,13 +98,7 @@ TEST(AlignCloud, StraysAboveTheTopFaceLeaveTheDatums) {
       }
       c.xyz_mm.col(n + k) = p;
     }
-    const AlignedCloud a = AlignCloud(PartSpec{}, c, InspectOptions{});
-    EXPECT_LT((a.alignment.rotation * s.rotation - Eigen::Matrix3d::Identity())
-                  .norm(),
-              1e-4);
-    EXPECT_LT(
-        (a.alignment.rotation * s.translation + a.alignment.translation).norm(),
-        2e-3);
+    ExpectPoseUndone(AlignCloud(PartSpec{}, c, InspectOptions{}), s);
   }
 }
 
