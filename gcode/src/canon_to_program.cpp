@@ -42,11 +42,12 @@ Program ProgramFromCanon(const std::vector<CanonStatement>& statements,
       offset_mm = s.length_offset_mm;
       offset_tool = s.length_offset_tool;
     }
-    // A turn of C alone by half a turn or more is written incremental: on
-    // a table with roll-over an absolute target takes the short way.
+    // A turn of C alone by a whole turn or more is written incremental: on
+    // a table with roll-over an absolute target one turn away is no move at
+    // all. (Less than a turn stays absolute, as such programs write it.)
     const double dc_deg = (s.end_c_rad - c_rad) * 180.0 / M_PI;
     const bool c_turn =
-        motion && s.end_mm == position_mm && std::abs(dc_deg) >= 180.0 - 1e-9;
+        motion && s.end_mm == position_mm && std::abs(dc_deg) >= 360.0 - 1e-9;
     if (motion) {
       position_mm = s.end_mm;
       c_rad = s.end_c_rad;

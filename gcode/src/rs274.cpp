@@ -277,7 +277,6 @@ Rs274Result RunRs274(const std::string& ngc_text, const Config& config) {
     if (lock_fd >= 0) close(lock_fd);  // releases the lock
   }
   Rs274Result result;
-  result.inches = false;
   result.stderr_text = ReadTextFile(dir.path / "stderr.txt");
   if (fs::exists(dir.path / "out.canon"))
     result.canon_text = ReadTextFile(dir.path / "out.canon");
