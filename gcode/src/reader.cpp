@@ -745,6 +745,11 @@ std::vector<CanonStatement> ReadProgram(const std::string& text,
       throw InputError(source, line_number, "",
                        "more than " + std::to_string(limits::kMaxProgramLines) +
                            " lines is beyond the limit");
+    if (static_cast<std::int64_t>(line.size()) > limits::kMaxProgramLineChars)
+      throw InputError(
+          source, line_number, "",
+          fmt::format("a line of {} characters is beyond the limit of {}",
+                      line.size(), limits::kMaxProgramLineChars));
     const auto block = lexer.Lex(line, line_number);
     if (!block) continue;
     ++blocks;

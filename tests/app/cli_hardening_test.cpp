@@ -343,6 +343,13 @@ TEST(CliHardening, ProgramsEmptyHugeAndLongDwells) {
   const fs::path digits = Put(
       dir / "digits.ngc", "G21 G90\nG0 X" + std::string(400, '9') + "\nM30\n");
   ExpectBadInput(RunTtp("gcode read " + Q(digits)), {"digits.ngc:2", "digits"});
+  // One line of a hundred thousand comments: a line past the limit, not a
+  // hundred thousand statements.
+  std::string comments;
+  for (int k = 0; k < 100000; ++k) comments += "(a)";
+  const fs::path wide =
+      Put(dir / "wide.ngc", "G21 G90\n" + comments + "\nM30\n");
+  ExpectBadInput(RunTtp("gcode read " + Q(wide)), {"wide.ngc:2", "limit"});
 }
 
 // ---------------------------------------------------------------- outputs

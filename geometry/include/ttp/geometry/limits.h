@@ -61,5 +61,9 @@ constexpr double kMaxOvertravelMm = 10.0;  // past the surface, probe G31
 constexpr double kMaxProgramCoordinate = 1.0e5;
 constexpr double kMaxDwellS = 24.0 * 3600;
 constexpr std::int64_t kMaxProgramLines = 10'000'000;
+// Characters in one line (LinuxCNC reads at most 256): beyond it a line is
+// not a block, and a line of millions of comments would be millions of
+// statements.
+constexpr std::int64_t kMaxProgramLineChars = 65'536;
 
 }  // namespace ttp::limits
