@@ -2,7 +2,8 @@
 // side per cycle with U, and the temperature comparison of thesis 7.10.
 // Before comparing, the log is checked against the program's schedule (cut
 // names, order, times, coverage, R-tests around each cut). Exit 0 when every
-// figure agrees within the combined U, 1 when one does not, 2 bad input.
+// figure agrees within the combined U; 1 when one does not, or when log and
+// measurement cannot be compared (refused); 2 when a file cannot be read.
 #include <fmt/format.h>
 
 #include "command.h"
@@ -27,7 +28,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "check",
       "measured vs simulated figures per cycle with U and the 7.10 "
-      "temperature comparison; exit 0 agree, 1 disagree, 2 bad input");
+      "temperature comparison; exit 0 agree, 1 disagree or refused (log and "
+      "measurement cannot be compared), 2 a file cannot be read");
   auto log_path = std::make_shared<std::string>();
   auto measurement = std::make_shared<std::string>();
   auto json_out = std::make_shared<std::string>();
@@ -51,24 +53,52 @@ void Register(CLI::App& root, GlobalOptions& global) {
                  no_schedule, how] {
     const Config config = global.LoadConfig();
     const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
-    nlohmann::json schedule_json;
-    if (!*no_schedule) {
-      thermal::ScheduleCheckOptions so;
-      so.tolerance_s = *tolerance;
-      const thermal::ScheduleCheck sc =
-          thermal::CheckLogAgainstSchedule(log, PlannedCuts(config), so);
-      schedule_json = {{"offset_s", sc.offset_s},
-                       {"max_deviation_s", sc.max_deviation_s},
-                       {"matched_cuts", sc.matched},
-                       {"tolerance_s", so.tolerance_s}};
-    }
     const std::vector<CycleFigures> measured = LoadMeasuredFigures(
         config, *measurement, ToMeasurementOptions(*how, *cmd));
-    const thermal::CheckResult result =
-        thermal::CheckPiece(log, config, measured);
-    if (result.compared == 0) {
-      throw InputError(*measurement, 0, "figures",
-                       "the measurement gives no figure the simulation has");
+    // Both read: from here on, a log and a measurement that cannot be
+    // compared (the log does not follow the program, does not cover the
+    // cuts, has no figure in common with the measurement) do not belong
+    // together. Refused (exit 1), as the diagnosis says it (diagnosis.md
+    // section 3), not bad input: both files were read.
+    nlohmann::json schedule_json;
+    thermal::CheckResult result;
+    std::string refusal;
+    try {
+      if (!*no_schedule) {
+        thermal::ScheduleCheckOptions so;
+        so.tolerance_s = *tolerance;
+        const thermal::ScheduleCheck sc =
+            thermal::CheckLogAgainstSchedule(log, PlannedCuts(config), so);
+        schedule_json = {{"offset_s", sc.offset_s},
+                         {"max_deviation_s", sc.max_deviation_s},
+                         {"matched_cuts", sc.matched},
+                         {"tolerance_s", so.tolerance_s}};
+      }
+      result = thermal::CheckPiece(log, config, measured);
+      if (result.compared == 0)
+        throw InputError(*measurement, 0, "figures",
+                         "the measurement gives no figure the simulation has");
+    } catch (const InputError& e) {
+      refusal = e.what();
+    }
+    if (!refusal.empty()) {
+      if (!global.quiet || json_out->empty())
+        TextOut(*json_out) << fmt::format(
+            "status: refused\n  ({})\nthe measurement and the log cannot be "
+            "compared: they do not belong together, or the log does not "
+            "cover the piece's cuts\n",
+            refusal);
+      if (!json_out->empty())
+        WriteJson(*json_out, {{"status", "refused"},
+                              {"reason", refusal},
+                              {"agree", false},
+                              {"compared", 0},
+                              {"disagreements", 0},
+                              {"cycles", nlohmann::json::array()},
+                              {"log", *log_path},
+                              {"measurement", *measurement}});
+      global.exit_code = kExitJudgedFailure;
+      return;
     }
     if (!global.quiet || json_out->empty()) {
       std::string text = thermal::CheckTable(result);
@@ -85,6 +115,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     }
     if (!json_out->empty()) {
       nlohmann::json j = thermal::CheckToJson(result);
+      j["status"] = result.agree() ? "agree" : "disagree";
       j["measurement"] = *measurement;
       j["schedule"] = schedule_json;
       WriteJson(*json_out, j);
