@@ -55,7 +55,8 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
       "report",
       "the report of a run as one HTML page: the measured piece, its verdict "
       "(as `ttp grade`), and with --log its simulation from the TALC log and "
-      "the diagnosis; exit 1 unless the verdict is pass");
+      "the diagnosis; exit 1 unless the verdict is pass and the diagnosis is "
+      "not refused");
   auto log_path = std::make_shared<std::string>();
   auto measurement = std::make_shared<std::string>();
   auto out = std::make_shared<std::string>();
@@ -170,16 +171,32 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
     diagnosis::DiagnosisExplanation explained;
     if (!log_path->empty()) {
       log = ReadTalcLogWarning(*log_path, global);
-      // As `ttp diagnose`: a log that did not come from this program is an
-      // input error.
-      if (!*no_schedule)
-        thermal::CheckLogAgainstSchedule(*log, PlannedCuts(config));
-      const diagnosis::MeasuredPiece piece =
-          diagnosis::MeasuredPieceFromInspection(config.part, m.result);
-      diagnosed.run =
-          diagnosis::PrepareRun(*log, config, piece, options->diagnosis);
-      diagnosed.report = diagnosis::DiagnosePrepared(
-          diagnosed.run, *log, config.part, piece, options->diagnosis);
+      // As `ttp diagnose`: a log that did not come from this program (or
+      // does not cover its cuts) cannot belong to the measured piece: the
+      // diagnosis is refused, and the page says so with the piece's grade.
+      std::string schedule;
+      if (!*no_schedule) {
+        try {
+          thermal::CheckLogAgainstSchedule(*log, PlannedCuts(config));
+        } catch (const InputError& e) {
+          schedule = std::string(
+                         "the log does not match the program that "
+                         "cut the piece: ") +
+                     e.what();
+        }
+      }
+      if (schedule.empty()) {
+        const diagnosis::MeasuredPiece piece =
+            diagnosis::MeasuredPieceFromInspection(config.part, m.result);
+        diagnosed.run =
+            diagnosis::PrepareRun(*log, config, piece, options->diagnosis);
+        diagnosed.report = diagnosis::DiagnosePrepared(
+            diagnosed.run, *log, config.part, piece, options->diagnosis);
+      } else {
+        diagnosed.report.status = diagnosis::DiagnosisStatus::kRefused;
+        diagnosed.report.cause.clear();
+        diagnosed.report.reason = schedule;
+      }
       explained = diagnosis::ExplainDiagnosis(
           diagnosed.run, diagnosed.report, config.part,
           options->diagnosis.evidence_threshold);
@@ -202,7 +219,11 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                    data["grade"]["summary"].get<std::string>().c_str(),
                    diagnosis.c_str());
     }
-    if (grade.overall != inspect::Verdict::kPass)
+    // Exit 1 unless the verdict is pass and the diagnosis (when there is
+    // one) is not refused: both are judged outcomes.
+    if (grade.overall != inspect::Verdict::kPass ||
+        (inputs.diagnosis &&
+         diagnosed.report.status == diagnosis::DiagnosisStatus::kRefused))
       global.exit_code = kExitJudgedFailure;
   });
 }

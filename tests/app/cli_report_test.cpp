@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -42,8 +43,12 @@ TEST_P(CliReport, WritesThePageAndItsDataForTheSampleRun) {
                         Q(Sample(c.run, c.measurement)) + " -o " + Q(html) +
                         " --json " + Q(data_path));
   const json data = json::parse(ReadTextFile(data_path));
-  // Exit 1 unless the verdict is pass, as `ttp grade`.
-  ASSERT_EQ(r.exit_code, data["grade"]["verdict"] == "pass" ? 0 : 1)
+  // Exit 1 unless the verdict is pass (as `ttp grade`) and the diagnosis
+  // is not refused.
+  ASSERT_EQ(r.exit_code, data["grade"]["verdict"] == "pass" &&
+                                 data["diagnosis"]["status"] != "refused"
+                             ? 0
+                             : 1)
       << r.output;
   const json truth = json::parse(ReadTextFile(Sample(c.run, "truth.json")));
   // The sample's hidden cause (made outside the project) is found.
@@ -86,6 +91,37 @@ INSTANTIATE_TEST_SUITE_P(Samples, CliReport,
                                       ? "RunA"
                                       : "RunB";
                          });
+
+// A log that was read but ends before the program's last cut: the page is
+// written with the piece's grade and the diagnosis refused, saying why
+// (as `ttp diagnose`), exit 1; not bad input.
+TEST(CliReportErrors, ALogThatDoesNotCoverTheCutsIsARefusedDiagnosis) {
+  const fs::path dir = OutDir();
+  const fs::path shortened = dir / "short-talc.csv";
+  {
+    std::ifstream in(Sample("run-a", "talc.csv"));
+    std::ofstream out(shortened);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (!line.empty() && std::isdigit(static_cast<unsigned char>(line[0])) &&
+          std::stod(line) > 4.5 * 3600)
+        break;
+      out << line << "\n";
+    }
+  }
+  const fs::path html = dir / "short.html", data_path = dir / "short.json";
+  const auto r = RunTtp("report --log " + Q(shortened) + " " +
+                        Q(Sample("run-a", "piece.ply")) + " -o " + Q(html) +
+                        " --json " + Q(data_path));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  ASSERT_TRUE(fs::exists(html)) << r.output;
+  const json data = json::parse(ReadTextFile(data_path));
+  EXPECT_EQ(data["diagnosis"]["status"], "refused");
+  EXPECT_NE(data["diagnosis"]["reason"].get<std::string>().find("last cut"),
+            std::string::npos)
+      << data["diagnosis"];
+  EXPECT_NE(r.output.find("diagnosis refused"), std::string::npos) << r.output;
+}
 
 TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
   const fs::path html = OutDir() / "bad.html";
