@@ -24,8 +24,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
     auto log_path = std::make_shared<std::string>();
     auto measurement = std::make_shared<std::string>();
     auto json_out = std::make_shared<std::string>();
-    auto threshold =
-        std::make_shared<double>(diagnosis::DiagnosisOptions{}.evidence_threshold);
+    auto threshold = std::make_shared<double>(
+        diagnosis::DiagnosisOptions{}.evidence_threshold);
     cmd->add_option("--log", *log_path, "TALC log (CSV)")->required();
     cmd->add_option(
            "measurement", *measurement,
@@ -46,53 +46,54 @@ void Register(CLI::App& root, GlobalOptions& global) {
     cmd->add_flag("--no-schedule-check", *no_schedule,
                   "do not check the log's cuts against the program's "
                   "schedule (for a log of another program)");
-    cmd->callback(
-        [&global, cmd, log_path, measurement, json_out, threshold, no_schedule,
-         how] {
-          const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
-          const Config config = global.LoadConfig();
-          diagnosis::DiagnosisOptions options;
-          options.evidence_threshold = *threshold;
-          std::string invalid;
-          if (!options.IsValid(&invalid))
-            throw CLI::ValidationError("--evidence", invalid);
-          const diagnosis::MeasuredPiece measured =
-              diagnosis::LoadMeasuredPiece(config, *measurement,
-                                           ToMeasurementOptions(*how, *cmd));
-          // A log that does not match the program's schedule (or does not
-          // cover its cuts) cannot belong to the measured piece: refused.
-          diagnosis::DiagnosisReport report;
-          bool refused = false;
-          if (!*no_schedule) {
-            try {
-              thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
-            } catch (const InputError& e) {
-              report.status = diagnosis::DiagnosisStatus::kRefused;
-              report.cause.clear();
-              report.reason = std::string("the log does not match the "
-                                          "program that cut the piece: ") +
-                              e.what();
-              refused = true;
-            }
-          }
-          if (!refused) {
-            try {
-              report = diagnosis::DiagnoseRun(log, config, measured, options);
-            } catch (const InputError& e) {
-              // Cuts the log's R-tests do not cover.
-              if (e.field() != "t_s") throw;
-              report.status = diagnosis::DiagnosisStatus::kRefused;
-              report.cause.clear();
-              report.reason = e.what();
-            }
-          }
-          if (!global.quiet || json_out->empty())
-            TextOut(*json_out) << diagnosis::DiagnosisText(report);
-          if (!json_out->empty())
-            WriteJson(*json_out, diagnosis::DiagnosisToJson(report));
-          if (report.status == diagnosis::DiagnosisStatus::kRefused)
-            global.exit_code = kExitJudgedFailure;
-        });
+    cmd->callback([&global, cmd, log_path, measurement, json_out, threshold,
+                   no_schedule, how] {
+      const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
+      const Config config = global.LoadConfig();
+      diagnosis::DiagnosisOptions options;
+      options.evidence_threshold = *threshold;
+      std::string invalid;
+      if (!options.IsValid(&invalid))
+        throw CLI::ValidationError("--evidence", invalid);
+      const diagnosis::MeasuredPiece measured = diagnosis::LoadMeasuredPiece(
+          config, *measurement, ToMeasurementOptions(*how, *cmd));
+      // A log that does not match the program's schedule (or does not
+      // cover its cuts) cannot belong to the measured piece: refused.
+      diagnosis::DiagnosisReport report;
+      bool refused = false;
+      if (!*no_schedule) {
+        try {
+          thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
+        } catch (const InputError& e) {
+          report.status = diagnosis::DiagnosisStatus::kRefused;
+          report.cause.clear();
+          report.reason = std::string(
+                              "the log does not match the "
+                              "program that cut the piece: ") +
+                          e.what();
+          refused = true;
+        }
+      }
+      if (!refused) {
+        try {
+          report = diagnosis::DiagnoseRun(log, config, measured, options);
+        } catch (const InputError& e) {
+          // Cuts the log's R-tests do not cover, or R-tests too few to
+          // give the machine's error at all (one): the log, read, cannot
+          // explain this piece.
+          if (e.field() != "t_s" && e.field() != "rtest") throw;
+          report.status = diagnosis::DiagnosisStatus::kRefused;
+          report.cause.clear();
+          report.reason = e.what();
+        }
+      }
+      if (!global.quiet || json_out->empty())
+        TextOut(*json_out) << diagnosis::DiagnosisText(report);
+      if (!json_out->empty())
+        WriteJson(*json_out, diagnosis::DiagnosisToJson(report));
+      if (report.status == diagnosis::DiagnosisStatus::kRefused)
+        global.exit_code = kExitJudgedFailure;
+    });
   }
   {
     auto* cmd = root.add_subcommand(

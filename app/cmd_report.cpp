@@ -174,28 +174,38 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
       // As `ttp diagnose`: a log that did not come from this program (or
       // does not cover its cuts) cannot belong to the measured piece: the
       // diagnosis is refused, and the page says so with the piece's grade.
-      std::string schedule;
+      std::string refusal;
       if (!*no_schedule) {
         try {
           thermal::CheckLogAgainstSchedule(*log, PlannedCuts(config));
         } catch (const InputError& e) {
-          schedule = std::string(
-                         "the log does not match the program that "
-                         "cut the piece: ") +
-                     e.what();
+          refusal = std::string(
+                        "the log does not match the program that "
+                        "cut the piece: ") +
+                    e.what();
         }
       }
-      if (schedule.empty()) {
+      if (refusal.empty()) {
         const diagnosis::MeasuredPiece piece =
             diagnosis::MeasuredPieceFromInspection(config.part, m.result);
-        diagnosed.run =
-            diagnosis::PrepareRun(*log, config, piece, options->diagnosis);
-        diagnosed.report = diagnosis::DiagnosePrepared(
-            diagnosed.run, *log, config.part, piece, options->diagnosis);
-      } else {
+        try {
+          diagnosed.run =
+              diagnosis::PrepareRun(*log, config, piece, options->diagnosis);
+          diagnosed.report = diagnosis::DiagnosePrepared(
+              diagnosed.run, *log, config.part, piece, options->diagnosis);
+        } catch (const InputError& e) {
+          // As `ttp diagnose`: cuts the R-tests do not cover, or too few
+          // R-tests to give the machine's error.
+          if (e.field() != "t_s" && e.field() != "rtest") throw;
+          diagnosed.run = {};
+          diagnosed.report = {};
+          refusal = e.what();
+        }
+      }
+      if (!refusal.empty()) {
         diagnosed.report.status = diagnosis::DiagnosisStatus::kRefused;
         diagnosed.report.cause.clear();
-        diagnosed.report.reason = schedule;
+        diagnosed.report.reason = refusal;
       }
       explained = diagnosis::ExplainDiagnosis(
           diagnosed.run, diagnosed.report, config.part,

@@ -439,6 +439,26 @@ TEST(CliDiagnosis, BadInputExitsTwoNamingTheFile) {
                    measured);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("cover"), std::string::npos) << r.output;
+  // A log with its first R-test alone: read, but it cannot give the
+  // machine's error at the cuts: refused (as with none), not bad input.
+  {
+    std::ifstream in(a + "/talc.csv");
+    std::ofstream out(dir / "one_rtest.csv");
+    std::string line;
+    bool seen = false;
+    while (std::getline(in, line)) {
+      if (line.find(",rtest,") != std::string::npos) {
+        if (seen) continue;
+        seen = true;
+      }
+      out << line << "\n";
+    }
+  }
+  r = test::RunTtp("diagnose --log " + (dir / "one_rtest.csv").string() + " " +
+                   measured);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("status: refused"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("two R-tests"), std::string::npos) << r.output;
   // Run-a's piece against run-b's log: no cause is named (refused when the
   // E_X/E_Y slope test tells them apart, else unexplained).
   r = test::RunTtp("diagnose --log " + (kSamples / "run-b/talc.csv").string() +
