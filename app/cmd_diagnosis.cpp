@@ -60,32 +60,19 @@ void Register(CLI::App& root, GlobalOptions& global) {
       // A log that does not match the program's schedule (or does not
       // cover its cuts) cannot belong to the measured piece: refused.
       diagnosis::DiagnosisReport report;
-      bool refused = false;
-      if (!*no_schedule) {
-        try {
-          thermal::CheckLogAgainstSchedule(log, PlannedCuts(config));
-        } catch (const InputError& e) {
-          report.status = diagnosis::DiagnosisStatus::kRefused;
-          report.cause.clear();
-          report.reason = std::string(
-                              "the log does not match the "
-                              "program that cut the piece: ") +
-                          e.what();
-          refused = true;
-        }
-      }
-      if (!refused) {
+      std::string refusal = *no_schedule ? "" : ScheduleRefusal(log, config);
+      if (refusal.empty()) {
         try {
           report = diagnosis::DiagnoseRun(log, config, measured, options);
         } catch (const InputError& e) {
-          // Cuts the log's R-tests do not cover, or R-tests too few to
-          // give the machine's error at all (one): the log, read, cannot
-          // explain this piece.
-          if (e.field() != "t_s" && e.field() != "rtest") throw;
-          report.status = diagnosis::DiagnosisStatus::kRefused;
-          report.cause.clear();
-          report.reason = e.what();
+          if (!RefusesTheDiagnosis(e)) throw;
+          refusal = e.what();
         }
+      }
+      if (!refusal.empty()) {
+        report = {};
+        report.status = diagnosis::DiagnosisStatus::kRefused;
+        report.reason = refusal;
       }
       if (!global.quiet || json_out->empty())
         TextOut(*json_out) << diagnosis::DiagnosisText(report);

@@ -174,17 +174,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
       // As `ttp diagnose`: a log that did not come from this program (or
       // does not cover its cuts) cannot belong to the measured piece: the
       // diagnosis is refused, and the page says so with the piece's grade.
-      std::string refusal;
-      if (!*no_schedule) {
-        try {
-          thermal::CheckLogAgainstSchedule(*log, PlannedCuts(config));
-        } catch (const InputError& e) {
-          refusal = std::string(
-                        "the log does not match the program that "
-                        "cut the piece: ") +
-                    e.what();
-        }
-      }
+      std::string refusal = *no_schedule ? "" : ScheduleRefusal(*log, config);
       if (refusal.empty()) {
         const diagnosis::MeasuredPiece piece =
             diagnosis::MeasuredPieceFromInspection(config.part, m.result);
@@ -194,17 +184,14 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
           diagnosed.report = diagnosis::DiagnosePrepared(
               diagnosed.run, *log, config.part, piece, options->diagnosis);
         } catch (const InputError& e) {
-          // As `ttp diagnose`: cuts the R-tests do not cover, or too few
-          // R-tests to give the machine's error.
-          if (e.field() != "t_s" && e.field() != "rtest") throw;
+          if (!RefusesTheDiagnosis(e)) throw;
           diagnosed.run = {};
-          diagnosed.report = {};
           refusal = e.what();
         }
       }
       if (!refusal.empty()) {
+        diagnosed.report = {};
         diagnosed.report.status = diagnosis::DiagnosisStatus::kRefused;
-        diagnosed.report.cause.clear();
         diagnosed.report.reason = refusal;
       }
       explained = diagnosis::ExplainDiagnosis(
