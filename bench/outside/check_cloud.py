@@ -7,11 +7,23 @@ clouds' noise says that the cloud's frames, orientation conventions and
 feature geometry are those of the specs as the CLI reads them.
 
 Usage: check_cloud.py [--ttp build/app/ttp] [--runs 6] [--seed 1]
-                      [--effect none] [--points 20000] [DIR ...]
+                      [--effect none] [--points 20000]
+                      [--surroundings none|adapter|table|both] [DIR ...]
        check_cloud.py --stats DIR ...   (points per surface, ranges in W)
 With DIRs: check those runs (each with truth.json and piece.ply/.xyz);
 without: generate --runs runs (seeds seed, seed+1, ...: PLY and .xyz, table
 and arbitrary poses alternate) and check them. One ttp process at a time.
+--surroundings adds other surfaces to each cloud, which measurements.md
+section 1 says may be present and are to be ignored, in the cloud's pose
+from truth.json: 'adapter' the piece's adapter (test-piece.md section 1:
+a cylinder of 180 mm, 30 mm high, under the bottom face at z = -24) and
+the machine table under it (z = -54, a 600 x 500 mm rectangle about a
+point up to 100 mm off the piece's axis); 'table' the piece straight on
+a CMM table (z = -24, same rectangle, no adapter); 'both' alternates.
+The table holds --table-share (default 2) times, the adapter a fifth as
+many points as the piece,
+with the piece's noise; the table's points under the piece's rim are not
+seen (a scanner looks from above).
 Python 3 standard library only.
 """
 import argparse
@@ -96,6 +108,46 @@ def read_cloud(path):
     return pts
 
 
+def add_surroundings(d, kind, seed, table_share=2.0):
+    """Appends the adapter and/or a table to the cloud in d (see the module
+    doc), in the cloud's pose; rewrites it in its format."""
+    truth = json.load(open(os.path.join(d, "truth.json")))
+    pose = truth.get("pose") or truth["cloud"]["pose"]
+    R, t = pose["R"], pose["t_mm"]
+    noise = (truth.get("cloud") or {}).get("noise_um", 1.0) * 1e-3
+    name = [f for f in os.listdir(d) if f.startswith("piece.") and f[-3:] in ("ply", "xyz")][0]
+    path = os.path.join(d, name)
+    pts = read_cloud(path)
+    rng = generate.random.Random(seed)
+    n = len(pts)
+    w = []
+    table_z = -54.0 if kind == "adapter" else -24.0
+    if kind == "adapter":
+        for _ in range(n // 5):
+            a = rng.uniform(0, 2 * math.pi)
+            r = 90.0 + rng.gauss(0, noise)
+            w.append((r * math.cos(a), r * math.sin(a), rng.uniform(-54.0, -24.5)))
+    cx, cy = rng.uniform(-100, 100), rng.uniform(-100, 100)
+    while len(w) < n // 5 * (kind == "adapter") + int(table_share * n):
+        x, y = cx + rng.uniform(-300, 300), cy + rng.uniform(-250, 250)
+        if math.hypot(x, y) < 101.0:
+            continue
+        w.append((x, y, table_z + rng.gauss(0, noise)))
+    extra = [tuple(R[i][0] * p[0] + R[i][1] * p[1] + R[i][2] * p[2] + t[i] for i in range(3)) for p in w]
+    allp = list(pts) + extra
+    rng.shuffle(allp)
+    if name.endswith(".ply"):
+        head = ("ply\nformat binary_little_endian 1.0\ncomment outside generator, with %s\n"
+                "element vertex %d\nproperty double x\nproperty double y\nproperty double z\n"
+                "end_header\n" % (kind, len(allp)))
+        flat = [c for p in allp for c in p]
+        open(path, "wb").write(head.encode("ascii") + struct.pack("<%dd" % len(flat), *flat))
+    else:
+        open(path, "w").write("# outside generator, with %s\n" % kind +
+                              "".join("%.6f %.6f %.6f\n" % p for p in allp))
+    return len(extra)
+
+
 def surface_of(p, tol=0.02):
     """The nominal surface a W point lies on (within tol mm), else 'off'."""
     x, y, z = p
@@ -155,6 +207,10 @@ def main():
     ap.add_argument("--stats", action="store_true",
                     help="only the points per surface and their ranges of the DIRs' clouds, in W "
                          "from truth.json's pose (the samples' or the generator's); no ttp")
+    ap.add_argument("--surroundings", choices=["none", "adapter", "table", "both"], default="none",
+                    help="add the adapter and the machine table, or a CMM table, to each cloud")
+    ap.add_argument("--table-share", type=float, default=2.0,
+                    help="points on the table per point on the piece (--surroundings)")
     ap.add_argument("dirs", nargs="*")
     a = ap.parse_args()
     if a.stats:
@@ -169,6 +225,9 @@ def main():
             for i in range(a.runs):
                 d = os.path.join(work, "r%d" % i)
                 generate.generate(d, a.effect, size, a.seed + i, 300.0, False, "cloud", a.points)
+                if a.surroundings != "none":
+                    kind = a.surroundings if a.surroundings != "both" else ("adapter", "table")[i % 2]
+                    add_surroundings(d, kind, a.seed + i, a.table_share)
                 dirs.append(d)
         total = {}
         bad = 0

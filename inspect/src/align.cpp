@@ -2,7 +2,8 @@
 // (test-piece.md section 5), in any pose of the cloud:
 //   1. the top face (Z and z = 0): the end of the disc's axis that is a
 //      plane (the largest plane across the axis there, by RANSAC: the
-//      walls that meet it outnumber its points near the edge);
+//      walls that meet it outnumber its points near the edge) no wider
+//      than the piece (a wider one is a table or fixture plate: left out);
 //   2. a rough centre from the reference cylinders (else the facets);
 //   3. the big-notch flanks: their symmetry plane gives X, Y;
 //   4. the origin: the centre of the datum circle (the 199 cylinder between
@@ -169,13 +170,44 @@ struct TopFace {
 // noise, far below the 0.3 mm groove and the walls' height.
 constexpr double kTopConsensusMm = 0.05;
 
-TopFace FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
-                    const std::string& source,
-                    std::vector<std::string>* warnings) {
-  // The search runs on an even subsample of at most 100,000 points (a
-  // million-point scan holds far more top-face points than the datum
-  // needs); the final robust fit uses the sample's top-face points.
-  const Indices sub = Subsample(p.cols(), 100000);
+// The widest extent of the points idx in the plane (point, normal): the
+// 0.1 % to 99.9 % quantile range along 12 directions 15 deg apart.
+double ExtentInPlane(const Eigen::Matrix3Xd& p, const Indices& idx,
+                     const Eigen::Vector3d& point,
+                     const Eigen::Vector3d& normal) {
+  const Eigen::Vector3d u = normal.unitOrthogonal();
+  const Eigen::Vector3d v = normal.cross(u);
+  double widest = 0;
+  std::vector<double> along(idx.size());
+  for (int k = 0; k < 12; ++k) {
+    const double a = k * 15 * kDeg;
+    const Eigen::Vector3d e = std::cos(a) * u + std::sin(a) * v;
+    for (size_t j = 0; j < idx.size(); ++j)
+      along[j] = (p.col(idx[j]) - point).dot(e);
+    widest = std::max(widest, Quantile(along, 0.999) - Quantile(along, 0.001));
+  }
+  return widest;
+}
+
+// A plane at an end of the axis wider than the blank by this factor is
+// another surface (measurements.md: other surfaces may be present and are
+// ignored): the table the piece or its adapter stands on, a fixture plate.
+// The top face is at most the blank's diameter across.
+constexpr double kTopMaxExtentFactor = 1.1;
+
+// A plane at an end of the axis that is wider than the piece.
+struct WidePlane {
+  Eigen::Vector3d point, normal;
+  double extent_mm = 0;
+  int points = 0;
+};
+
+// One search for the top face among the points sub (FindTopFace): false
+// when there is none; a plane wider than the piece is not taken but kept
+// in *wide (the one with the most points).
+bool SearchTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
+                   const Indices& sub, const std::string& source,
+                   TopFace* found, Indices* found_idx, WidePlane* wide) {
   const Index n = static_cast<Index>(sub.size());
   // Robust centre and the disc's axis (smallest PCA axis), ignoring points
   // far from the median (fixture, far strays).
@@ -290,6 +322,17 @@ TopFace FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
           beyond += (p.col(i) - pl.point).dot(sign * axis) > 2.0;
         if (beyond > n / 50) continue;
       }
+      // A plane wider than the piece is a table or a fixture plate under
+      // it: the top face is the other end's.
+      if (Usable(pl)) {
+        const double extent_mm = ExtentInPlane(p, idx, pl.point, pl.normal);
+        if (extent_mm > kTopMaxExtentFactor * part.blank_diameter_mm) {
+          if (pl.summary.points > wide->points) {
+            *wide = {pl.point, pl.normal, extent_mm, pl.summary.points};
+          }
+          continue;
+        }
+      }
       if (Usable(pl) && pl.summary.points > best.plane.summary.points) {
         best.plane = pl;
         best.consensus = consensus;
@@ -297,9 +340,67 @@ TopFace FindTopFace(const Eigen::Matrix3Xd& p, const InspectOptions& o,
       }
     }
   }
-  if (!Usable(best.plane) || best.plane.summary.points < 20)
-    NoPiece(source, "no flat top face at either end of the disc's axis");
+  if (!Usable(best.plane) || best.plane.summary.points < 20) return false;
+  *found = best;
+  *found_idx = std::move(best_idx);
+  return true;
+}
+
+// Points within this distance of a plane wider than the piece are left out
+// of the search for the top face (a table's or fixture plate's scan, with
+// its noise and its unevenness): they would tilt the axis and hold the
+// quantiles that find the ends.
+constexpr double kOtherPlaneBandMm = 1.0;
+// At most this many such planes (a table, a fixture plate) are left out.
+constexpr int kMaxOtherPlanes = 3;
+
+TopFace FindTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
+                    const InspectOptions& o, const std::string& source,
+                    std::vector<std::string>* warnings) {
+  // The search runs on an even subsample of at most 100,000 points (a
+  // million-point scan holds far more top-face points than the datum
+  // needs); the final robust fit uses the sample's top-face points.
+  Indices sub = Subsample(p.cols(), 100000);
+  TopFace best;
+  Indices best_idx;
+  std::vector<WidePlane> left_out;
+  bool found = false;
+  for (int round = 0; round <= kMaxOtherPlanes; ++round) {
+    WidePlane wide;
+    found = SearchTopFace(part, p, sub, source, &best, &best_idx, &wide);
+    if (wide.points > 0) left_out.push_back(wide);
+    if (found || wide.points == 0 || round == kMaxOtherPlanes) break;
+    // A table or fixture plate in the cloud: search again without it.
+    Indices keep;
+    for (Index i : sub) {
+      if (std::abs((p.col(i) - wide.point).dot(wide.normal)) >
+          kOtherPlaneBandMm)
+        keep.push_back(i);
+    }
+    sub.swap(keep);
+  }
+  if (!found) {
+    std::string why = "no flat top face at either end of the disc's axis";
+    for (const WidePlane& w : left_out) {
+      char wide[200];
+      std::snprintf(wide, sizeof wide,
+                    "; a plane %.0f mm across (%d points) was left out: "
+                    "wider than the %g mm blank, a table or fixture",
+                    w.extent_mm, w.points, part.blank_diameter_mm);
+      why += wide;
+    }
+    NoPiece(source, why);
+  }
+  for (const WidePlane& w : left_out) {
+    char wide[200];
+    std::snprintf(wide, sizeof wide,
+                  "a plane %.0f mm across (%d points) was taken for a table "
+                  "or fixture and left out: it is wider than the %g mm blank",
+                  w.extent_mm, w.points, part.blank_diameter_mm);
+    warnings->push_back(wide);
+  }
   // The bulk of the piece lies below the top face.
+  const Index n = static_cast<Index>(sub.size());
   double below = 0;
   for (Index i : sub)
     below += (p.col(i) - best.plane.point).dot(best.plane.normal) < 0;
@@ -363,7 +464,7 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
   if (n == 0) throw InputError(source, 0, "", "the cloud has no points");
 
   // 1. Top face -> Z and z = 0, in a temporary frame q.
-  const TopFace top_face = FindTopFace(p, o, source, &out.warnings);
+  const TopFace top_face = FindTopFace(part, p, o, source, &out.warnings);
   const fit::PlaneFit& top = top_face.plane;
   out.alignment.top_points = top.summary.points;
   out.alignment.top_rms_mm = top.summary.rms_mm;
@@ -630,3 +731,4 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
 }
 
 }  // namespace ttp::inspect
+

@@ -102,6 +102,49 @@ TEST(AlignCloud, StraysAboveTheTopFaceLeaveTheDatums) {
   }
 }
 
+// Other surfaces (measurements.md section 1: present and ignored): the
+// piece on its adapter (test-piece.md: 180 mm, 30 mm high) on the machine
+// table, and the piece straight on a CMM table; the table a 600 x 500 mm
+// rectangle off the piece's axis holding 2 and 6 times the piece's points.
+// The pose is undone as without them.
+TEST(AlignCloud, TableAndAdapterInTheCloudAreLeftOut) {
+  const SynthPiece s = Piece(6);
+  const Eigen::Index n = s.cloud.size();
+  for (const bool adapter : {true, false}) {
+    for (const int share : {2, 6}) {
+      SCOPED_TRACE((adapter ? "adapter, table share " : "CMM table, share ") +
+                   std::to_string(share));
+      std::mt19937 rng(23 + share);
+      std::uniform_real_distribution<double> u(0, 1);
+      std::normal_distribution<double> noise(0, 0.002);
+      std::vector<Eigen::Vector3d> w;
+      const double table_z = adapter ? -54 : -24;
+      if (adapter) {
+        for (Eigen::Index k = 0; k < n / 5; ++k) {
+          const double phi = 2 * M_PI * u(rng);
+          w.emplace_back(90 * std::cos(phi), 90 * std::sin(phi),
+                         -54 + 29.5 * u(rng));
+        }
+      }
+      while (static_cast<Eigen::Index>(w.size()) < (adapter ? n / 5 : 0) +
+                                                        share * n) {
+        const double x = 40 + 600 * (u(rng) - 0.5);
+        const double y = -60 + 500 * (u(rng) - 0.5);
+        if (std::hypot(x, y) < 101) continue;  // under the rim: not seen
+        w.emplace_back(x, y, table_z + noise(rng));
+      }
+      PointCloud c = s.cloud;
+      c.xyz_mm.conservativeResize(3, n + static_cast<Eigen::Index>(w.size()));
+      for (size_t k = 0; k < w.size(); ++k)
+        c.xyz_mm.col(n + static_cast<Eigen::Index>(k)) =
+            s.rotation * w[k] + s.translation;
+      const AlignedCloud a = AlignCloud(PartSpec{}, c, InspectOptions{});
+      ExpectPoseUndone(a, s);
+      EXPECT_NEAR(a.alignment.circle_diameter_mm, 199.0, 1e-3);
+    }
+  }
+}
+
 // x -> -x: every datum is still there, but the mark sits where only a
 // mirrored piece has it; the cycles would come out reversed.
 TEST(AlignCloud, MirrorImageIsRefused) {
