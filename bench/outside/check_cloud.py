@@ -19,7 +19,10 @@ from truth.json: 'adapter' the piece's adapter (test-piece.md section 1:
 a cylinder of 180 mm, 30 mm high, under the bottom face at z = -24) and
 the machine table under it (z = -54, a 600 x 500 mm rectangle about a
 point up to 100 mm off the piece's axis); 'table' the piece straight on
-a CMM table (z = -24, same rectangle, no adapter); 'both' alternates.
+a CMM table (z = -24, same rectangle, no adapter); 'posts' that table
+with three clamp posts beside the piece (16 mm across, 125 mm from its
+axis, their tops 30 to 50 mm above the piece's top, a tenth as many
+points as the piece each); 'both' alternates adapter and table.
 The table holds --table-share (default 2) times, the adapter a fifth as
 many points as the piece,
 with the piece's noise; the table's points under the piece's rim are not
@@ -122,13 +125,27 @@ def add_surroundings(d, kind, seed, table_share=2.0):
     n = len(pts)
     w = []
     table_z = -54.0 if kind == "adapter" else -24.0
+    if kind == "posts":
+        # three clamp posts (studs) standing on the table beside the piece,
+        # 16 mm across, their tops 30, 40 and 50 mm above the piece's top
+        for k, top in enumerate((30.0, 40.0, 50.0)):
+            a0 = rng.uniform(0, 2 * math.pi) if k == 0 else a0 + 2 * math.pi / 3
+            px, py = 125.0 * math.cos(a0), 125.0 * math.sin(a0)
+            for _ in range(n // 10):
+                a = rng.uniform(0, 2 * math.pi)
+                if rng.random() < 0.8:   # the wall
+                    r, z = 8.0 + rng.gauss(0, noise), rng.uniform(table_z, top)
+                else:                    # the top
+                    r, z = 8.0 * math.sqrt(rng.random()), top + rng.gauss(0, noise)
+                w.append((px + r * math.cos(a), py + r * math.sin(a), z))
     if kind == "adapter":
         for _ in range(n // 5):
             a = rng.uniform(0, 2 * math.pi)
             r = 90.0 + rng.gauss(0, noise)
             w.append((r * math.cos(a), r * math.sin(a), rng.uniform(-54.0, -24.5)))
     cx, cy = rng.uniform(-100, 100), rng.uniform(-100, 100)
-    while len(w) < n // 5 * (kind == "adapter") + int(table_share * n):
+    n_before = len(w)
+    while len(w) < n_before + int(table_share * n):
         x, y = cx + rng.uniform(-300, 300), cy + rng.uniform(-250, 250)
         if math.hypot(x, y) < 101.0:
             continue
@@ -207,7 +224,7 @@ def main():
     ap.add_argument("--stats", action="store_true",
                     help="only the points per surface and their ranges of the DIRs' clouds, in W "
                          "from truth.json's pose (the samples' or the generator's); no ttp")
-    ap.add_argument("--surroundings", choices=["none", "adapter", "table", "both"], default="none",
+    ap.add_argument("--surroundings", choices=["none", "adapter", "table", "posts", "both"], default="none",
                     help="add the adapter and the machine table, or a CMM table, to each cloud")
     ap.add_argument("--table-share", type=float, default=2.0,
                     help="points on the table per point on the piece (--surroundings)")

@@ -31,6 +31,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <optional>
 #include <pcl/sample_consensus/impl/ransac.hpp>
 #include <pcl/sample_consensus/impl/sac_model_perpendicular_plane.hpp>
 #include <pcl/sample_consensus/impl/sac_model_plane.hpp>
@@ -171,7 +172,9 @@ struct TopFace {
 constexpr double kTopConsensusMm = 0.05;
 
 // The widest extent of the points idx in the plane (point, normal): the
-// 0.1 % to 99.9 % quantile range along 12 directions 15 deg apart.
+// 1 % to 99 % quantile range along 12 directions 15 deg apart (walls that
+// cross the plane far away, such as a post's beside a fixture's top, add
+// a few points to its band: not its extent).
 double ExtentInPlane(const Eigen::Matrix3Xd& p, const Indices& idx,
                      const Eigen::Vector3d& point,
                      const Eigen::Vector3d& normal) {
@@ -184,7 +187,7 @@ double ExtentInPlane(const Eigen::Matrix3Xd& p, const Indices& idx,
     const Eigen::Vector3d e = std::cos(a) * u + std::sin(a) * v;
     for (size_t j = 0; j < idx.size(); ++j)
       along[j] = (p.col(idx[j]) - point).dot(e);
-    widest = std::max(widest, Quantile(along, 0.999) - Quantile(along, 0.001));
+    widest = std::max(widest, Quantile(along, 0.99) - Quantile(along, 0.01));
   }
   return widest;
 }
@@ -204,9 +207,13 @@ struct WidePlane {
 
 // One search for the top face among the points sub (FindTopFace): false
 // when there is none; a plane wider than the piece is not taken but kept
-// in *wide (the one with the most points).
+// in *wide (the one with the most points). The axis is axis_hint when
+// given (the normal of a plane left out before: a table or a fixture's
+// top is parallel to the top face, and the principal axis of what is left
+// may lean by degrees towards posts or a fixture beside the piece).
 bool SearchTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
                    const Indices& sub, const std::string& source,
+                   const std::optional<Eigen::Vector3d>& axis_hint,
                    TopFace* found, Indices* found_idx, WidePlane* wide) {
   const Index n = static_cast<Index>(sub.size());
   // Robust centre and the disc's axis (smallest PCA axis), ignoring points
@@ -233,7 +240,8 @@ bool SearchTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
   mean /= static_cast<double>(used);
   s = s / static_cast<double>(used) - mean * mean.transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s);
-  const Eigen::Vector3d axis = es.eigenvectors().col(0);
+  const Eigen::Vector3d axis =
+      axis_hint ? *axis_hint : Eigen::Vector3d(es.eigenvectors().col(0));
   const Eigen::Vector3d centre = med + mean;
   std::vector<double> h(n);
   for (Index k = 0; k < n; ++k) h[k] = (p.col(sub[k]) - centre).dot(axis);
@@ -317,9 +325,17 @@ bool SearchTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
       // notch's): a face is the piece's end, with nothing but strays beyond
       // it (at most 2 % of the points more than 2 mm outside).
       if (attempt == 1 && Usable(pl)) {
+        // Only points over the face count: posts or a fixture beside the
+        // piece may stand higher than its top.
+        const double reach_mm = part.blank_diameter_mm / 2 + 2.0;
         Index beyond = 0;
-        for (Index i : sub)
-          beyond += (p.col(i) - pl.point).dot(sign * axis) > 2.0;
+        for (Index i : sub) {
+          const Eigen::Vector3d d = p.col(i) - pl.point;
+          const double up = d.dot(pl.normal);
+          beyond += std::abs(up) > 2.0 &&
+                    (d - up * pl.normal).squaredNorm() < reach_mm * reach_mm &&
+                    d.dot(sign * axis) > 0;
+        }
         if (beyond > n / 50) continue;
       }
       // A plane wider than the piece is a table or a fixture plate under
@@ -354,30 +370,37 @@ constexpr double kOtherPlaneBandMm = 1.0;
 // At most this many such planes (a table, a fixture plate) are left out.
 constexpr int kMaxOtherPlanes = 3;
 
+void LeaveOutPlane(const Eigen::Matrix3Xd& p, const Eigen::Vector3d& point,
+                   const Eigen::Vector3d& normal, Indices* sub) {
+  Indices keep;
+  for (Index i : *sub)
+    if (std::abs((p.col(i) - point).dot(normal)) > kOtherPlaneBandMm)
+      keep.push_back(i);
+  sub->swap(keep);
+}
+
+// The top face among the points *sub (an even subsample of the cloud);
+// planes wider than the piece are left out of *sub on the way.
 TopFace FindTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
                     const InspectOptions& o, const std::string& source,
+                    Indices* sub_io,
+                    std::optional<Eigen::Vector3d>* axis_hint,
                     std::vector<std::string>* warnings) {
-  // The search runs on an even subsample of at most 100,000 points (a
-  // million-point scan holds far more top-face points than the datum
-  // needs); the final robust fit uses the sample's top-face points.
-  Indices sub = Subsample(p.cols(), 100000);
+  Indices& sub = *sub_io;
   TopFace best;
   Indices best_idx;
   std::vector<WidePlane> left_out;
   bool found = false;
   for (int round = 0; round <= kMaxOtherPlanes; ++round) {
     WidePlane wide;
-    found = SearchTopFace(part, p, sub, source, &best, &best_idx, &wide);
+    found = SearchTopFace(part, p, sub, source, *axis_hint, &best, &best_idx,
+                          &wide);
     if (wide.points > 0) left_out.push_back(wide);
     if (found || wide.points == 0 || round == kMaxOtherPlanes) break;
-    // A table or fixture plate in the cloud: search again without it.
-    Indices keep;
-    for (Index i : sub) {
-      if (std::abs((p.col(i) - wide.point).dot(wide.normal)) >
-          kOtherPlaneBandMm)
-        keep.push_back(i);
-    }
-    sub.swap(keep);
+    // A table or fixture plate in the cloud: search again without it,
+    // along its normal.
+    LeaveOutPlane(p, wide.point, wide.normal, &sub);
+    *axis_hint = wide.normal;
   }
   if (!found) {
     std::string why = "no flat top face at either end of the disc's axis";
@@ -455,16 +478,15 @@ Eigen::Matrix3Xd PointsInW(const Alignment& a, const Eigen::Matrix3Xd& p) {
   return w;
 }
 
-AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
-                        const InspectOptions& o) {
-  AlignedCloud out;
+namespace {
+
+// Stages 2-5 from the top face found in stage 1.
+AlignedCloud AlignFromTopFace(const PartSpec& part, const PointCloud& cloud,
+                              const InspectOptions& o, const TopFace& top_face,
+                              AlignedCloud out) {
   const std::string& source = cloud.source;
   const Eigen::Matrix3Xd& p = cloud.xyz_mm;
   const Index n = p.cols();
-  if (n == 0) throw InputError(source, 0, "", "the cloud has no points");
-
-  // 1. Top face -> Z and z = 0, in a temporary frame q.
-  const TopFace top_face = FindTopFace(part, p, o, source, &out.warnings);
   const fit::PlaneFit& top = top_face.plane;
   out.alignment.top_points = top.summary.points;
   out.alignment.top_rms_mm = top.summary.rms_mm;
@@ -730,5 +752,53 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
   return out;
 }
 
+}  // namespace
+
+AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
+                        const InspectOptions& o) {
+  const std::string& source = cloud.source;
+  const Eigen::Matrix3Xd& p = cloud.xyz_mm;
+  if (p.cols() == 0) throw InputError(source, 0, "", "the cloud has no points");
+  // The searches run on an even subsample of at most 100,000 points (a
+  // million-point scan holds far more top-face points than the datum
+  // needs); the final robust fit uses the sample's top-face points.
+  Indices sub = Subsample(p.cols(), 100000);
+  // A plane taken for the top face around which the piece's other datums
+  // are not found (the top of a clamp post or a fixture above the piece)
+  // is left out and the search starts again; when no attempt aligns, the
+  // first attempt's reason is given (the most likely top face's).
+  std::exception_ptr first_failure;
+  std::vector<std::string> passed_over;
+  std::optional<Eigen::Vector3d> axis_hint;
+  for (int attempt = 0; attempt <= kMaxOtherPlanes; ++attempt) {
+    AlignedCloud out;
+    TopFace top_face;
+    try {
+      top_face =
+          FindTopFace(part, p, o, source, &sub, &axis_hint, &out.warnings);
+    } catch (const InputError&) {
+      if (!first_failure) first_failure = std::current_exception();
+      break;  // no plane left to try
+    }
+    try {
+      AlignedCloud aligned =
+          AlignFromTopFace(part, cloud, o, top_face, std::move(out));
+      aligned.warnings.insert(aligned.warnings.end(), passed_over.begin(),
+                              passed_over.end());
+      return aligned;
+    } catch (const InputError& e) {
+      if (!first_failure) first_failure = std::current_exception();
+      passed_over.push_back(
+          "a plane of " + std::to_string(top_face.plane.summary.points) +
+          " points (a post's or a fixture's top?) was tried as the top face "
+          "and left out: " + e.problem());
+    }
+    LeaveOutPlane(p, top_face.plane.point, top_face.plane.normal, &sub);
+    axis_hint = top_face.plane.normal;
+  }
+  std::rethrow_exception(first_failure);
+}
+
 }  // namespace ttp::inspect
+
 

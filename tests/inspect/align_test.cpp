@@ -104,30 +104,47 @@ TEST(AlignCloud, StraysAboveTheTopFaceLeaveTheDatums) {
 
 // Other surfaces (measurements.md section 1: present and ignored): the
 // piece on its adapter (test-piece.md: 180 mm, 30 mm high) on the machine
-// table, and the piece straight on a CMM table; the table a 600 x 500 mm
-// rectangle off the piece's axis holding 2 and 6 times the piece's points.
-// The pose is undone as without them.
-TEST(AlignCloud, TableAndAdapterInTheCloudAreLeftOut) {
+// table; the piece straight on a CMM table; and that table with three
+// clamp posts beside the piece standing 30-50 mm above its top. The table
+// is a 600 x 500 mm rectangle off the piece's axis holding 2 or 6 times
+// the piece's points. The pose is undone as without them.
+TEST(AlignCloud, TableAdapterAndPostsInTheCloudAreLeftOut) {
   const SynthPiece s = Piece(6);
   const Eigen::Index n = s.cloud.size();
-  for (const bool adapter : {true, false}) {
+  enum Setup { kAdapter, kCmmTable, kPosts };
+  for (const Setup setup : {kAdapter, kCmmTable, kPosts}) {
     for (const int share : {2, 6}) {
-      SCOPED_TRACE((adapter ? "adapter, table share " : "CMM table, share ") +
-                   std::to_string(share));
+      SCOPED_TRACE(std::string(setup == kAdapter    ? "adapter"
+                               : setup == kCmmTable ? "CMM table"
+                                                    : "posts") +
+                   ", table share " + std::to_string(share));
       std::mt19937 rng(23 + share);
       std::uniform_real_distribution<double> u(0, 1);
       std::normal_distribution<double> noise(0, 0.002);
       std::vector<Eigen::Vector3d> w;
-      const double table_z = adapter ? -54 : -24;
-      if (adapter) {
+      const double table_z = setup == kAdapter ? -54 : -24;
+      if (setup == kAdapter) {
         for (Eigen::Index k = 0; k < n / 5; ++k) {
           const double phi = 2 * M_PI * u(rng);
           w.emplace_back(90 * std::cos(phi), 90 * std::sin(phi),
                          -54 + 29.5 * u(rng));
         }
       }
-      while (static_cast<Eigen::Index>(w.size()) < (adapter ? n / 5 : 0) +
-                                                        share * n) {
+      if (setup == kPosts) {
+        for (int k = 0; k < 3; ++k) {
+          const double a = 0.4 + k * 2 * M_PI / 3, top = 30 + 10 * k;
+          const Eigen::Vector2d c(125 * std::cos(a), 125 * std::sin(a));
+          for (Eigen::Index m = 0; m < n / 10; ++m) {
+            const double phi = 2 * M_PI * u(rng);
+            const bool wall = u(rng) < 0.8;
+            const double r = wall ? 8 : 8 * std::sqrt(u(rng));
+            w.emplace_back(c.x() + r * std::cos(phi), c.y() + r * std::sin(phi),
+                           wall ? table_z + (top - table_z) * u(rng) : top);
+          }
+        }
+      }
+      const size_t before = w.size();
+      while (w.size() < before + static_cast<size_t>(share * n)) {
         const double x = 40 + 600 * (u(rng) - 0.5);
         const double y = -60 + 500 * (u(rng) - 0.5);
         if (std::hypot(x, y) < 101) continue;  // under the rim: not seen
