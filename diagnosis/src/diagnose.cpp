@@ -2132,12 +2132,6 @@ DiagnosisReport DiagnoseRun(const thermal::TalcLog& log, const Config& config,
                             const MeasuredPiece& measured,
                             const DiagnosisOptions& options) {
   PreparedRun run = PrepareRun(log, config, measured, options);
-  if (run.refusal.empty() && run.observations.size() == 0)
-    throw InputError(measured.source.empty() ? "measurement" : measured.source,
-                     0, "",
-                     "no figure or facet angle to compare: the measurement "
-                     "holds no cycle's features beside the reference "
-                     "cycle's");
   return DiagnosePrepared(std::move(run), log, config.part, measured, options);
 }
 
@@ -2332,6 +2326,13 @@ DiagnosisReport DiagnosePrepared(const PreparedRun& run,
                                  const PartSpec& part,
                                  const MeasuredPiece& measured,
                                  const DiagnosisOptions& options) {
+  // Named here, where the measurement's file is known (every caller).
+  if (run.refusal.empty() && run.observations.size() == 0)
+    throw InputError(measured.source.empty() ? "measurement" : measured.source,
+                     0, "",
+                     "no figure or facet angle to compare: the measurement "
+                     "holds no cycle's features beside the reference "
+                     "cycle's");
   DiagnosisReport report = DecidePrepared(run, log, part, measured, options);
   report.warnings = run.simulation.warnings;
   return report;

@@ -161,6 +161,17 @@ TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
              Q(Sample("run-a", "piece.ply")) + " -o " + Q(html));
   EXPECT_EQ(r.output.find("cause workpiece_expansion"), std::string::npos)
       << r.output;
+  // A dial sheet with only a reference cycle's reading: nothing to
+  // diagnose, and the message names the sheet (as `ttp diagnose` does).
+  const fs::path dial = OutDir() / "one-reading.csv";
+  WriteFileAtomic(dial, "feature,reading_um\nX1-1,1.5\n");
+  for (const char* cmd : {"report", "diagnose"}) {
+    r = RunTtp(std::string(cmd) + " --log " + Q(Sample("run-a", "talc.csv")) +
+               " " + Q(dial) + (cmd[0] == 'r' ? " -o " + Q(html) : ""));
+    EXPECT_EQ(r.exit_code, 2) << cmd << r.output;
+    EXPECT_NE(r.output.find("one-reading.csv"), std::string::npos)
+        << cmd << r.output;
+  }
   // A report data file that breaks the schema names the field.
   const fs::path bad = OutDir() / "bad.json";
   WriteFileAtomic(bad,
