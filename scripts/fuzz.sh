@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # The fuzz stage: builds every libFuzzer target with clang
 # (-fsanitize=fuzzer,address,undefined) into build-fuzz/ and runs each for
-# FUZZ_SECONDS (default 25) on a copy of its seed corpus, as many targets
+# FUZZ_SECONDS (default 15) on a copy of its seed corpus, as many targets
 # at a time as there are cores. Exits non-zero
 # when a target finds a crash, leaving the input in build-fuzz/artifacts/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds="${FUZZ_SECONDS:-25}"
+seconds="${FUZZ_SECONDS:-15}"
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 # -O1 with line tables: libFuzzer's advice; a crash still names file and

@@ -3,7 +3,7 @@
 # whole suite again under AddressSanitizer and UndefinedBehaviorSanitizer,
 # then every fuzz target for a bounded time (docs/ARCHITECTURE.md, "CI").
 #   TTP_TEST_STAGES  which stages to run (default "release sanitize fuzz")
-#   FUZZ_SECONDS     seconds per fuzz target (default 25; 15 targets)
+#   FUZZ_SECONDS     seconds per fuzz target (default 15; 15 targets)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 stages="${TTP_TEST_STAGES:-release sanitize fuzz}"
@@ -31,10 +31,15 @@ fi
 # (-fno-sanitize-recover=undefined: the first undefined behaviour fails
 # the test). Left out: the tests that only drive external programs whose
 # code is not ours and not instrumented (Rs274Test: the rs274 interpreter's
-# canon output; BrowserTest: Chromium drawing the report; LinuxCncController:
+# canon output; BrowserTest and Pages/BrowserKinds: Chromium drawing the
+# report; LinuxCncController:
 # LinuxCNC's task, motion and HAL running the programs, about two minutes
-# that would only repeat the release stage); everything of ttp that those
-# paths run is covered by the other tests.
+# that would only repeat the release stage), and the two that run the
+# finished ttp as a user does, many times over (Docs/: the commands of the
+# README and docs/*.md as written; outside.: the outside generator's
+# battery), 8-10 times slower here, about five minutes of the stage;
+# everything of ttp that those paths run is covered by the other tests
+# (the CLI tests run every command and measurement kind).
 # Line tables only (-g1): a report still names file and line, and the
 # build, the stage's largest share on 2 cores, takes about a third less
 # than with full debug information (-g). -O2 stays: at -O1 Eigen's
@@ -49,7 +54,7 @@ if [[ " $stages " == *" sanitize "* ]]; then
     ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --output-on-failure -j"$jobs" --timeout 1800 \
-      -E '^(Rs274Test|BrowserTest|LinuxCncController)\.')
+      -E '^(Rs274Test|BrowserTest|LinuxCncController)\.|^Pages/BrowserKinds\.|^Docs/|^outside\.')
   stage_done sanitize
 fi
 
