@@ -383,8 +383,7 @@ void LeaveOutPlane(const Eigen::Matrix3Xd& p, const Eigen::Vector3d& point,
 // planes wider than the piece are left out of *sub on the way.
 TopFace FindTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
                     const InspectOptions& o, const std::string& source,
-                    Indices* sub_io,
-                    std::optional<Eigen::Vector3d>* axis_hint,
+                    Indices* sub_io, std::optional<Eigen::Vector3d>* axis_hint,
                     std::vector<std::string>* warnings) {
   Indices& sub = *sub_io;
   TopFace best;
@@ -402,26 +401,21 @@ TopFace FindTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
     LeaveOutPlane(p, wide.point, wide.normal, &sub);
     *axis_hint = wide.normal;
   }
+  // Each plane left out, as the refusal and the warnings name it.
+  auto describe = [&](const WidePlane& w) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "a plane %.0f mm across (%d points), wider than the %g mm "
+                  "blank, was taken for a table or fixture and left out",
+                  w.extent_mm, w.points, part.blank_diameter_mm);
+    return std::string(text);
+  };
   if (!found) {
     std::string why = "no flat top face at either end of the disc's axis";
-    for (const WidePlane& w : left_out) {
-      char wide[200];
-      std::snprintf(wide, sizeof wide,
-                    "; a plane %.0f mm across (%d points) was left out: "
-                    "wider than the %g mm blank, a table or fixture",
-                    w.extent_mm, w.points, part.blank_diameter_mm);
-      why += wide;
-    }
+    for (const WidePlane& w : left_out) why += "; " + describe(w);
     NoPiece(source, why);
   }
-  for (const WidePlane& w : left_out) {
-    char wide[200];
-    std::snprintf(wide, sizeof wide,
-                  "a plane %.0f mm across (%d points) was taken for a table "
-                  "or fixture and left out: it is wider than the %g mm blank",
-                  w.extent_mm, w.points, part.blank_diameter_mm);
-    warnings->push_back(wide);
-  }
+  for (const WidePlane& w : left_out) warnings->push_back(describe(w));
   // The bulk of the piece lies below the top face.
   const Index n = static_cast<Index>(sub.size());
   double below = 0;
@@ -791,7 +785,8 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
       passed_over.push_back(
           "a plane of " + std::to_string(top_face.plane.summary.points) +
           " points (a post's or a fixture's top?) was tried as the top face "
-          "and left out: " + e.problem());
+          "and left out: " +
+          e.problem());
     }
     LeaveOutPlane(p, top_face.plane.point, top_face.plane.normal, &sub);
     axis_hint = top_face.plane.normal;
@@ -800,5 +795,3 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
 }
 
 }  // namespace ttp::inspect
-
-
