@@ -32,9 +32,8 @@ fi
 # the test). Left out: the tests that only drive external programs whose
 # code is not ours and not instrumented (Rs274Test: the rs274 interpreter's
 # canon output; BrowserTest and Pages/BrowserKinds: Chromium drawing the
-# report; LinuxCncController:
-# LinuxCNC's task, motion and HAL running the programs, about two minutes
-# that would only repeat the release stage), and the two that run the
+# report; LinuxCncController: LinuxCNC's task, motion and HAL running the
+# programs, about two minutes that would only repeat the release stage), and the two that run the
 # finished ttp as a user does, many times over (Docs/: the commands of the
 # README and docs/*.md as written; outside.: the outside generator's
 # battery), 8-10 times slower here, about five minutes of the stage;

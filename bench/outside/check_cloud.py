@@ -8,7 +8,8 @@ feature geometry are those of the specs as the CLI reads them.
 
 Usage: check_cloud.py [--ttp build/app/ttp] [--runs 6] [--seed 1]
                       [--effect none] [--points 20000]
-                      [--surroundings none|adapter|table|both] [DIR ...]
+                      [--surroundings none|adapter|table|posts|both]
+                      [--table-share 2] [DIR ...]
        check_cloud.py --stats DIR ...   (points per surface, ranges in W)
 With DIRs: check those runs (each with truth.json and piece.ply/.xyz);
 without: generate --runs runs (seeds seed, seed+1, ...: PLY and .xyz, table
@@ -24,9 +25,8 @@ with three clamp posts beside the piece (16 mm across, 125 mm from its
 axis, their tops 30 to 50 mm above the piece's top, a tenth as many
 points as the piece each); 'both' alternates adapter and table.
 The table holds --table-share (default 2) times, the adapter a fifth as
-many points as the piece,
-with the piece's noise; the table's points under the piece's rim are not
-seen (a scanner looks from above).
+many points as the piece, with the piece's noise; the table's points under
+the piece's rim are not seen (a scanner looks from above).
 Python 3 standard library only.
 """
 import argparse
@@ -112,8 +112,9 @@ def read_cloud(path):
 
 
 def add_surroundings(d, kind, seed, table_share=2.0):
-    """Appends the adapter and/or a table to the cloud in d (see the module
-    doc), in the cloud's pose; rewrites it in its format."""
+    """Appends the surroundings `kind` (adapter, table or posts: see the
+    module doc) to the cloud in d, in the cloud's pose; rewrites it in its
+    format."""
     truth = json.load(open(os.path.join(d, "truth.json")))
     pose = truth.get("pose") or truth["cloud"]["pose"]
     R, t = pose["R"], pose["t_mm"]
@@ -225,7 +226,8 @@ def main():
                     help="only the points per surface and their ranges of the DIRs' clouds, in W "
                          "from truth.json's pose (the samples' or the generator's); no ttp")
     ap.add_argument("--surroundings", choices=["none", "adapter", "table", "posts", "both"], default="none",
-                    help="add the adapter and the machine table, or a CMM table, to each cloud")
+                    help="add the adapter and the machine table, a CMM table, or a CMM table with clamp posts, "
+                         "to each cloud")
     ap.add_argument("--table-share", type=float, default=2.0,
                     help="points on the table per point on the piece (--surroundings)")
     ap.add_argument("dirs", nargs="*")

@@ -788,6 +788,7 @@ AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
           "and left out: " +
           e.problem());
     }
+    if (attempt == kMaxOtherPlanes) break;  // nothing is searched after it
     LeaveOutPlane(p, top_face.plane.point, top_face.plane.normal, &sub);
     axis_hint = top_face.plane.normal;
   }

@@ -165,9 +165,9 @@ TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
   // diagnose, and the message names the sheet (as `ttp diagnose` does).
   const fs::path dial = OutDir() / "one-reading.csv";
   WriteFileAtomic(dial, "feature,reading_um\nX1-1,1.5\n");
-  for (const char* cmd : {"report", "diagnose"}) {
-    r = RunTtp(std::string(cmd) + " --log " + Q(Sample("run-a", "talc.csv")) +
-               " " + Q(dial) + (cmd[0] == 'r' ? " -o " + Q(html) : ""));
+  for (const std::string cmd : {"report", "diagnose"}) {
+    r = RunTtp(cmd + " --log " + Q(Sample("run-a", "talc.csv")) + " " +
+               Q(dial) + (cmd == "report" ? " -o " + Q(html) : ""));
     EXPECT_EQ(r.exit_code, 2) << cmd << r.output;
     EXPECT_NE(r.output.find("one-reading.csv"), std::string::npos)
         << cmd << r.output;
