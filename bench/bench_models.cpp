@@ -7,9 +7,11 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <random>
 #include <string>
 #include <utility>
 
+#include "ttp/models/compare.h"
 #include "ttp/models/features.h"
 #include "ttp/models/identify.h"
 #include "ttp/models/time_series.h"
@@ -349,6 +351,37 @@ int main() {
         "{}\n  none                    {}\n  static OLS              {}\n"
         "  lag OLS, best tau       {}\n  auto                    {}\n",
         b.name, none, st, lag, au);
+  }
+  // `thermal compare` on train.csv as it is and with 48 temperatures more
+  // (each a mixture of two of the 16 plus 0.02 K of noise, fixed seed):
+  // how the comparison scales with the number of sensors.
+  {
+    TimeSeries wide = ts;
+    std::mt19937 rng(7);
+    std::vector<Eigen::Index> temps;
+    for (size_t j = 0; j < ts.input_names.size(); ++j)
+      if (ts.input_names[j].rfind("T_", 0) == 0)
+        temps.push_back(static_cast<Eigen::Index>(j));
+    std::uniform_int_distribution<size_t> pick(0, temps.size() - 1);
+    std::uniform_real_distribution<double> share(0, 1);
+    std::normal_distribution<double> noise(0, 0.02);
+    const Eigen::Index base = wide.inputs.cols(), extra = 48;
+    wide.inputs.conservativeResize(Eigen::NoChange, base + extra);
+    for (Eigen::Index k = 0; k < extra; ++k) {
+      const Eigen::Index a = temps[pick(rng)], b = temps[pick(rng)];
+      const double w = share(rng);
+      for (Eigen::Index i = 0; i < wide.inputs.rows(); ++i)
+        wide.inputs(i, base + k) =
+            w * wide.inputs(i, a) + (1 - w) * wide.inputs(i, b) + noise(rng);
+      wide.input_names.push_back(fmt::format("T_mix{}", k));
+    }
+    fmt::print("\nthermal compare, holdout from 54000 s:\n");
+    for (const TimeSeries* log : {&ts, &wide}) {
+      t0 = std::chrono::steady_clock::now();
+      const CompareResult r = CompareModels(*log, 54000, FitOptions{});
+      fmt::print("  {} inputs, {} structures: {:.2f} s\n",
+                 log->input_names.size(), r.entries.size(), Seconds(t0));
+    }
   }
   return 0;
 }

@@ -13,12 +13,6 @@ stage_done() {
   echo "== stage $1: $((SECONDS - stage_start)) s"
   stage_start=$SECONDS
 }
-launcher=()
-command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-# The tests are compiled with a precompiled header (tests/CMakeLists.txt);
-# ccache caches such compilations only with this sloppiness.
-export CCACHE_SLOPPINESS=pch_defines,time_macros
-
 bash scripts/install-deps.sh
 
 if [[ " $stages " == *" release "* ]]; then
@@ -27,29 +21,23 @@ if [[ " $stages " == *" release "* ]]; then
   stage_done release
 fi
 
-# Sanitizer stage: every test built with -fsanitize=address,undefined
-# (-fno-sanitize-recover=undefined: the first undefined behaviour fails
-# the test). Left out: the tests that only drive external programs whose
-# code is not ours and not instrumented (Rs274Test: the rs274 interpreter's
-# canon output; BrowserTest and Pages/BrowserKinds: Chromium drawing the
-# report; LinuxCncController: LinuxCNC's task, motion and HAL running the
-# programs, about two minutes that would only repeat the release stage), and the two that run the
+# Sanitizer stage: every test built with clang-14 and
+# -fsanitize=address,undefined (-fno-sanitize-recover=undefined: the first
+# undefined behaviour fails the test), in the one sanitized build that also
+# holds the fuzz targets (scripts/sanitized-build.sh). Left out: the tests
+# that only drive external programs whose code is not ours and not
+# instrumented (Rs274Test: the rs274 interpreter's canon output; BrowserTest
+# and Pages/BrowserKinds: Chromium drawing the report; LinuxCncController:
+# LinuxCNC's task, motion and HAL running the programs, about two minutes
+# that would only repeat the release stage), and the two that run the
 # finished ttp as a user does, many times over (Docs/: the commands of the
 # README and docs/*.md as written; outside.: the outside generator's
 # battery), 8-10 times slower here, about five minutes of the stage;
 # everything of ttp that those paths run is covered by the other tests
 # (the CLI tests run every command and measurement kind).
-# Line tables only (-g1): a report still names file and line, and the
-# build, the stage's largest share on 2 cores, takes about a third less
-# than with full debug information (-g). -O2 stays: at -O1 Eigen's
-# templates are not inlined and the tests run about twice as long.
 if [[ " $stages " == *" sanitize "* ]]; then
-  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
-    -DTTP_SANITIZE=address,undefined -DTTP_BUILD_BENCH=OFF \
-    "${launcher[@]}" >/dev/null
-  cmake --build build-asan -j"$jobs"
-  (cd build-asan &&
+  bash scripts/sanitized-build.sh
+  (cd build-san &&
     ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --output-on-failure -j"$jobs" --timeout 1800 \

@@ -132,6 +132,14 @@ SolveResult Solve(const std::vector<Functor>& functors,
   solver_options.function_tolerance = 1e-16;
   solver_options.gradient_tolerance = 1e-18;
   solver_options.parameter_tolerance = 1e-15;
+  // At the optimum (a re-framing pass starts there) the model's predicted
+  // decrease of a step rounds to zero or below, which Ceres counts as an
+  // invalid step; after max_num_consecutive_invalid_steps of them (default
+  // 5) it reports FAILURE and keeps the start, a good solution reported as
+  // unusable depending on the last bits of rounding (one compiler's build
+  // did, another's not). With room to shrink the trust region to its
+  // minimum radius Ceres reports convergence there instead.
+  solver_options.max_num_consecutive_invalid_steps = 100;
   solver_options.num_threads = 1;  // same input -> same output
   // The library never writes to stdout/stderr: the status says it all.
   solver_options.logging_type = ceres::SILENT;

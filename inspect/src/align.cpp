@@ -310,12 +310,21 @@ bool SearchTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
       fit::PlaneFit pl;
       Indices idx;
       int consensus = 0;
-      for (double band : {kTopConsensusMm, 0.02}) {
-        idx.clear();
+      // The consensus plane may lean by a fraction of a milliradian (the
+      // walls' top edges fill its band too): a strip of the face and some
+      // wall points. Each refit through the band leans less, so the 0.02 mm
+      // band is refitted until it keeps the same points (a few rounds).
+      constexpr int kMaxRefits = 10;
+      for (int round = 0; round <= kMaxRefits; ++round) {
+        const double band = round == 0 ? kTopConsensusMm : 0.02;
+        Indices next;
         for (Index i : sub) {
-          if (std::abs((p.col(i) - point).dot(normal)) < band) idx.push_back(i);
+          if (std::abs((p.col(i) - point).dot(normal)) < band)
+            next.push_back(i);
         }
-        if (band == kTopConsensusMm) consensus = static_cast<int>(idx.size());
+        if (round == 0) consensus = static_cast<int>(next.size());
+        if (round > 1 && next == idx) break;
+        idx = std::move(next);
         pl = PlaneThrough(p, idx, sign * axis, axis.unitOrthogonal());
         if (!Usable(pl)) break;
         point = pl.point;

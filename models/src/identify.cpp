@@ -350,9 +350,10 @@ Score Evaluate(const Grams& g, const std::vector<int>& idx, double lambda,
   }
   if (cv_determined && count > 0) s.cv_rms = std::sqrt(sse / count);
   if (!Solve(g.all, idx, lambda, &theta)) return s;
-  // In-sample RMS unweighted: the sum of the validation-style Grams.
-  Eigen::MatrixXd u = Eigen::MatrixXd::Zero(g.all.rows(), g.all.cols());
-  for (const auto& v : g.valid) u += v;
+  // In-sample RMS unweighted: the unweighted Gram of every block (read on
+  // the chosen regressors only; summing the blocks here would cost the
+  // whole pool's size squared per candidate).
+  const Eigen::MatrixXd& u = g.after[0];
   s.fit_rms = std::sqrt(Sse(u, idx, theta) / std::max(1.0, u(0, 0)));
   const double n = g.n;
   const double mdl = 1.0 + static_cast<double>(idx.size()) * std::log(n) / n;

@@ -141,14 +141,16 @@ std::string PieceSection(const json& data, const PartSpec& part) {
         "<details><summary>Per-facet results</summary><table class=\"num\">"
         "<tr><th>facet</th><th>distance (mm)</th>"
         "<th>normal angle error (urad)</th></tr>";
-    for (const auto& [id, facet] : facets->items()) {
+    for (const auto& item : facets->items()) {
+      const json& facet = item.value();
       auto cell = [&](const char* key, int decimals) {
         return facet.contains(key) && !facet[key].is_null()
                    ? Num(facet[key].get<double>(), decimals)
                    : std::string("not measured");
       };
-      html += "<tr><td>" + Escape(id) + "</td><td>" + cell("distance_mm", 4) +
-              "</td><td>" + cell("angle_error_urad", 1) + "</td></tr>";
+      html += "<tr><td>" + Escape(item.key()) + "</td><td>" +
+              cell("distance_mm", 4) + "</td><td>" +
+              cell("angle_error_urad", 1) + "</td></tr>";
     }
     html += "</table></details>\n";
   }

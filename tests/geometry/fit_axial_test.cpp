@@ -136,6 +136,8 @@ TEST(FitCylinder, CovarianceMatchesEmpiricalScatter) {
   for (int t = 0; t < trials; ++t) {
     const auto p = CylinderPoints(rng, point, axis, 20, 25, 2 * M_PI, 40, 2e-3);
     const CylinderFit fit = FitCylinder(p);
+    ASSERT_EQ(fit.summary.covariance.rows(), 5)
+        << "trial " << t << ": " << fit.summary.message;
     const double e_r = fit.radius_mm - 20, e_t = AxisAngle(fit.axis, axis);
     sq_r += e_r * e_r;
     sq_tilt += e_t * e_t;

@@ -50,6 +50,15 @@ PointCloud Without(const SynthPiece& s,
 // W = R cloud + t must invert the generator's cloud = rotation W +
 // translation.
 void ExpectPoseUndone(const AlignedCloud& a, const SynthPiece& s) {
+  std::string warnings;
+  for (const std::string& w : a.warnings) warnings += "\n  " + w;
+  SCOPED_TRACE(testing::Message()
+               << "top face " << a.alignment.top_points << " points, rms "
+               << a.alignment.top_rms_mm << " mm; flanks "
+               << a.alignment.flank_points[0] << "/"
+               << a.alignment.flank_points[1] << "; circle "
+               << a.alignment.circle_points << " points, rms "
+               << a.alignment.circle_rms_mm << " mm; warnings:" << warnings);
   EXPECT_LT(
       (a.alignment.rotation * s.rotation - Eigen::Matrix3d::Identity()).norm(),
       1e-4);
