@@ -163,7 +163,6 @@ std::vector<Pool> CandidatePools(const TimeSeries& ts, Structure s,
 struct Grams {
   int p = 0;                           // regressors
   std::vector<Eigen::MatrixXd> train;  // weighted, cumulative: blocks [0, k)
-  std::vector<Eigen::MatrixXd> valid;  // unweighted, block k
   std::vector<Eigen::MatrixXd> after;  // unweighted, blocks [k, end)
   Eigen::MatrixXd all;                 // weighted, every block
   int n = 0;
@@ -238,7 +237,7 @@ Grams BuildGrams(const Data& d, const FitOptions& o) {
   g.n = static_cast<int>(d.z.rows());
   const int m = g.p + 2;
   std::vector<Eigen::MatrixXd> wblock(o.cv_blocks, Eigen::MatrixXd::Zero(m, m));
-  g.valid.assign(o.cv_blocks, Eigen::MatrixXd::Zero(m, m));
+  std::vector<Eigen::MatrixXd> valid(o.cv_blocks, Eigen::MatrixXd::Zero(m, m));
   for (int b = 0; b < o.cv_blocks; ++b) {
     std::vector<Eigen::Index> idx;
     for (Eigen::Index k = 0; k < d.z.rows(); ++k)
@@ -252,7 +251,7 @@ Grams BuildGrams(const Data& d, const FitOptions& o) {
       x(r, m - 1) = d.y(idx[r]);
       w(r) = d.w(idx[r]);
     }
-    g.valid[b].noalias() = x.transpose() * x;
+    valid[b].noalias() = x.transpose() * x;
     wblock[b].noalias() = x.transpose() * w.asDiagonal() * x;
   }
   g.train.assign(o.cv_blocks + 1, Eigen::MatrixXd::Zero(m, m));
@@ -260,7 +259,7 @@ Grams BuildGrams(const Data& d, const FitOptions& o) {
   g.all = g.train[o.cv_blocks];
   g.after.assign(o.cv_blocks + 1, Eigen::MatrixXd::Zero(m, m));
   for (int b = o.cv_blocks - 1; b >= 0; --b)
-    g.after[b] = g.after[b + 1] + g.valid[b];
+    g.after[b] = g.after[b + 1] + valid[b];
   return g;
 }
 
@@ -350,9 +349,8 @@ Score Evaluate(const Grams& g, const std::vector<int>& idx, double lambda,
   }
   if (cv_determined && count > 0) s.cv_rms = std::sqrt(sse / count);
   if (!Solve(g.all, idx, lambda, &theta)) return s;
-  // In-sample RMS unweighted: the unweighted Gram of every block (read on
-  // the chosen regressors only; summing the blocks here would cost the
-  // whole pool's size squared per candidate).
+  // In-sample RMS unweighted: the unweighted Gram of every block, read on
+  // the chosen regressors only.
   const Eigen::MatrixXd& u = g.after[0];
   s.fit_rms = std::sqrt(Sse(u, idx, theta) / std::max(1.0, u(0, 0)));
   const double n = g.n;

@@ -40,7 +40,7 @@ class CliSimulate : public testing::TestWithParam<const char*> {};
 
 TEST_P(CliSimulate, WritesFiguresAndTheInterpolationComparison) {
   const std::string run = GetParam();
-  const fs::path json = test::TestDir("thermal") / (std::string(run) + ".json");
+  const fs::path json = test::TestDir("thermal") / (run + ".json");
   const auto r =
       test::RunTtp("simulate --log " + kSamples + run +
                    "/talc.csv --compare-interpolation --json " + json.string());
