@@ -125,6 +125,40 @@ double SmallSampleFactor(int m) {
   return t / z;
 }
 
+// Least squares of the design x against ya. The structure search solves
+// thousands of these on a few columns, where the Cholesky factor of the
+// normal equations costs a fraction of a column-pivoting QR. They square
+// x's condition number, so an ill-conditioned x (nearly collinear lags, a
+// decay close to the offset) goes to the QR, as does the chosen
+// structure's final fit (Choose).
+constexpr int kNormalEquationsMaxColumns = 16;
+// Reciprocal condition of x'x below which the QR decides: x's condition
+// number above 1e4 would leave the normal equations' coefficients off by
+// more than about 1e-8 of their size.
+constexpr double kNormalEquationsMinRcond = 1e-8;
+Eigen::VectorXd FastLeastSquares(const Eigen::MatrixXd& x,
+                                 const Eigen::VectorXd& ya) {
+  using Small =
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
+                    kNormalEquationsMaxColumns, kNormalEquationsMaxColumns>;
+  using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor,
+                                    kNormalEquationsMaxColumns, 1>;
+  if (x.cols() <= kNormalEquationsMaxColumns) {
+    Small gram(x.cols(), x.cols());
+    // (coefficient-wise: a blocked matrix product costs more than it
+    // saves on so few columns)
+    gram.noalias() = x.transpose().lazyProduct(x);
+    const Eigen::LLT<Small> llt(gram);
+    if (llt.info() == Eigen::Success &&
+        llt.rcond() > kNormalEquationsMinRcond) {
+      SmallVector xty(x.cols());
+      xty.noalias() = x.transpose().lazyProduct(ya);
+      return llt.solve(xty);
+    }
+  }
+  return x.colPivHouseholderQr().solve(ya);
+}
+
 // Candidate input subsets of up to max_inputs of n inputs.
 void Subsets(int n, int max_size, int first, std::vector<int>& current,
              std::vector<std::vector<int>>& out) {
@@ -392,14 +426,19 @@ MachineErrorEstimator MachineErrorEstimator::FitExcluding(
     s.name = spec.name;
     s.pulsed = spec.column == kSpindleRpm;
     s.column = spec.column;
+    // The input at the middle of each grid step (u[i] for the step ending
+    // at grid point i), shared by every lag.
+    std::vector<double> u(steps);
+    u[0] = Interpolate(t, v, t0) - base;
+    for (int i = 1; i < steps; ++i)
+      u[i] = Interpolate(t, v, t0 + (i - 0.5) * dt) - base;
     for (double tau : options.tau_grid_s) {
       std::vector<double> f(steps);
       const double a = 1.0 - std::exp(-dt / tau);
-      double x = Interpolate(t, v, t0) - base;  // start in steady state
+      double x = u[0];  // start in steady state
       f[0] = x;
       for (int i = 1; i < steps; ++i) {
-        const double u = Interpolate(t, v, t0 + (i - 0.5) * dt) - base;
-        x += a * (u - x);
+        x += a * (u[i] - x);
         f[i] = x;
       }
       s.filtered.push_back(std::move(f));
@@ -525,7 +564,7 @@ MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
         const Eigen::MatrixXd x = Design(c, rows);
         Eigen::VectorXd ya = Eigen::VectorXd::Zero(x.rows());
         ya.head(n) = yv;
-        const Eigen::VectorXd beta = x.colPivHouseholderQr().solve(ya);
+        const Eigen::VectorXd beta = FastLeastSquares(x, ya);
         const double rss =
             std::max((yv - x.topRows(n) * beta).squaredNorm(), 1e-12);
         const double bic = n * std::log(rss / n) + k_params * std::log(n);
@@ -558,7 +597,19 @@ MachineErrorEstimator::Choice MachineErrorEstimator::Choose(
     best = Choice{};
     best.beta = Eigen::VectorXd::Constant(1, yv.mean());
     best.rms = std::sqrt((yv.array() - yv.mean()).square().mean());
+    return best;
   }
+  // The chosen structure's coefficients from the QR (FastLeastSquares).
+  const Eigen::MatrixXd x = Design(best, rows);
+  Eigen::VectorXd ya = Eigen::VectorXd::Zero(x.rows());
+  ya.head(n) = yv;
+  best.beta = x.colPivHouseholderQr().solve(ya);
+  const double rss =
+      std::max((yv - x.topRows(n) * best.beta).squaredNorm(), 1e-12);
+  const int m = static_cast<int>(best.subset.size());
+  best.bic = n * std::log(rss / n) +
+             (1 + 2 * m + (best.free_state ? m : 0)) * std::log(n);
+  best.rms = std::sqrt(rss / n);
   return best;
 }
 
