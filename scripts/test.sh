@@ -34,7 +34,10 @@ fi
 # README and docs/*.md as written; outside.: the outside generator's
 # battery), 8-10 times slower here, about five minutes of the stage;
 # everything of ttp that those paths run is covered by the other tests
-# (the CLI tests run every command and measurement kind).
+# (the CLI tests run every command and measurement kind). The sanitized
+# build does not build the executables of the last four
+# (TTP_BUILD_END_TO_END_TESTS); the pattern also keeps them out of a
+# build-san/ configured by hand.
 if [[ " $stages " == *" sanitize "* ]]; then
   bash scripts/sanitized-build.sh
   (cd build-san &&
