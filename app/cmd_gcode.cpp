@@ -28,29 +28,44 @@ struct GcodeOptions {
   std::string to;
 };
 
-nlohmann::json CanonToJson(const std::vector<CanonStatement>& statements) {
-  nlohmann::json list = nlohmann::json::array();
-  for (const CanonStatement& s : statements) {
-    nlohmann::json j;
-    j["kind"] = CanonKindName(s.kind);
-    j["line"] = s.source_line;
-    j["end_mm"] = {s.end_mm.x(), s.end_mm.y(), s.end_mm.z()};
-    j["end_c_deg"] = s.end_c_rad * 180.0 / M_PI;
-    // The controlled point is the tip only with the spindle tool's offset.
-    j["length_offset_mm"] = s.length_offset_mm;
-    if (s.length_offset_tool >= 0)
-      j["length_offset_tool"] = s.length_offset_tool;
-    if (s.kind == CanonKind::kFeed || s.kind == CanonKind::kProbe)
-      j["feed_per_min"] = s.feed_per_min;
-    j["value"] = s.value;
-    if (s.kind == CanonKind::kSpindle || s.kind == CanonKind::kCSpin)
-      j["clockwise"] = s.clockwise;
-    if (!s.text.empty()) j["text"] = s.text;
-    j["start_s"] = s.start_s;
-    j["duration_s"] = s.duration_s;
-    list.push_back(j);
+nlohmann::json StatementToJson(const CanonStatement& s) {
+  nlohmann::json j;
+  j["kind"] = CanonKindName(s.kind);
+  j["line"] = s.source_line;
+  j["end_mm"] = {s.end_mm.x(), s.end_mm.y(), s.end_mm.z()};
+  j["end_c_deg"] = s.end_c_rad * 180.0 / M_PI;
+  // The controlled point is the tip only with the spindle tool's offset.
+  j["length_offset_mm"] = s.length_offset_mm;
+  if (s.length_offset_tool >= 0) j["length_offset_tool"] = s.length_offset_tool;
+  if (s.kind == CanonKind::kFeed || s.kind == CanonKind::kProbe)
+    j["feed_per_min"] = s.feed_per_min;
+  j["value"] = s.value;
+  if (s.kind == CanonKind::kSpindle || s.kind == CanonKind::kCSpin)
+    j["clockwise"] = s.clockwise;
+  if (!s.text.empty()) j["text"] = s.text;
+  j["start_s"] = s.start_s;
+  j["duration_s"] = s.duration_s;
+  return j;
+}
+
+// The program's statements as JSON text, one statement per line: written
+// statement by statement, because a document tree of a long program (a
+// million lines of CAM output) takes ten times the memory of the text.
+std::string ReadResultJson(const std::string& program, Dialect dialect,
+                           const std::vector<CanonStatement>& statements) {
+  std::string out =
+      "{\n  \"dialect\": " + nlohmann::json(DialectName(dialect)).dump() +
+      ",\n  \"program\": " + nlohmann::json(program).dump() +
+      ",\n  \"statements\": [";
+  for (size_t i = 0; i < statements.size(); ++i) {
+    out += i == 0 ? "\n    " : ",\n    ";
+    out += StatementToJson(statements[i]).dump();
   }
-  return list;
+  out += statements.empty() ? "]" : "\n  ]";
+  out +=
+      ",\n  \"total_s\": " + nlohmann::json(TotalDuration(statements)).dump() +
+      "\n}\n";
+  return out;
 }
 
 void Register(CLI::App& root, GlobalOptions& global) {
@@ -109,15 +124,12 @@ void Register(CLI::App& root, GlobalOptions& global) {
   read->callback([&global, opts] {
     const Config config = global.LoadConfig();
     const std::string text = ReadTextFile(opts->program_path);
-    const Dialect dialect = ChooseDialect(opts->dialect, text);
+    const Dialect dialect =
+        ChooseDialect(opts->dialect, text, opts->program_path);
     const auto statements =
         ReadProgram(text, dialect, config, opts->program_path);
-    nlohmann::json doc;
-    doc["program"] = opts->program_path;
-    doc["dialect"] = DialectName(dialect);
-    doc["total_s"] = TotalDuration(statements);
-    doc["statements"] = CanonToJson(statements);
-    WriteJson(opts->output, doc);
+    WriteText(opts->output,
+              ReadResultJson(opts->program_path, dialect, statements));
   });
 
   auto* translate = gcode->add_subcommand(
@@ -129,7 +141,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
   translate->callback([&global, opts] {
     const Config config = global.LoadConfig();
     const std::string text = ReadTextFile(opts->program_path);
-    const Dialect from = ChooseDialect(opts->dialect, text);
+    const Dialect from = ChooseDialect(opts->dialect, text, opts->program_path);
     const Dialect to = ParseDialect(opts->to, "--to");
     const auto statements = ReadProgram(text, from, config, opts->program_path);
     const Program program = ProgramFromCanon(
@@ -146,7 +158,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
   check->callback([&global, opts] {
     const Config config = global.LoadConfig();
     const std::string text = ReadTextFile(opts->program_path);
-    const Dialect dialect = ChooseDialect(opts->dialect, text);
+    const Dialect dialect =
+        ChooseDialect(opts->dialect, text, opts->program_path);
     const auto ours = ReadProgram(text, dialect, config, opts->program_path);
     std::string ngc = text;
     if (dialect == Dialect::kFanuc) {

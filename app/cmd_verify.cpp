@@ -98,7 +98,8 @@ void Register(CLI::App& root, GlobalOptions& global) {
       return;
     }
     const std::string text = ReadTextFile(opts->program_path);
-    const gcode::Dialect dialect = ChooseDialect(opts->dialect, text);
+    const gcode::Dialect dialect =
+        ChooseDialect(opts->dialect, text, opts->program_path);
     const auto statements =
         gcode::ReadProgram(text, dialect, config, opts->program_path);
     verify::VerifyOptions options;
@@ -114,9 +115,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
                          "only a test-cycle program is verified after a "
                          "pre-machining program");
       const std::string pre_text = ReadTextFile(opts->after_path);
-      before =
-          gcode::ReadProgram(pre_text, ChooseDialect(opts->dialect, pre_text),
-                             config, opts->after_path);
+      before = gcode::ReadProgram(
+          pre_text, ChooseDialect(opts->dialect, pre_text, opts->after_path),
+          config, opts->after_path);
       options.after = &before;
     }
     const verify::VerifyReport report = verify::VerifyStatements(

@@ -10,8 +10,9 @@
 namespace ttp::app {
 
 inline gcode::Dialect ChooseDialect(const std::string& name,
-                                    const std::string& text) {
-  return name == "auto" ? gcode::DetectDialect(text)
+                                    const std::string& text,
+                                    const std::string& source) {
+  return name == "auto" ? gcode::ResolveDialect(text, source)
                         : gcode::ParseDialect(name, "--dialect");
 }
 

@@ -1,5 +1,6 @@
 // G-code programs, both dialects (the first byte chooses): read, check,
-// convert and execute into canonical statements with the time model.
+// convert and execute into canonical statements with the time model; the
+// dialect also recognised from the text (--dialect auto).
 #include "fuzz_common.h"
 #include "ttp/gcode/reader.h"
 
@@ -8,8 +9,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   const auto dialect = data[0] % 2 ? ttp::gcode::Dialect::kFanuc
                                    : ttp::gcode::Dialect::kLinuxCnc;
-  return ttp::fuzz::Run([&] {
-    ttp::gcode::ReadProgram(ttp::fuzz::Text(data + 1, size - 1), dialect,
-                            config, "fuzz.nc");
-  });
+  const std::string text = ttp::fuzz::Text(data + 1, size - 1);
+  ttp::fuzz::Run([&] { ttp::gcode::ResolveDialect(text, "fuzz.nc"); });
+  return ttp::fuzz::Run(
+      [&] { ttp::gcode::ReadProgram(text, dialect, config, "fuzz.nc"); });
 }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <regex>
@@ -706,7 +707,7 @@ class Interpreter {
 
 }  // namespace
 
-Dialect DetectDialect(const std::string& text) {
+std::optional<Dialect> DecideDialect(const std::string& text) {
   const std::string up = Upper(text);
   std::stringstream ss(up);
   std::string line;
@@ -726,6 +727,60 @@ Dialect DetectDialect(const std::string& text) {
         t.find("M64") != std::string::npos ||
         t.find("M65") != std::string::npos)
       return Dialect::kLinuxCnc;
+  }
+  return std::nullopt;
+}
+
+Dialect DetectDialect(const std::string& text) {
+  return DecideDialect(text).value_or(Dialect::kLinuxCnc);
+}
+
+Dialect ResolveDialect(const std::string& text, const std::string& source) {
+  if (const auto decided = DecideDialect(text)) return *decided;
+  // Nothing decides: LinuxCNC's own file extension does; else LinuxCNC
+  // unless a word means something else on a FANUC control. A line that
+  // does not lex is left to the reader, which names its problem.
+  if (Upper(std::filesystem::path(source).extension().string()) == ".NGC")
+    return Dialect::kLinuxCnc;
+  Lexer lexer(Dialect::kLinuxCnc, source);
+  std::stringstream ss(text);
+  std::string line;
+  int line_number = 0;
+  while (std::getline(ss, line)) {
+    ++line_number;
+    if (line_number > limits::kMaxProgramLines) break;
+    std::optional<Block> block;
+    try {
+      block = lexer.Lex(line, line_number);
+    } catch (const InputError&) {
+      continue;
+    }
+    if (!block) continue;
+    bool dwell = false;
+    for (const Word& w : block->words) dwell |= w.letter == 'G' && w.value == 4;
+    for (const Word& w : block->words) {
+      std::string meaning;
+      if (std::string("XYZC").find(w.letter) != std::string::npos &&
+          !w.has_point && w.value != 0 && !dwell) {
+        meaning = fmt::format(
+            "{} is {:g} {} in LinuxCNC but {:g} {} on a FANUC control (a value "
+            "without a decimal point counts least input increments there)",
+            w.raw, w.value, w.letter == 'C' ? "deg" : "mm", w.value * 0.001,
+            w.letter == 'C' ? "deg" : "mm");
+      } else if (w.letter == 'P' && dwell) {
+        meaning = fmt::format(
+            "the dwell {} is {:g} s in LinuxCNC but {:g} s on a FANUC control "
+            "(P in milliseconds)",
+            w.raw, w.value, w.value * 0.001);
+      }
+      if (!meaning.empty()) {
+        throw InputError(
+            source, line_number, w.raw,
+            "the program does not show its dialect (no O-number, DPRNT, "
+            "G04 X, $, (print,...), G4 P or M64/M65) and " +
+                meaning + ": give --dialect fanuc or --dialect linuxcnc");
+      }
+    }
   }
   return Dialect::kLinuxCnc;
 }

@@ -136,6 +136,28 @@ TEST(CliGcode, UnknownDialectOrMissingProfileIsExit2) {
   EXPECT_NE(r.output.find("missing.toml"), std::string::npos) << r.output;
 }
 
+// A program that does not show its dialect and whose values the two
+// controls read differently (a FANUC program without its O-number line) is
+// refused with its line and word, not read a thousand times too large; with
+// --dialect it is read.
+TEST(CliGcode, UndecidedDialectIsRefusedWhereItMatters) {
+  const fs::path program = Dir() / "no_o_number.nc";
+  std::ofstream(program) << "%\nG90 G17\nG0 X10. Y20.\nG0 Z5000\nM30\n%\n";
+  auto r = test::RunTtp("gcode read " + program.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(program.string() + ":4"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("Z5000"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--dialect"), std::string::npos) << r.output;
+  const fs::path json = Dir() / "no_o_number.json";
+  r = test::RunTtp("gcode read " + program.string() + " --dialect fanuc -o " +
+                   json.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto j = nlohmann::json::parse(std::ifstream(json));
+  ASSERT_GE(j.at("statements").size(), 2u);
+  EXPECT_NEAR(j["statements"][1]["end_mm"][2].get<double>(), 5.0, 1e-12);
+}
+
 // What LinuxCNC's interpreter refuses is the program's fault: the message
 // names the program file and its line, not rs274.
 TEST(CliGcode, CheckNamesTheProgramWhenRs274RefusesIt) {

@@ -279,6 +279,48 @@ TEST(ReaderTest, DetectDialect) {
   EXPECT_EQ(DetectDialect("%\nO0001\nG0 X1\n"), Dialect::kFanuc);
 }
 
+// Without anything that shows the dialect, a value the two controls read
+// differently is refused with its line and word; a program that reads the
+// same in both is LinuxCNC.
+TEST(ReaderTest, ResolveDialectRefusesWhatTheDialectsReadDifferently) {
+  EXPECT_FALSE(DecideDialect("G0 X1.\n").has_value());
+  EXPECT_EQ(ResolveDialect(kFanucGolden, "p.nc"), Dialect::kFanuc);
+  EXPECT_EQ(ResolveDialect(kLinuxCncGolden, "p.ngc"), Dialect::kLinuxCnc);
+  EXPECT_EQ(ResolveDialect("G0 X1. Y-2.5 C0\nG1 Z0 F100\n", "p.nc"),
+            Dialect::kLinuxCnc);
+  // (the O-number decides before any value is looked at)
+  EXPECT_EQ(ResolveDialect("O0001\nG0 X10\n", "p.nc"), Dialect::kFanuc);
+  struct Case {
+    const char* text;
+    int line;
+    const char* word;
+    const char* meaning;
+  };
+  const Case cases[] = {
+      {"G0 X1.\nG1 Y10 F100\n", 2, "Y10", "0.01 mm on a FANUC control"},
+      {"G0 Z5.\nG0 C90\n", 2, "C90", "0.09 deg on a FANUC control"},
+      {"G0 X1.\nG04 P1500\n", 2, "P1500", "1.5 s on a FANUC control"},
+  };
+  for (const Case& c : cases) {
+    try {
+      ResolveDialect(c.text, "p.nc");
+      ADD_FAILURE() << c.text << ": not refused";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(e.line(), c.line) << what;
+      EXPECT_EQ(e.field(), c.word) << what;
+      EXPECT_NE(what.find(c.meaning), std::string::npos) << what;
+      EXPECT_NE(what.find("--dialect"), std::string::npos) << what;
+    }
+  }
+  // LinuxCNC's own extension decides.
+  EXPECT_EQ(ResolveDialect("G0 X1.\nG1 Y10 F100\n", "dir.nc/p.NGC"),
+            Dialect::kLinuxCnc);
+  // A line that does not lex is left to the reader.
+  EXPECT_EQ(ResolveDialect("G0 X1.\nG1 X2.. F100\n", "p.nc"),
+            Dialect::kLinuxCnc);
+}
+
 TEST(ReaderTest, SpacesInsideWordsAndM2) {
   const auto got = ReadProgram("G 1 X 10. Y- 2 F 100\nM2\nG0 X0\n",
                                Dialect::kLinuxCnc, Config{}, "p.ngc");

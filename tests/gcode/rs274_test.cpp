@@ -165,9 +165,11 @@ TEST(Rs274Test, ShopEditsMatchOurReader) {
   }
   // Without H after T2 preselected: tool 1's length (rs274's reading).
   const auto rs = RunRs274(programs[0], config);
-  for (const CanonStatement& s : rs.statements)
-    if (s.kind == CanonKind::kTraverse && s.length_offset_mm > 0)
+  for (const CanonStatement& s : rs.statements) {
+    if (s.kind == CanonKind::kTraverse && s.length_offset_mm > 0) {
       EXPECT_NEAR(s.length_offset_mm, config.process.roughing.length_mm, 1e-3);
+    }
+  }
 }
 
 TEST(Rs274Test, ToolTableIsConvertedToInches) {

@@ -85,8 +85,7 @@ Eigen::VectorXd SmoothWeights(const std::vector<double>& t, double h,
     }
     return w;
   }
-  for (int k = 0; k < n; ++k)
-    w[k] = KernelWeight(t[k], x, h);
+  for (int k = 0; k < n; ++k) w[k] = KernelWeight(t[k], x, h);
   const double sw = w.sum();
   return sw > 1e-300 ? Eigen::VectorXd(w / sw) : Eigen::VectorXd::Zero(n);
 }

@@ -21,10 +21,11 @@
 //   check `IF [ABS[#50xx-<nominal>] GT <window>] THEN #3000=<n> (...)` have
 //   no canonical effect; LinuxCNC M64/M65 P of the profile's probe output
 //   neither.
-// Not supported (InputError): other macros/#variables, WHILE, subprograms, O-word
-// control in LinuxCNC, arcs, canned cycles, G55-G59, inverse-time feed.
+// Not supported (InputError): other macros/#variables, WHILE, subprograms,
+// O-word control in LinuxCNC, arcs, canned cycles, G55-G59, inverse-time feed.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,10 +36,21 @@
 namespace ttp::gcode {
 
 // FANUC if the text has an O-number line, DPRNT/POPEN or `G04 X`; LinuxCNC if
-// it has `$<n>`, `(print,` or `G4 P`/M64/M65; LinuxCNC when nothing decides
-// (every FANUC program of ours has its O-number line, and reading FANUC by
-// mistake would turn X10 into 0.010 mm).
+// it has `$<n>`, `(print,`/`(debug,`, `G64 P`, `G4 P` or M64/M65 (the first
+// such line decides); nullopt when nothing decides.
+std::optional<Dialect> DecideDialect(const std::string& text);
+
+// DecideDialect, LinuxCNC when nothing decides (every FANUC program of ours
+// has its O-number line).
 Dialect DetectDialect(const std::string& text);
+
+// The dialect for `--dialect auto`: DecideDialect's; when nothing decides,
+// LinuxCNC if `source` ends in .ngc (LinuxCNC's extension) or the program
+// reads the same in both, else InputError(source,
+// line, word) naming the first word whose value the two controls read
+// differently (a nonzero X/Y/Z/C without a decimal point: least input
+// increments on FANUC; P of a dwell: ms on FANUC, s in LinuxCNC).
+Dialect ResolveDialect(const std::string& text, const std::string& source);
 
 // Throws InputError(source, line, word, problem) on bad input.
 std::vector<CanonStatement> ReadProgram(const std::string& text,
