@@ -127,6 +127,37 @@ TEST(FitCylinder, PartialArcWithNoiseWithinUncertainty) {
   EXPECT_NEAR(fit.summary.rms_mm, 1e-3, 2e-4);
 }
 
+// Clouds larger than the seeds are ranked on (2000 points): a disc-like
+// short cylinder (its largest scatter across the axis), a long one and a
+// 90 degree strip, far from the origin, with 1 um noise; the winner is
+// refined on every point, so the result is the whole cloud's, within its
+// own uncertainty of the generator's cylinder.
+TEST(FitCylinder, LargeCloudsFarFromOrigin) {
+  std::mt19937_64 rng(27);
+  struct Case {
+    double length_mm, span_rad;
+  };
+  for (const Case c :
+       {Case{5.0, 2 * M_PI}, Case{400.0, 2 * M_PI}, Case{30.0, M_PI / 2}}) {
+    SCOPED_TRACE(c.length_mm);
+    const Eigen::Vector3d point(6e4, -2e4, 3e4), axis = RandomUnit(rng);
+    const auto p = CylinderPoints(rng, point, axis, 99.5, c.length_mm,
+                                  c.span_rad, 10000, 1e-3);
+    const CylinderFit fit = FitCylinder(p);
+    ASSERT_EQ(fit.summary.status, FitStatus::kConverged) << fit.summary.message;
+    ASSERT_EQ(fit.summary.covariance.rows(), 5);
+    const auto sigma = [&](int k) {
+      return std::sqrt(fit.summary.covariance(k, k));
+    };
+    EXPECT_LT(std::abs(fit.radius_mm - 99.5), 4 * sigma(4));
+    EXPECT_LT(AxisAngle(fit.axis, axis), 4 * std::hypot(sigma(2), sigma(3)));
+    EXPECT_LT(DistanceToLine(fit.point, point, axis),
+              4 * std::hypot(sigma(0), sigma(1)) +
+                  AxisAngle(fit.axis, axis) * c.length_mm);
+    EXPECT_NEAR(fit.summary.rms_mm, 1e-3, 2e-5);
+  }
+}
+
 TEST(FitCylinder, CovarianceMatchesEmpiricalScatter) {
   std::mt19937_64 rng(23);
   const Eigen::Vector3d point(-3e4, 5e3, 2e4);
@@ -192,6 +223,35 @@ TEST(FitCone, FarFromOriginRecoversApexAndAngle) {
     EXPECT_NEAR(fit.half_angle_rad, half_angle, 1e-10);
     EXPECT_EQ(fit.summary.covariance.rows(), 6);
   }
+}
+
+// A cone of 10000 points (more than the seeds are ranked on), far from
+// the origin, with 1 um noise.
+TEST(FitCone, LargeCloudFarFromOrigin) {
+  std::mt19937_64 rng(28);
+  const double half_angle = 0.4;
+  const Eigen::Vector3d apex(-4e4, 8e4, 1e4), axis = RandomUnit(rng);
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  std::uniform_real_distribution<double> t(0, 2 * M_PI), h(20, 60);
+  std::normal_distribution<double> g(0, 1e-3);
+  Eigen::Matrix3Xd p(3, 10000);
+  for (long i = 0; i < p.cols(); ++i) {
+    const double a = t(rng), z = h(rng);
+    // 1 um along the surface normal of the cone
+    const Eigen::Vector3d radial = std::cos(a) * u + std::sin(a) * v;
+    const Eigen::Vector3d normal =
+        std::cos(half_angle) * radial - std::sin(half_angle) * axis;
+    p.col(i) =
+        apex + z * axis + z * std::tan(half_angle) * radial + g(rng) * normal;
+  }
+  const ConeFit fit = FitCone(p);
+  ASSERT_EQ(fit.summary.status, FitStatus::kConverged) << fit.summary.message;
+  ASSERT_EQ(fit.summary.covariance.rows(), 6);
+  EXPECT_LT(std::abs(fit.half_angle_rad - half_angle),
+            4 * std::sqrt(fit.summary.covariance(5, 5)));
+  EXPECT_GT(fit.axis.dot(axis), std::cos(1e-5));
+  EXPECT_LT((fit.apex - apex).norm(), 1e-3);
+  EXPECT_NEAR(fit.summary.rms_mm, 1e-3, 2e-5);
 }
 
 TEST(FitCone, NoisyConeWithinUncertaintyAndRobust) {
