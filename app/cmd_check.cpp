@@ -16,14 +16,6 @@
 namespace ttp::app {
 namespace {
 
-// Measured figures from any measurement file (cloud, inspection JSON, dial
-// CSV, DMIS output, probe results).
-std::vector<CycleFigures> LoadMeasuredFigures(
-    const Config& config, const std::string& path,
-    const inspect::MeasurementOptions& options) {
-  return inspect::LoadMeasurement(config, path, options).result.figures;
-}
-
 void Register(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "check",
@@ -53,8 +45,12 @@ void Register(CLI::App& root, GlobalOptions& global) {
                  no_schedule, how] {
     const Config config = global.LoadConfig();
     const thermal::TalcLog log = ReadTalcLogWarning(*log_path, global);
-    const std::vector<CycleFigures> measured = LoadMeasuredFigures(
+    // Any measurement file (cloud, inspection JSON, dial CSV, DMIS output,
+    // probe results).
+    const inspect::Measurement loaded = inspect::LoadMeasurement(
         config, *measurement, ToMeasurementOptions(*how, *cmd));
+    PrintMeasurementWarnings(*measurement, loaded.result.warnings, global);
+    const std::vector<CycleFigures>& measured = loaded.result.figures;
     // Both read: from here on, a log and a measurement that cannot be
     // compared (the log does not follow the program, does not cover the
     // cuts, has no figure in common with the measurement) do not belong
@@ -89,14 +85,16 @@ void Register(CLI::App& root, GlobalOptions& global) {
             "cover the piece's cuts\n",
             refusal);
       if (!json_out->empty())
-        WriteJson(*json_out, {{"status", "refused"},
-                              {"reason", refusal},
-                              {"agree", false},
-                              {"compared", 0},
-                              {"disagreements", 0},
-                              {"cycles", nlohmann::json::array()},
-                              {"log", *log_path},
-                              {"measurement", *measurement}});
+        WriteJson(*json_out,
+                  {{"status", "refused"},
+                   {"reason", refusal},
+                   {"agree", false},
+                   {"compared", 0},
+                   {"disagreements", 0},
+                   {"cycles", nlohmann::json::array()},
+                   {"log", *log_path},
+                   {"measurement", *measurement},
+                   {"measurement_warnings", loaded.result.warnings}});
       global.exit_code = kExitJudgedFailure;
       return;
     }
@@ -117,6 +115,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
       nlohmann::json j = thermal::CheckToJson(result);
       j["status"] = result.agree() ? "agree" : "disagree";
       j["measurement"] = *measurement;
+      j["measurement_warnings"] = loaded.result.warnings;
       j["schedule"] = schedule_json;
       WriteJson(*json_out, j);
     }

@@ -9,6 +9,7 @@
 #include "ttp/diagnosis/diagnose.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/inspect/measurement.h"
 #include "ttp/sim/twin.h"
 #include "ttp/thermal/talc_log.h"
 
@@ -55,8 +56,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
       std::string invalid;
       if (!options.IsValid(&invalid))
         throw CLI::ValidationError("--evidence", invalid);
-      const diagnosis::MeasuredPiece measured = diagnosis::LoadMeasuredPiece(
+      const inspect::Measurement loaded = inspect::LoadMeasurement(
           config, *measurement, ToMeasurementOptions(*how, *cmd));
+      PrintMeasurementWarnings(*measurement, loaded.result.warnings, global);
+      const diagnosis::MeasuredPiece measured =
+          diagnosis::MeasuredPieceFromInspection(config.part, loaded.result);
       // A log that does not match the program's schedule (or does not
       // cover its cuts) cannot belong to the measured piece: refused.
       diagnosis::DiagnosisReport report;
@@ -76,8 +80,11 @@ void Register(CLI::App& root, GlobalOptions& global) {
       }
       if (!global.quiet || json_out->empty())
         TextOut(*json_out) << diagnosis::DiagnosisText(report);
-      if (!json_out->empty())
-        WriteJson(*json_out, diagnosis::DiagnosisToJson(report));
+      if (!json_out->empty()) {
+        nlohmann::json j = diagnosis::DiagnosisToJson(report);
+        j["measurement_warnings"] = loaded.result.warnings;
+        WriteJson(*json_out, j);
+      }
       if (report.status == diagnosis::DiagnosisStatus::kRefused)
         global.exit_code = kExitJudgedFailure;
     });

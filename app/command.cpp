@@ -319,4 +319,12 @@ thermal::TalcLog ReadTalcLogWarning(const std::string& path,
   return log;
 }
 
+void PrintMeasurementWarnings(const std::string& path,
+                              const std::vector<std::string>& warnings,
+                              const GlobalOptions& global) {
+  if (global.quiet) return;
+  for (const std::string& w : warnings)
+    std::fprintf(stderr, "warning: %s: %s\n", path.c_str(), w.c_str());
+}
+
 }  // namespace ttp::app

@@ -133,6 +133,14 @@ bool StdoutIsTerminal();
 thermal::TalcLog ReadTalcLogWarning(const std::string& path,
                                     const GlobalOptions& global);
 
+// Prints a measurement's own warnings (inspect::LoadMeasurement: figures
+// without U, a feature missing, stale figures) on stderr, naming the file,
+// unless --quiet; `check` and `diagnose` also write them to their JSON as
+// "measurement_warnings".
+void PrintMeasurementWarnings(const std::string& path,
+                              const std::vector<std::string>& warnings,
+                              const GlobalOptions& global);
+
 }  // namespace ttp::app
 
 #define TTP_CONCAT_INNER(a, b) a##b

@@ -224,9 +224,11 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
 }
 
 // A JSON with only "figures" (e.g. hand-written or simulated): taken as is.
-std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
-                                          const std::string& source,
-                                          int cycles) {
+// A figure given without its U counts as exact (U = 0); its place
+// (figures[i].U.E_X) is added to `without_u` when given.
+std::vector<CycleFigures> FiguresFromJson(
+    const nlohmann::json& doc, const std::string& source, int cycles,
+    std::vector<std::string>* without_u = nullptr) {
   const nlohmann::json& arr = doc.at("figures");
   if (!arr.is_array())
     throw InputError(source, 0, "figures", "must be an array of cycles");
@@ -264,6 +266,8 @@ std::vector<CycleFigures> FiguresFromJson(const nlohmann::json& doc,
       const double uu = Uncertainty(NumberOrNaN(u, key, source, where + ".U"),
                                     source, where + ".U." + key);
       *uv = std::isfinite(uu) ? uu * scale / 2.0 : 0.0;
+      if (std::isfinite(*v) && !std::isfinite(uu) && without_u)
+        without_u->push_back(where + ".U." + key);
     };
     get("E_X", 1e-3, &cf.e_x_mm, &cf.u_x_mm);
     get("E_Y", 1e-3, &cf.e_y_mm, &cf.u_y_mm);
@@ -371,7 +375,18 @@ InspectionResult FromInspectionJson(const PartSpec& part,
     ComputeResultFigures(part, &r);
     if (doc.contains("figures")) WarnOnStaleFigures(doc, source, part, &r);
   } else if (doc.contains("figures")) {
-    r.figures = FiguresFromJson(doc, source, part.cycles());
+    std::vector<std::string> without_u;
+    r.figures = FiguresFromJson(doc, source, part.cycles(), &without_u);
+    if (!without_u.empty()) {
+      // Judged as exact they would make every comparison stricter than
+      // the measurement allows: say so.
+      r.warnings.push_back(fmt::format(
+          "{} figure(s) without an uncertainty ({}{}): taken as exact (U = "
+          "0); give each figure's expanded U (k = 2) under \"U\", as `ttp "
+          "inspect --json` writes it",
+          without_u.size(), without_u.front(),
+          without_u.size() > 1 ? ", ..." : ""));
+    }
     r.facet_angle_rad = FacetAnglesFromJson(doc, source, part);
     for (const CycleFigures& cf : r.figures) {
       CycleExtras ex;

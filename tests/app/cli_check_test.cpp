@@ -102,6 +102,50 @@ TEST(CliCheck, RunBAgrees) {
   EXPECT_TRUE(j["cycles"][0]["temperature"].contains("table_rtest_K"));
 }
 
+// Figures without their U (a lab's own evaluation, hand-written) are taken
+// as exact, and `check` and `diagnose` say so on stderr and in their JSON;
+// with U given there is no such warning. The figures are run-b's cloud
+// read by `ttp inspect`.
+TEST(CliCheck, FiguresWithoutUncertaintyAreNamed) {
+  const fs::path dir = test::TestDir("check");
+  const fs::path inspected = dir / "b_inspected.json";
+  auto r = test::RunTtp("inspect " + kSamples + "run-b/piece.xyz --json " +
+                        inspected.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  nlohmann::json with_u, without_u;
+  with_u["figures"] = test::ReadJson(inspected).at("figures");
+  without_u = with_u;
+  for (auto& f : without_u["figures"]) f.erase("U");
+  without_u["figures"][2]["U"] = with_u["figures"][2]["U"];  // one given
+  std::ofstream(dir / "with_u.json") << with_u.dump();
+  std::ofstream(dir / "without_u.json") << without_u.dump();
+  for (const std::string command : {"check", "diagnose"}) {
+    for (const bool given : {true, false}) {
+      SCOPED_TRACE(command + (given ? " with U" : " without U"));
+      const fs::path in = dir / (given ? "with_u.json" : "without_u.json");
+      const fs::path out = dir / ("out_" + command + ".json");
+      r = test::RunTtp(command + " --log " + kSamples + "run-b/talc.csv " +
+                       in.string() + " --json " + out.string());
+      ASSERT_NE(r.exit_code, 2) << r.output;
+      const auto warnings = test::ReadJson(out).at("measurement_warnings");
+      const std::string text = warnings.dump();
+      if (given) {
+        EXPECT_EQ(text.find("without an uncertainty"), std::string::npos)
+            << text;
+        continue;
+      }
+      // 7 cycles x 5 figures without U (cycle 3's are given)
+      EXPECT_NE(text.find("35 figure(s) without an uncertainty "
+                          "(figures[0].U.E_X"),
+                std::string::npos)
+          << text;
+      EXPECT_NE(r.output.find("warning: " + in.string() + ": 35 figure(s)"),
+                std::string::npos)
+          << r.output;
+    }
+  }
+}
+
 // run-a hides a workpiece expansion (truth.json): the measured E_TTP
 // exceeds the rigid-table simulation during the warm-up.
 // A lab's CMM: its MPE (a + L/b) reaches the measured U of DMIS results,
