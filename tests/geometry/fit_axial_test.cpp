@@ -97,6 +97,26 @@ Eigen::Matrix3Xd CylinderPoints(std::mt19937_64& rng,
   return p;
 }
 
+// Points on a cone (heights from the apex in [z0, z1], all around), with
+// normal noise along the surface normal.
+Eigen::Matrix3Xd ConePoints(std::mt19937_64& rng, const Eigen::Vector3d& apex,
+                            const Eigen::Vector3d& axis, double half_angle,
+                            double z0, double z1, int n, double noise_mm) {
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  std::uniform_real_distribution<double> t(0, 2 * M_PI), h(z0, z1);
+  std::normal_distribution<double> g(0, noise_mm);
+  Eigen::Matrix3Xd p(3, n);
+  for (int i = 0; i < n; ++i) {
+    const double a = t(rng), z = h(rng);
+    const Eigen::Vector3d radial = std::cos(a) * u + std::sin(a) * v;
+    const Eigen::Vector3d normal =
+        std::cos(half_angle) * radial - std::sin(half_angle) * axis;
+    p.col(i) =
+        apex + z * axis + z * std::tan(half_angle) * radial + g(rng) * normal;
+  }
+  return p;
+}
+
 TEST(FitCylinder, FarFromOriginShortAndLong) {
   std::mt19937_64 rng(21);
   for (double length : {5.0, 40.0, 400.0}) {
@@ -231,19 +251,7 @@ TEST(FitCone, LargeCloudFarFromOrigin) {
   std::mt19937_64 rng(28);
   const double half_angle = 0.4;
   const Eigen::Vector3d apex(-4e4, 8e4, 1e4), axis = RandomUnit(rng);
-  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
-  std::uniform_real_distribution<double> t(0, 2 * M_PI), h(20, 60);
-  std::normal_distribution<double> g(0, 1e-3);
-  Eigen::Matrix3Xd p(3, 10000);
-  for (long i = 0; i < p.cols(); ++i) {
-    const double a = t(rng), z = h(rng);
-    // 1 um along the surface normal of the cone
-    const Eigen::Vector3d radial = std::cos(a) * u + std::sin(a) * v;
-    const Eigen::Vector3d normal =
-        std::cos(half_angle) * radial - std::sin(half_angle) * axis;
-    p.col(i) =
-        apex + z * axis + z * std::tan(half_angle) * radial + g(rng) * normal;
-  }
+  const auto p = ConePoints(rng, apex, axis, half_angle, 20, 60, 10000, 1e-3);
   const ConeFit fit = FitCone(p);
   ASSERT_EQ(fit.summary.status, FitStatus::kConverged) << fit.summary.message;
   ASSERT_EQ(fit.summary.covariance.rows(), 6);
@@ -258,18 +266,8 @@ TEST(FitCone, NoisyConeWithinUncertaintyAndRobust) {
   std::mt19937_64 rng(26);
   const double half_angle = 0.3;
   const Eigen::Vector3d apex(100, 200, 300), axis = RandomUnit(rng);
-  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
-  std::uniform_real_distribution<double> t(0, 2 * M_PI), h(10, 40);
-  std::normal_distribution<double> g(0, 1e-3);
-  Eigen::Matrix3Xd p(3, 400);
-  for (int i = 0; i < 400; ++i) {
-    const double a = t(rng), z = h(rng);
-    const Eigen::Vector3d radial = std::cos(a) * u + std::sin(a) * v;
-    const Eigen::Vector3d normal =
-        std::cos(half_angle) * radial - std::sin(half_angle) * axis;
-    p.col(i) =
-        apex + z * axis + z * std::tan(half_angle) * radial + g(rng) * normal;
-  }
+  Eigen::Matrix3Xd p =
+      ConePoints(rng, apex, axis, half_angle, 10, 40, 400, 1e-3);
   const ConeFit fit = FitCone(p);
   const double sigma = std::sqrt(fit.summary.covariance(5, 5));
   EXPECT_LT(std::abs(fit.half_angle_rad - half_angle), 4 * sigma);
