@@ -15,6 +15,7 @@
 #include "ttp/gcode/writer.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp::app {
 namespace {
@@ -55,11 +56,10 @@ std::string ReadResultJson(const std::string& program, Dialect dialect,
                            const std::vector<CanonStatement>& statements) {
   std::string out =
       "{\n  \"dialect\": " + nlohmann::json(DialectName(dialect)).dump() +
-      ",\n  \"program\": " + nlohmann::json(program).dump() +
-      ",\n  \"statements\": [";
+      ",\n  \"program\": " + JsonText(program) + ",\n  \"statements\": [";
   for (size_t i = 0; i < statements.size(); ++i) {
     out += i == 0 ? "\n    " : ",\n    ";
-    out += StatementToJson(statements[i]).dump();
+    out += JsonText(StatementToJson(statements[i]));
   }
   out += statements.empty() ? "]" : "\n  ]";
   out +=

@@ -10,6 +10,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/frames.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/geometry/part_mesh.h"
 #include "ttp/inspect/dmis.h"
 #include "ttp/plan/dmis_writer.h"
@@ -243,7 +244,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     OutputBatch outputs;
     outputs.Add(o->output, plan::SetupSheetHtml(sheet));
     if (!o->json.empty())
-      outputs.Add(o->json, plan::SetupSheetToJson(sheet).dump(2) + "\n");
+      outputs.Add(o->json, JsonText(plan::SetupSheetToJson(sheet), 2) + "\n");
     outputs.Commit();
   });
 }

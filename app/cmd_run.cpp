@@ -22,16 +22,17 @@
 #include "ttp/cam/programs.h"
 #include "ttp/cam/schedule.h"
 #include "ttp/diagnosis/diagnose.h"
-#include "ttp/sim/twin.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/gcode/rs274.h"
 #include "ttp/gcode/writer.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/geometry/part_mesh.h"
 #include "ttp/inspect/grade.h"
 #include "ttp/inspect/measurement.h"
 #include "ttp/report/assemble.h"
+#include "ttp/sim/twin.h"
 #include "ttp/thermal/check.h"
 #include "ttp/thermal/talc_log.h"
 #include "ttp/verify/programs.h"
@@ -121,7 +122,7 @@ struct RunContext {
   }
   void WriteJsonFile(const std::string& name, const nlohmann::json& doc,
                      const std::string& what) {
-    Write(name, doc.dump(2) + "\n", what);
+    Write(name, JsonText(doc, 2) + "\n", what);
   }
 };
 
@@ -239,9 +240,8 @@ void TwinStage(RunContext& ctx) {
   // cloud's random pose replaces) and the finished piece measured on a CMM
   // (the twin's point count and probing noise, 0.2 % strays, any pose).
   const fs::path dir = ctx.out_dir / "twin";
-  const fs::path cloud_path =
-      sim::WriteTwin(ctx.config, ctx.twin, options, dir.string(),
-                     sim::TwinMeasurement::kPly);
+  const fs::path cloud_path = sim::WriteTwin(
+      ctx.config, ctx.twin, options, dir.string(), sim::TwinMeasurement::kPly);
   ctx.written.emplace_back(dir / "talc.csv",
                            "TALC log of the twin run (8-hour cycle)");
   ctx.written.emplace_back(dir / "truth.json",
@@ -265,10 +265,10 @@ void InspectStage(RunContext& ctx) {
   ctx.WriteJsonFile("grade.json", inspect::GradeToJson(ctx.grade),
                     "verdict on the twin's piece (as ttp grade)");
   // The verdict is what a reader looks for first.
-  ctx.summary.insert(ctx.summary.begin(),
-                     "verdict on the twin's piece (as ttp grade): " +
-                         ctx.grade.Summary().substr(
-                                       0, ctx.grade.Summary().find('\n')));
+  ctx.summary.insert(
+      ctx.summary.begin(),
+      "verdict on the twin's piece (as ttp grade): " +
+          ctx.grade.Summary().substr(0, ctx.grade.Summary().find('\n')));
   ctx.summary.push_back(
       fmt::format("inspection: {} points, {} on features, {} rejected as stray",
                   r.points_total, r.points_assigned, r.points_rejected));

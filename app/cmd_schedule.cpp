@@ -6,6 +6,7 @@
 #include "command.h"
 #include "ttp/cam/schedule.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp::app {
 namespace {
@@ -42,7 +43,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
     if (!rtests_csv->empty())
       outputs.Add(*rtests_csv, cam::RTestsToCsv(schedule));
     if (!json->empty())
-      outputs.Add(*json, cam::ScheduleToJson(schedule).dump(2) + "\n");
+      outputs.Add(*json, JsonText(cam::ScheduleToJson(schedule), 2) + "\n");
     outputs.Commit();
     std::cout << cam::FormatScheduleTable(schedule);
   });

@@ -154,8 +154,9 @@ void Register(CLI::App& root, GlobalOptions& global) {
       for (const auto& w : model.fit_warnings) summary["warnings"].push_back(w);
       summary["fitted_jumps"] = j.at("fitted_jumps");
       OutputBatch outputs;  // the model and its summary, or neither
-      outputs.Add(*out, j.dump(2) + "\n");
-      if (!json_out->empty()) outputs.Add(*json_out, summary.dump(2) + "\n");
+      outputs.Add(*out, JsonText(j, 2) + "\n");
+      if (!json_out->empty())
+        outputs.Add(*json_out, JsonText(summary, 2) + "\n");
       outputs.Commit();
       if (!global.quiet) WriteText("-", text);
     });
@@ -190,7 +191,7 @@ void Register(CLI::App& root, GlobalOptions& global) {
       OutputBatch outputs;  // the prediction and its summary, or neither
       outputs.Add(*out, PredictionCsv(p));
       if (!json_out->empty())
-        outputs.Add(*json_out, PredictionSummaryJson(p).dump(2) + "\n");
+        outputs.Add(*json_out, JsonText(PredictionSummaryJson(p), 2) + "\n");
       outputs.Commit();
       if (!global.quiet)
         std::fprintf(stderr, "%zu rows predicted (%s) -> %s\n", p.t_s.size(),

@@ -12,6 +12,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp::app {
 namespace {
@@ -44,7 +45,7 @@ void WriteText(const std::string& path, const std::string& text) {
 }
 
 void WriteJson(const std::string& path, const nlohmann::json& doc) {
-  WriteText(path, doc.dump(2) + "\n");
+  WriteText(path, JsonText(doc, 2) + "\n");
 }
 
 void AddMeasurementOptions(CLI::App* cmd, MeasurementArgs* a) {

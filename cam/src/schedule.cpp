@@ -10,6 +10,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp::cam {
 namespace {
@@ -246,7 +247,7 @@ void WriteScheduleCsv(const std::filesystem::path& path,
 
 void WriteScheduleJson(const std::filesystem::path& path,
                        const Schedule& schedule) {
-  WriteFileAtomic(path, ScheduleToJson(schedule).dump(2) + "\n");
+  WriteFileAtomic(path, JsonText(ScheduleToJson(schedule), 2) + "\n");
 }
 
 }  // namespace ttp::cam

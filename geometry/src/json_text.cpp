@@ -99,4 +99,8 @@ nlohmann::json ReadJsonFile(const std::filesystem::path& path) {
   return ParseJsonText(ReadTextFile(path), path.string());
 }
 
+std::string JsonText(const nlohmann::json& doc, int indent) {
+  return doc.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 }  // namespace ttp

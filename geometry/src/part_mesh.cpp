@@ -12,6 +12,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp {
 
@@ -184,7 +185,7 @@ std::vector<std::filesystem::path> WritePartMeshes(
     written.push_back(csv);
     const auto json =
         dir / (std::string("features-") + StageName(stage) + ".json");
-    WriteFileAtomic(json, NominalFeaturesJson(features).dump(2) + "\n");
+    WriteFileAtomic(json, JsonText(NominalFeaturesJson(features), 2) + "\n");
     written.push_back(json);
   }
   return written;

@@ -14,6 +14,7 @@
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/figures.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/report/report.h"
 
 namespace ttp::report {
@@ -197,7 +198,7 @@ json WriteReport(const Config& config, const ReportInputs& inputs,
   const std::string html = RenderReportHtml(data);
   OutputBatch outputs;  // the page and its data, or neither
   outputs.Add(html_path, html);
-  if (!json_path.empty()) outputs.Add(json_path, data.dump(2) + "\n");
+  if (!json_path.empty()) outputs.Add(json_path, JsonText(data, 2) + "\n");
   outputs.Commit();
   return data;
 }
@@ -288,7 +289,7 @@ json WriteComparison(const Config& config, const ComparedPiece& a,
   const std::string html = RenderComparisonHtml(data);
   OutputBatch outputs;  // the page and its data, or neither
   outputs.Add(html_path, html);
-  if (!json_path.empty()) outputs.Add(json_path, data.dump(2) + "\n");
+  if (!json_path.empty()) outputs.Add(json_path, JsonText(data, 2) + "\n");
   outputs.Commit();
   return data;
 }

@@ -17,6 +17,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/format.h"
+#include "ttp/geometry/json_text.h"
 
 namespace ttp::report_assets {
 extern const char* const kUplotJsPieces[];
@@ -62,7 +63,7 @@ std::string Escape(const std::string& text) {
 
 // JSON inside <script>: "</" would end the element, so escape the slash.
 std::string ScriptSafeJson(const json& doc) {
-  std::string text = doc.dump();
+  std::string text = JsonText(doc);
   std::string out;
   for (size_t i = 0; i < text.size(); ++i) {
     if (text[i] == '<') {
@@ -573,9 +574,9 @@ std::string RenderReportHtml(const json& report_data) {
   std::string run_meta;
   if (const json* run = Find(report_data, "run")) {
     for (const auto& [key, value] : run->items()) {
-      run_meta +=
-          (run_meta.empty() ? "" : " &middot; ") + Escape(key) + ": " +
-          Escape(value.is_string() ? value.get<std::string>() : value.dump());
+      run_meta += (run_meta.empty() ? "" : " &middot; ") + Escape(key) + ": " +
+                  Escape(value.is_string() ? value.get<std::string>()
+                                           : JsonText(value));
     }
   }
   return Page(title, run_meta,

@@ -10,6 +10,7 @@
 
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/models/time_series.h"
 #include "ttp/talc/replay.h"
 #include "ttp/talc/strategy.h"
@@ -390,7 +391,7 @@ std::string ThermalReportHtml(const json& data, const std::string& title) {
   if (!warnings.empty())
     warnings =
         "<p>Warnings:</p>\n<ul class=\"warnings\">\n" + warnings + "</ul>\n";
-  std::string payload = data.dump();
+  std::string payload = JsonText(data);
   // Keep "</script>" out of the embedded JSON.
   for (size_t p = 0; (p = payload.find("</", p)) != std::string::npos; p += 3)
     payload.replace(p, 2, "<\\/");
@@ -441,7 +442,7 @@ json WriteThermalReport(const std::string& log_path,
   OutputBatch outputs;  // the page and its data, or neither
   outputs.Add(html_out,
               ThermalReportHtml(data, "Thermal error models: " + log_path));
-  if (!json_out.empty()) outputs.Add(json_out, data.dump(1) + "\n");
+  if (!json_out.empty()) outputs.Add(json_out, JsonText(data, 1) + "\n");
   outputs.Commit();
   return data;
 }

@@ -13,6 +13,7 @@
 
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/json_text.h"
 #include "ttp/geometry/part_mesh.h"
 #include "ttp/geometry/rigid_table.h"
 #include "ttp/inspect/inspect.h"
@@ -241,9 +242,8 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
   }
   // Before the log: pre-machining at a drawn load, then a hold; the lags
   // enter the log in that state, not at rest.
-  const int pre_steps =
-      static_cast<int>(uniform(2400, 5400) / kStepS) +
-      static_cast<int>(uniform(1200, 3600) / kStepS);
+  const int pre_steps = static_cast<int>(uniform(2400, 5400) / kStepS) +
+                        static_cast<int>(uniform(1200, 3600) / kStepS);
   const int pre_load_steps = pre_steps / 2;
   const double pre_load = uniform(0.2, 0.8);
   std::vector<double> load_ext(pre_steps, 0.0), env_ext(pre_steps, 0.0);
@@ -308,23 +308,20 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
   const double table_alpha_per_k = 11e-6;
   std::vector<double> table_dT(steps), piece_dT(steps);
   for (int i = 0; i < steps; ++i)
-    table_dT[i] =
-        machine[i][3] * 1e-3 /
-        (table_alpha_per_k * config.machine.sphere_distance_mm);
+    table_dT[i] = machine[i][3] * 1e-3 /
+                  (table_alpha_per_k * config.machine.sphere_distance_mm);
   // Piece + adapter as one lumped thermal mass: C dT/dt = hA (g T_table -
   // T), time constant C / hA, integrated with 1 s Euler steps.
-  const double wp_tau_s = options.workpiece_tau_s > 0
-                              ? options.workpiece_tau_s
-                              : uniform(1200, 5400);
+  const double wp_tau_s = options.workpiece_tau_s > 0 ? options.workpiece_tau_s
+                                                      : uniform(1200, 5400);
   if (options.workpiece_gain > 0) {
     double temp = options.workpiece_gain * table_dT[0];
     piece_dT[0] = temp;
     for (int i = 1; i < steps; ++i) {
       for (int sub = 0; sub < static_cast<int>(kStepS); ++sub) {
         const double f = (sub + 0.5) / kStepS;
-        const double source =
-            options.workpiece_gain *
-            (table_dT[i - 1] * (1 - f) + table_dT[i] * f);
+        const double source = options.workpiece_gain *
+                              (table_dT[i - 1] * (1 - f) + table_dT[i] * f);
         temp += (source - temp) / wp_tau_s;
       }
       piece_dT[i] = temp;
@@ -415,15 +412,15 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
         // The rigid-table model lets the piece ride the table's radial
         // growth; the piece grows with its own temperature instead.
         const Eigen::Vector3d delta =
-            radial * (part.alpha_per_k * dT_piece -
-                      table_alpha_per_k * dT_table) +
+            radial *
+                (part.alpha_per_k * dT_piece - table_alpha_per_k * dT_table) +
             Eigen::Vector3d::UnitZ() * height * part.alpha_per_k * dT_piece;
         s -= delta.dot(n);
       }
       if (options.clamping_amplitude_um > 0) {
-        const double falloff =
-            1 - clamp_falloff * (height - part.adapter_height_mm) /
-                    part.height_mm();
+        const double falloff = 1 - clamp_falloff *
+                                       (height - part.adapter_height_mm) /
+                                       part.height_mm();
         const double u_mm = 1e-3 * options.clamping_amplitude_um * falloff *
                             std::cos(3 * (phi - bolt_rad));
         s -= u_mm * radial.normalized().dot(n);
@@ -641,7 +638,8 @@ std::string WriteTwin(const Config& config, const TwinRun& run,
   if (measurement == TwinMeasurement::kJson) {
     out = d / "measured.json";
     WriteFileAtomic(
-        out, MeasuredInspectionJson(config.part, run.measured).dump(1) + "\n");
+        out,
+        JsonText(MeasuredInspectionJson(config.part, run.measured), 1) + "\n");
     truth["measurement"] = "per-feature results with cloud-fit noise";
   } else {
     const inspect::PointCloud cloud = TwinCloud(config, run, options);
@@ -655,7 +653,7 @@ std::string WriteTwin(const Config& config, const TwinRun& run,
         "CMM cloud of the true cut geometry, random pose (mm)";
     truth.erase("pose");
   }
-  WriteFileAtomic(d / "truth.json", truth.dump(1) + "\n");
+  WriteFileAtomic(d / "truth.json", JsonText(truth, 1) + "\n");
   return out.lexically_normal().string();
 }
 

@@ -432,7 +432,7 @@ ShardPlan PlanShards(const Grid& grid, const fs::path& log, int shards,
   plan["log_name"] = log.filename().string();
   plan["shards"] = shards;
   plan["points"] = n;
-  WriteFileAtomic(dir / "plan.json", plan.dump(2) + "\n");
+  WriteFileAtomic(dir / "plan.json", JsonText(plan, 2) + "\n");
   // Contiguous blocks, sizes differing by at most one.
   for (int k = 0; k < shards; ++k) {
     const std::size_t lo = n * std::size_t(k) / std::size_t(shards);
@@ -441,7 +441,8 @@ ShardPlan PlanShards(const Grid& grid, const fs::path& log, int shards,
     s["shard"] = k;
     s["first_index"] = lo;
     s["end_index"] = hi;
-    WriteFileAtomic(dir / fmt::format("shard-{}.json", k), s.dump(2) + "\n");
+    WriteFileAtomic(dir / fmt::format("shard-{}.json", k),
+                    JsonText(s, 2) + "\n");
     fs::remove(dir / fmt::format("result-{}.json", k));
   }
   const std::string run =
@@ -505,7 +506,7 @@ void RunShard(const fs::path& dir, int k, int threads,
   nlohmann::json out;
   out["shard"] = k;
   out["points"] = RunPoints(series, grid, idx, threads);
-  WriteFileAtomic(dir / fmt::format("result-{}.json", k), out.dump() + "\n");
+  WriteFileAtomic(dir / fmt::format("result-{}.json", k), JsonText(out) + "\n");
 }
 
 namespace {

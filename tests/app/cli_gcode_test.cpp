@@ -158,6 +158,16 @@ TEST(CliGcode, UndecidedDialectIsRefusedWhereItMatters) {
   EXPECT_NEAR(j["statements"][1]["end_mm"][2].get<double>(), 5.0, 1e-12);
 }
 
+// A comment in Latin-1 (a program written on a control, not in UTF-8) is
+// read; the JSON carries it with U+FFFD for the byte that is not UTF-8.
+TEST(CliGcode, ACommentThatIsNotUtf8IsRead) {
+  const fs::path program = Dir() / "latin1.nc";
+  std::ofstream(program) << "O0001\n(Fr\xe9sage)\nG0 X1.\nM30\n";
+  const auto j = Read(program);
+  ASSERT_GE(j.at("statements").size(), 1u);
+  EXPECT_EQ(j["statements"][0]["text"], "Fr\xef\xbf\xbdsage");
+}
+
 // What LinuxCNC's interpreter refuses is the program's fault: the message
 // names the program file and its line, not rs274.
 TEST(CliGcode, CheckNamesTheProgramWhenRs274RefusesIt) {

@@ -80,5 +80,18 @@ TEST(JsonText, AConfigWithAnOverflowingNumberIsAnInputError) {
   }
 }
 
+// Text from input files need not be UTF-8 (a Latin-1 comment): written
+// with U+FFFD in place of the bad bytes, and the result reads back.
+TEST(JsonText, BytesThatAreNotUtf8AreReplaced) {
+  nlohmann::json doc;
+  doc["text"] = std::string("Fr\xe9sage");
+  doc["n"] = 1.5;
+  const std::string text = JsonText(doc, 2);
+  const nlohmann::json back = ParseJsonText(text, "written");
+  EXPECT_EQ(back["text"].get<std::string>(), "Fr\xef\xbf\xbdsage");
+  EXPECT_EQ(back["n"].get<double>(), 1.5);
+  EXPECT_EQ(JsonText(back), back.dump());  // valid UTF-8 as nlohmann writes it
+}
+
 }  // namespace
 }  // namespace ttp
