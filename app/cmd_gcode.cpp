@@ -54,17 +54,15 @@ nlohmann::json StatementToJson(const CanonStatement& s) {
 // million lines of CAM output) takes ten times the memory of the text.
 std::string ReadResultJson(const std::string& program, Dialect dialect,
                            const std::vector<CanonStatement>& statements) {
-  std::string out =
-      "{\n  \"dialect\": " + nlohmann::json(DialectName(dialect)).dump() +
-      ",\n  \"program\": " + JsonText(program) + ",\n  \"statements\": [";
+  std::string out = "{\n  \"dialect\": " + JsonText(DialectName(dialect)) +
+                    ",\n  \"program\": " + JsonText(program) +
+                    ",\n  \"statements\": [";
   for (size_t i = 0; i < statements.size(); ++i) {
     out += i == 0 ? "\n    " : ",\n    ";
     out += JsonText(StatementToJson(statements[i]));
   }
   out += statements.empty() ? "]" : "\n  ]";
-  out +=
-      ",\n  \"total_s\": " + nlohmann::json(TotalDuration(statements)).dump() +
-      "\n}\n";
+  out += ",\n  \"total_s\": " + JsonText(TotalDuration(statements)) + "\n}\n";
   return out;
 }
 

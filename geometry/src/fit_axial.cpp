@@ -212,16 +212,13 @@ AxialResult BestOfSeeds(const char* shape, const Eigen::Matrix3Xd& centred,
     if (!best || r.cost < best->cost) best = std::move(r);
   }
   if (!best) throw InputError("fit", 0, shape, "points are degenerate");
-  if (ranking.cols() < centred.cols()) {
+  // One refinement on every point: for the covariance, or because the
+  // seeds were ranked on a subset.
+  if (options.compute_covariance || ranking.cols() < centred.cols()) {
     const int iterations = best->summary.iterations;
     best = Refine<P, Functor>(centred, best->frame, best->radius_mm,
-                              best->half_angle_rad, options, names, false);
-    best->summary.iterations += iterations;
-  }
-  if (options.compute_covariance) {
-    const int iterations = best->summary.iterations;
-    best = Refine<P, Functor>(centred, best->frame, best->radius_mm,
-                              best->half_angle_rad, options, names, true);
+                              best->half_angle_rad, options, names,
+                              options.compute_covariance);
     best->summary.iterations += iterations;
   }
   return *std::move(best);
