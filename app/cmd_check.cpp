@@ -16,7 +16,7 @@
 namespace ttp::app {
 namespace {
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterCheck(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "check",
       "measured vs simulated figures per cycle with U and the 7.10 "
@@ -124,5 +124,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(42, Register);
+TTP_REGISTER_COMMANDS(42, RegisterCheck);
 }  // namespace ttp::app

@@ -5,7 +5,7 @@
 namespace ttp::app {
 namespace {
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterConfig(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "config", "print the effective configuration (defaults + --config)");
   auto out = std::make_shared<std::string>("-");
@@ -15,5 +15,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(90, Register);
+TTP_REGISTER_COMMANDS(90, RegisterConfig);
 }  // namespace ttp::app

@@ -16,7 +16,7 @@
 namespace ttp::app {
 namespace {
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterDiagnosis(CLI::App& root, GlobalOptions& global) {
   {
     auto* cmd = root.add_subcommand(
         "diagnose",
@@ -193,5 +193,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(45, Register);
+TTP_REGISTER_COMMANDS(45, RegisterDiagnosis);
 }  // namespace ttp::app

@@ -154,7 +154,7 @@ std::string Text(const nlohmann::json& doc) {
   return s;
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterFit(CLI::App& root, GlobalOptions& global) {
   auto a = std::make_shared<FitArgs>();
   auto* cmd = root.add_subcommand(
       "fit",
@@ -239,5 +239,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(42, Register);
+TTP_REGISTER_COMMANDS(42, RegisterFit);
 }  // namespace ttp::app

@@ -66,7 +66,7 @@ std::string ReadResultJson(const std::string& program, Dialect dialect,
   return out;
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterGcode(CLI::App& root, GlobalOptions& global) {
   auto* gcode = root.add_subcommand(
       "gcode",
       "write the piece's programs; read, translate and check FANUC / "
@@ -195,5 +195,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(20, Register);
+TTP_REGISTER_COMMANDS(20, RegisterGcode);
 }  // namespace ttp::app

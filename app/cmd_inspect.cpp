@@ -23,7 +23,7 @@ constexpr const char* kMeasurementHelp =
     "(point_id,x,y,z,c_deg), dial CSV (feature,reading_um), DMIS output or "
     "an inspection JSON; recognised from the content";
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterInspect(CLI::App& root, GlobalOptions& global) {
   auto args = std::make_shared<InspectArgs>();
   auto* cmd = root.add_subcommand(
       "inspect", "measured piece (any format) -> E_X..E_TTP with U (k=2)");
@@ -77,5 +77,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(40, Register);
+TTP_REGISTER_COMMANDS(40, RegisterInspect);
 }  // namespace ttp::app

@@ -20,7 +20,7 @@ struct PartExportOptions {
   double chord_error_mm = PartMeshOptions{}.chord_error_mm;
 };
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterPart(CLI::App& root, GlobalOptions& global) {
   auto* part = root.add_subcommand("part", "the part model: meshes, features");
   part->require_subcommand(1);
   auto opts = std::make_shared<PartExportOptions>();
@@ -83,5 +83,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(22, Register);
+TTP_REGISTER_COMMANDS(22, RegisterPart);
 }  // namespace ttp::app

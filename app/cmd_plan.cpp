@@ -75,7 +75,7 @@ void Say(const GlobalOptions& global, const std::string& text) {
   if (!global.quiet) std::cerr << text << "\n";
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterPlan(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "plan", "plan the measurement of the finished piece (probe, CMM, dial)");
   cmd->require_subcommand(1);
@@ -250,5 +250,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(40, Register);
+TTP_REGISTER_COMMANDS(40, RegisterPlan);
 }  // namespace ttp::app

@@ -251,11 +251,11 @@ void RegisterReportHtml(CLI::App& root, GlobalOptions& global) {
   });
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterReportCommands(CLI::App& root, GlobalOptions& global) {
   RegisterReport(root, global);
   RegisterReportHtml(root, global);
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(80, Register);
+TTP_REGISTER_COMMANDS(80, RegisterReportCommands);
 }  // namespace ttp::app

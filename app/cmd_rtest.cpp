@@ -79,7 +79,7 @@ void Evaluate(const RTestArgs& a, const RTestGeometry& g) {
   if (!a.json_out.empty()) WriteJson(a.json_out, out);
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterRtest(CLI::App& root, GlobalOptions& global) {
   auto args = std::make_shared<RTestArgs>();
   auto* cmd = root.add_subcommand(
       "rtest",
@@ -128,5 +128,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(60, Register);
+TTP_REGISTER_COMMANDS(60, RegisterRtest);
 }  // namespace ttp::app

@@ -368,7 +368,7 @@ const std::vector<Stage>& Stages() {
   return stages;
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterRun(CLI::App& root, GlobalOptions& global) {
   auto args = std::make_shared<RunArgs>();
   auto* cmd = root.add_subcommand(
       "run",
@@ -441,5 +441,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(5, Register);
+TTP_REGISTER_COMMANDS(5, RegisterRun);
 }  // namespace ttp::app

@@ -11,7 +11,7 @@
 namespace ttp::app {
 namespace {
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterSchedule(CLI::App& root, GlobalOptions& global) {
   auto* cmd = root.add_subcommand(
       "schedule",
       "print the planned cut times, table angles and tools of the test "
@@ -50,5 +50,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(25, Register);
+TTP_REGISTER_COMMANDS(25, RegisterSchedule);
 }  // namespace ttp::app

@@ -47,7 +47,7 @@ fs::path SelfPath() {
   return ec ? fs::path("ttp") : p;
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterTalc(CLI::App& root, GlobalOptions& global) {
   auto* talc = root.add_subcommand(
       "talc", "TALC strategies replayed on a thermal log, and sweeps of them");
   talc->require_subcommand(1);
@@ -227,5 +227,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(45, Register);
+TTP_REGISTER_COMMANDS(45, RegisterTalc);
 }  // namespace ttp::app

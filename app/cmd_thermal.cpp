@@ -11,7 +11,7 @@
 namespace ttp::app {
 namespace {
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterThermal(CLI::App& root, GlobalOptions& global) {
   {
     auto* cmd = root.add_subcommand(
         "log", "read a TALC log and summarise it (span, R-tests, cuts, gaps)");
@@ -92,5 +92,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(40, Register);
+TTP_REGISTER_COMMANDS(40, RegisterThermal);
 }  // namespace ttp::app

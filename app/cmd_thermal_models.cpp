@@ -89,7 +89,7 @@ std::string PredictionCsv(const models::Prediction& p) {
   return s;
 }
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterThermalModels(CLI::App& root, GlobalOptions& global) {
   auto* group = root.add_subcommand(
       "thermal",
       "thermal error models from a thermal log: fit, predict, compare");
@@ -238,5 +238,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(45, Register);
+TTP_REGISTER_COMMANDS(45, RegisterThermalModels);
 }  // namespace ttp::app

@@ -28,7 +28,7 @@ struct VerifyCliOptions {
   double rtest_interval_s = -1.0;  // < 0: the config's
 };
 
-void Register(CLI::App& root, GlobalOptions& global) {
+void RegisterVerify(CLI::App& root, GlobalOptions& global) {
   auto opts = std::make_shared<VerifyCliOptions>();
   auto* cmd = root.add_subcommand(
       "verify",
@@ -131,5 +131,5 @@ void Register(CLI::App& root, GlobalOptions& global) {
 }
 
 }  // namespace
-TTP_REGISTER_COMMANDS(35, Register);
+TTP_REGISTER_COMMANDS(35, RegisterVerify);
 }  // namespace ttp::app

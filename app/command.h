@@ -146,6 +146,6 @@ void PrintMeasurementWarnings(const std::string& path,
 #define TTP_CONCAT_INNER(a, b) a##b
 #define TTP_CONCAT(a, b) TTP_CONCAT_INNER(a, b)
 // order: position in `ttp --help` (lower first).
-#define TTP_REGISTER_COMMANDS(order, fn)                  \
-  static const int TTP_CONCAT(ttp_registrar_, __LINE__) = \
+#define TTP_REGISTER_COMMANDS(order, fn)                     \
+  static const int TTP_CONCAT(ttp_registrar_, __COUNTER__) = \
       ::ttp::app::AddRegistrar(order, fn)

@@ -12,8 +12,8 @@
 # -O2 with line tables: a report still names file and line; at -O1 Eigen's
 # templates are not inlined and the tests ran about twice as long (measured
 # with gcc's sanitizers). The tests' own code is built at -O1
-# (tests/CMakeLists.txt). On 2 cores: the build about 18 min, the
-# sanitizer stage's tests about 11 min.
+# (tests/CMakeLists.txt). On 2 cores: the build about 12 min (a unity
+# build: CMakeLists.txt), the sanitizer stage's tests about 11 min.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 launcher=()

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <limits>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/features.h"
 
 namespace ttp {
 namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Term {
   const FeatureResult* r;

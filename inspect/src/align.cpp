@@ -38,6 +38,7 @@
 
 #include "cloud_util.h"
 #include "quiet_pcl.h"
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/fit.h"
@@ -51,8 +52,6 @@ using internal::Indices;
 using internal::Median;
 using internal::Quantile;
 using internal::Subsample;
-
-constexpr double kDeg = M_PI / 180.0;
 
 [[noreturn]] void NoPiece(const std::string& source, const std::string& why) {
   throw InputError(source, 0, "alignment",

@@ -8,14 +8,13 @@
 #include <limits>
 #include <sstream>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/format.h"
 #include "ttp/geometry/limits.h"
 
 namespace ttp::inspect {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string Fixed(double v, int decimals) { return FormatNumber(v, decimals); }
 

@@ -3,22 +3,22 @@
 // JSON and table.
 #include "ttp/inspect/inspect.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <cstdio>
-#include <fmt/format.h>
 #include <limits>
 #include <optional>
 #include <sstream>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/format.h"
 #include "ttp/inspect/cloud_stages.h"
 
 namespace ttp::inspect {
-namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-}  // namespace
+namespace {}  // namespace
 
 bool InspectOptions::IsValid(std::string* error) const {
   const auto fail = [error](const char* field, const char* problem) {

@@ -9,6 +9,7 @@
 #include <limits>
 #include <sstream>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
@@ -21,8 +22,6 @@
 
 namespace ttp::inspect {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::string ReadAll(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

@@ -12,6 +12,7 @@
 #include <regex>
 #include <sstream>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
@@ -24,8 +25,6 @@
 
 namespace ttp::inspect {
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 struct Touch {
   Eigen::Vector3d w;  // surface point in W (nominal placement), mm

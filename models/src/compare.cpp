@@ -5,14 +5,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 
 namespace ttp::models {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-double MedianStep(const TimeSeries& ts) {
+// The median sampling step; 1 s for a single row (a step to divide by).
+double MedianStepOrOne(const TimeSeries& ts) {
   std::vector<double> s;
   for (size_t i = 1; i < ts.rows(); ++i) s.push_back(ts.t_s[i] - ts.t_s[i - 1]);
   if (s.empty()) return 1;
@@ -146,7 +146,7 @@ Diagnosis Diagnose(const TimeSeries& ts, size_t first, int output,
     d.loop_ratio = box > 0 ? d.loop_area_um_k / box : 0;
   }
   // Lag: shift of the prediction that best matches the measurement.
-  const double step = MedianStep(ts);
+  const double step = MedianStepOrOne(ts);
   const int max_shift =
       static_cast<int>(std::min(7200.0 / step, y.size() / 4.0));
   const int stride = std::max(1, static_cast<int>(60.0 / step));

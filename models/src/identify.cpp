@@ -9,14 +9,12 @@
 #include <optional>
 #include <set>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/limits.h"
 
 namespace ttp::models {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kGapPeriods = 10.0;
 
 bool IsSpeed(const std::string& name) { return name.rfind("n_", 0) == 0; }
 

@@ -11,6 +11,7 @@
 #include <regex>
 #include <set>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -18,11 +19,6 @@
 
 namespace ttp::models {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// thermal-log.md section 2: a step longer than this many sampling periods
-// (median step) is a gap.
-constexpr double kGapPeriods = 10.0;
 
 enum class ColumnKind { kTime, kInput, kOutput, kIgnored };
 
@@ -48,7 +44,6 @@ std::vector<std::string> SplitLine(std::string_view line) {
   }
   return cells;
 }
-
 
 struct Column {
   int position = 0;

@@ -8,13 +8,12 @@
 #include <map>
 #include <sstream>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 
 namespace ttp::plan {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::string Num(double v) { return fmt::format("{:.4f}", v + 0.0); }
 std::string Xyz(const Eigen::Vector3d& p) {

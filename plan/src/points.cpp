@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
@@ -11,7 +12,6 @@
 namespace ttp::plan {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegToRad = kPi / 180.0;
 
 // n evenly spread values inside [lo, hi] (cell centres), or the middle.

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "ttp/gcode/writer.h"
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
@@ -13,9 +14,6 @@
 
 namespace ttp::plan {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 
 // C in (-180, 180] for a short index.
 double ShortAngleDeg(double deg) {

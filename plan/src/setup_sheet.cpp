@@ -4,14 +4,12 @@
 
 #include <cmath>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
 
 namespace ttp::plan {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 
 std::array<double, 3> Arr(const Eigen::Vector3d& v) {
   return {v.x() + 0.0, v.y() + 0.0, v.z() + 0.0};

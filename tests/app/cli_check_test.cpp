@@ -20,7 +20,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::string kSamples = std::string(TTP_DATA_DIR) + "/samples/";
+const std::string kCheckSamples = std::string(TTP_DATA_DIR) + "/samples/";
 
 std::vector<std::string> Lines(const std::string& path) {
   std::ifstream in(path);
@@ -39,7 +39,7 @@ bool IsData(const std::string& line) {
 std::string Mutated(const std::string& name,
                     const std::function<void(std::vector<std::string>&)>& f) {
   std::vector<std::string> head, rows;
-  for (const auto& line : Lines(kSamples + "run-a/talc.csv")) {
+  for (const auto& line : Lines(kCheckSamples + "run-a/talc.csv")) {
     (IsData(line) ? rows : head).push_back(line);
   }
   f(rows);
@@ -72,7 +72,7 @@ void Replace(std::string& s, const std::string& from, const std::string& to) {
 }
 
 test::RunResult Check(const std::string& log, const std::string& extra = "") {
-  return test::RunTtp("check --log " + log + " " + kSamples +
+  return test::RunTtp("check --log " + log + " " + kCheckSamples +
                       "run-a/piece.ply " + extra);
 }
 
@@ -90,8 +90,8 @@ void ExpectRefused(const test::RunResult& r,
 TEST(CliCheck, RunBAgrees) {
   const fs::path json = test::TestDir("check") / "b.json";
   const auto r =
-      test::RunTtp("check --log " + kSamples + "run-b/talc.csv " + kSamples +
-                   "run-b/piece.xyz --json " + json.string());
+      test::RunTtp("check --log " + kCheckSamples + "run-b/talc.csv " +
+                   kCheckSamples + "run-b/piece.xyz --json " + json.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("45 cuts match the program"), std::string::npos);
   std::ifstream in(json);
@@ -109,7 +109,7 @@ TEST(CliCheck, RunBAgrees) {
 TEST(CliCheck, FiguresWithoutUncertaintyAreNamed) {
   const fs::path dir = test::TestDir("check");
   const fs::path inspected = dir / "b_inspected.json";
-  auto r = test::RunTtp("inspect " + kSamples + "run-b/piece.xyz --json " +
+  auto r = test::RunTtp("inspect " + kCheckSamples + "run-b/piece.xyz --json " +
                         inspected.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   nlohmann::json with_u, without_u;
@@ -124,7 +124,7 @@ TEST(CliCheck, FiguresWithoutUncertaintyAreNamed) {
       SCOPED_TRACE(command + (given ? " with U" : " without U"));
       const fs::path in = dir / (given ? "with_u.json" : "without_u.json");
       const fs::path out = dir / ("out_" + command + ".json");
-      r = test::RunTtp(command + " --log " + kSamples + "run-b/talc.csv " +
+      r = test::RunTtp(command + " --log " + kCheckSamples + "run-b/talc.csv " +
                        in.string() + " --json " + out.string());
       ASSERT_NE(r.exit_code, 2) << r.output;
       const auto warnings = test::ReadJson(out).at("measurement_warnings");
@@ -156,8 +156,8 @@ TEST(CliCheck, FiguresWithoutUncertaintyAreNamed) {
 // 3.2 (L = 200 mm) and 4.17 (L = 0).
 TEST(CliCheck, TheCmmsMpeReachesTheMeasuredUncertainty) {
   const fs::path dir = test::TestDir("check");
-  const std::string base = "check --log " + kSamples + "run-c/talc.csv " +
-                           kSamples + "run-c/piece.dmo --json ";
+  const std::string base = "check --log " + kCheckSamples + "run-c/talc.csv " +
+                           kCheckSamples + "run-c/piece.dmo --json ";
   const auto a = test::RunTtp(base + (dir / "mpe_default.json").string());
   const auto b =
       test::RunTtp(base + (dir / "mpe_5.json").string() + " --cmm-mpe-um 5");
@@ -184,7 +184,8 @@ TEST(CliCheck, TheCmmsMpeReachesTheMeasuredUncertainty) {
 
 TEST(CliCheck, RunAsWorkpieceExpansionDisagrees) {
   const fs::path json = test::TestDir("check") / "a.json";
-  const auto r = Check(kSamples + "run-a/talc.csv", "--json " + json.string());
+  const auto r =
+      Check(kCheckSamples + "run-a/talc.csv", "--json " + json.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("DISAGREE"), std::string::npos);
   std::ifstream in(json);
@@ -323,11 +324,12 @@ TEST(CliCheck, NoRTestAfterTheLastCutIsExtrapolated) {
 }
 
 TEST(CliCheck, BadMeasurementOrUsage) {
-  EXPECT_EQ(test::RunTtp("check --log " + kSamples + "run-a/talc.csv " +
+  EXPECT_EQ(test::RunTtp("check --log " + kCheckSamples + "run-a/talc.csv " +
                          (test::TestDir("check") / "nothing.ply").string())
                 .exit_code,
             2);
-  EXPECT_EQ(test::RunTtp("check " + kSamples + "run-a/piece.ply").exit_code, 2);
+  EXPECT_EQ(
+      test::RunTtp("check " + kCheckSamples + "run-a/piece.ply").exit_code, 2);
 }
 
 }  // namespace

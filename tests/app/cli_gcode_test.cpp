@@ -14,7 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path Dir() { return test::TestDir("gcode"); }
+fs::path GcodeDir() { return test::TestDir("gcode"); }
 
 nlohmann::json Read(const fs::path& program) {
   const fs::path json = program.string() + ".json";
@@ -28,7 +28,8 @@ class CliGcodeProgram : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(CliGcodeProgram, FanucAndLinuxCncTwinsGiveTheSameToolpathAndTime) {
   const std::string name = GetParam();
-  const fs::path nc = Dir() / (name + ".nc"), ngc = Dir() / (name + ".ngc");
+  const fs::path nc = GcodeDir() / (name + ".nc"),
+                 ngc = GcodeDir() / (name + ".ngc");
   auto r = test::RunTtp("gcode " + name + " -o " + nc.string());  // fanuc
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = test::RunTtp("gcode " + name + " --dialect linuxcnc -o " + ngc.string());
@@ -87,9 +88,9 @@ class CliGcodeBadConfig : public ::testing::TestWithParam<BadConfig> {};
 
 TEST_P(CliGcodeBadConfig, IsExit2NamingTheField) {
   const BadConfig& c = GetParam();
-  const fs::path path = Dir() / (std::string(c.name) + ".toml");
+  const fs::path path = GcodeDir() / (std::string(c.name) + ".toml");
   std::ofstream(path) << c.toml;
-  const fs::path out = Dir() / (std::string(c.name) + ".nc");
+  const fs::path out = GcodeDir() / (std::string(c.name) + ".nc");
   const auto r = test::RunTtp("--config " + path.string() + " gcode cycle -o " +
                               out.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -130,7 +131,7 @@ TEST(CliGcode, UnknownDialectOrMissingProfileIsExit2) {
   auto r = test::RunTtp("gcode pre --dialect heidenhain");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--dialect"), std::string::npos) << r.output;
-  r = test::RunTtp("--config " + (Dir() / "missing.toml").string() +
+  r = test::RunTtp("--config " + (GcodeDir() / "missing.toml").string() +
                    " gcode pre");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("missing.toml"), std::string::npos) << r.output;
@@ -141,7 +142,7 @@ TEST(CliGcode, UnknownDialectOrMissingProfileIsExit2) {
 // refused with its line and word, not read a thousand times too large; with
 // --dialect it is read.
 TEST(CliGcode, UndecidedDialectIsRefusedWhereItMatters) {
-  const fs::path program = Dir() / "no_o_number.nc";
+  const fs::path program = GcodeDir() / "no_o_number.nc";
   std::ofstream(program) << "%\nG90 G17\nG0 X10. Y20.\nG0 Z5000\nM30\n%\n";
   auto r = test::RunTtp("gcode read " + program.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -149,7 +150,7 @@ TEST(CliGcode, UndecidedDialectIsRefusedWhereItMatters) {
       << r.output;
   EXPECT_NE(r.output.find("Z5000"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("--dialect"), std::string::npos) << r.output;
-  const fs::path json = Dir() / "no_o_number.json";
+  const fs::path json = GcodeDir() / "no_o_number.json";
   r = test::RunTtp("gcode read " + program.string() + " --dialect fanuc -o " +
                    json.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -161,7 +162,7 @@ TEST(CliGcode, UndecidedDialectIsRefusedWhereItMatters) {
 // A comment in Latin-1 (a program written on a control, not in UTF-8) is
 // read; the JSON carries it with U+FFFD for the byte that is not UTF-8.
 TEST(CliGcode, ACommentThatIsNotUtf8IsRead) {
-  const fs::path program = Dir() / "latin1.nc";
+  const fs::path program = GcodeDir() / "latin1.nc";
   std::ofstream(program) << "O0001\n(Fr\xe9sage)\nG0 X1.\nM30\n";
   const auto j = Read(program);
   ASSERT_GE(j.at("statements").size(), 1u);
@@ -171,7 +172,7 @@ TEST(CliGcode, ACommentThatIsNotUtf8IsRead) {
 // What LinuxCNC's interpreter refuses is the program's fault: the message
 // names the program file and its line, not rs274.
 TEST(CliGcode, CheckNamesTheProgramWhenRs274RefusesIt) {
-  const fs::path program = Dir() / "no_closing_percent.ngc";
+  const fs::path program = GcodeDir() / "no_closing_percent.ngc";
   std::ofstream(program) << "%\nG21 G90\nG0 X0 Y0 Z10\n";
   const auto r = test::RunTtp("gcode check " + program.string());
   EXPECT_EQ(r.exit_code, 2) << r.output;

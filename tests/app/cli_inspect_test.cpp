@@ -14,7 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path Dir() { return test::TestDir("inspect"); }
+fs::path InspectDir() { return test::TestDir("inspect"); }
 
 nlohmann::json Load(const fs::path& p) {
   std::ifstream in(p);
@@ -24,7 +24,7 @@ nlohmann::json Load(const fs::path& p) {
 TEST(CliInspect, SampleCloudToFiguresThenGrade) {
   const std::string sample =
       std::string(TTP_DATA_DIR) + "/samples/run-a/piece.ply";
-  const fs::path out = Dir() / "a.json";
+  const fs::path out = InspectDir() / "a.json";
   auto r = test::RunTtp("inspect " + sample + " --json " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("E_TTP"), std::string::npos);
@@ -46,7 +46,7 @@ TEST(CliInspect, SampleCloudToFiguresThenGrade) {
   EXPECT_TRUE(a["facets"]["X1-1"].contains("angle_error_urad"));
 
   // The JSON is itself a measurement: same figures.
-  const fs::path again = Dir() / "a2.json";
+  const fs::path again = InspectDir() / "a2.json";
   r = test::RunTtp("inspect " + out.string() + " --json " + again.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json b = Load(again);
@@ -55,7 +55,7 @@ TEST(CliInspect, SampleCloudToFiguresThenGrade) {
               a["figures"][3]["E_Z"].get<double>(), 1e-9);
 
   // run-a's E_Z is about -9 um: fails the default 5 um limit (exit 1) ...
-  const fs::path verdict = Dir() / "grade.json";
+  const fs::path verdict = InspectDir() / "grade.json";
   r = test::RunTtp("grade " + out.string() + " --json " + verdict.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("FAIL"), std::string::npos);
@@ -66,21 +66,21 @@ TEST(CliInspect, SampleCloudToFiguresThenGrade) {
 }
 
 TEST(CliInspect, DialReadingsAndBadInput) {
-  const fs::path dial = Dir() / "dial.csv";
+  const fs::path dial = InspectDir() / "dial.csv";
   std::ofstream(dial) << "feature,reading_um\nX1-1,4\nX2-1,-2\n";
-  const fs::path out = Dir() / "dial.json";
+  const fs::path out = InspectDir() / "dial.json";
   auto r = test::RunTtp("inspect " + dial.string() + " --json " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json d = Load(out);
   EXPECT_EQ(d["kind"], "dial");
   EXPECT_TRUE(d["figures"][0]["E_B"].is_null());
 
-  const fs::path bad = Dir() / "bad.csv";
+  const fs::path bad = InspectDir() / "bad.csv";
   std::ofstream(bad) << "feature,reading_um\nX1-1,four\n";
   r = test::RunTtp("inspect " + bad.string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("bad.csv:2"), std::string::npos) << r.output;
-  r = test::RunTtp("grade " + (Dir() / "missing.ply").string());
+  r = test::RunTtp("grade " + (InspectDir() / "missing.ply").string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   r = test::RunTtp("inspect " + dial.string() + " --probe-repeatability-um -1");
   EXPECT_EQ(r.exit_code, 2) << r.output;

@@ -23,10 +23,10 @@ namespace ttp {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kTrain =
+const std::string kTalcTrain =
     std::string(TTP_DATA_DIR) + "/reference/fl-thermal/train.csv";
 
-std::string Slurp(const fs::path& p) {
+std::string SlurpFile(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   std::stringstream s;
   s << in.rdbuf();
@@ -35,7 +35,7 @@ std::string Slurp(const fs::path& p) {
 
 TEST(CliTalc, ReplayOnTheRealDataBeatsHoldingTheLastMeasurement) {
   const fs::path json = test::TestDir("talc") / "replay.json";
-  const auto r = test::RunTtp("talc replay " + kTrain +
+  const auto r = test::RunTtp("talc replay " + kTalcTrain +
                               " --interval-s 3600 --json " + json.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("Q_Prod"), std::string::npos) << r.output;
@@ -58,7 +58,7 @@ TEST(CliTalc, ReplayOnTheRealDataBeatsHoldingTheLastMeasurement) {
 TEST(CliTalc, ReplayNamesASensorThatJumps) {
   const fs::path dir = test::TestDir("talc");
   const std::string log =
-      test::WriteWithStep(kTrain, dir / "jumped.csv", "T_t7", 30000, 3.0);
+      test::WriteWithStep(kTalcTrain, dir / "jumped.csv", "T_t7", 30000, 3.0);
   const fs::path json = dir / "replay.json";
   const auto r = test::RunTtp("talc replay " + log +
                               " --interval-s 3600 --json " + json.string());
@@ -102,7 +102,7 @@ TEST(CliTalc, ReplayReadsATalcLogWithItsRTestsAsSparseOutputs) {
 TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
   const fs::path dir = test::TestDir("talc");
   std::ofstream(dir / "s.toml") << "interval_s = 3600\nforgeting_per_h = 0.9\n";
-  auto r = test::RunTtp("talc replay " + kTrain + " --strategy " +
+  auto r = test::RunTtp("talc replay " + kTalcTrain + " --strategy " +
                         (dir / "s.toml").string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("forgeting_per_h"), std::string::npos) << r.output;
@@ -120,7 +120,7 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
   // The default calibration phase (8.5 h) outlasts a 6 h log: nothing
   // would be compensated, and zeros would read as perfect compensation.
   {
-    std::ifstream in(kTrain);
+    std::ifstream in(kTalcTrain);
     std::ofstream out(dir / "six_hours.csv");
     std::string line;
     while (std::getline(in, line)) {
@@ -140,22 +140,22 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
                    " --interval-s 1800 --calibration-s 7200");
   EXPECT_NE(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("Q_Prod"), std::string::npos) << r.output;
-  r = test::RunTtp("talc replay " + kTrain +
+  r = test::RunTtp("talc replay " + kTalcTrain +
                    " --interval-s 3600 --static-from-s 100 --static-to-s 101");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("holds no sample"), std::string::npos) << r.output;
 
   std::ofstream(dir / "g.toml") << "[grid]\ninterval_s = [3600, 0]\n";
   r = test::RunTtp("talc sweep " + (dir / "g.toml").string() + " --log " +
-                   kTrain);
+                   kTalcTrain);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("grid.interval_s[1]"), std::string::npos) << r.output;
-  r = test::RunTtp("talc replay " + kTrain);  // neither option
+  r = test::RunTtp("talc replay " + kTalcTrain);  // neither option
   EXPECT_EQ(r.exit_code, 2) << r.output;
   // Numbers that are not: refused, not replaced by a default.
   for (const char* bad : {" --interval-s 3600 --calibration-s nan",
                           " --interval-s inf", " --interval-s nan"}) {
-    r = test::RunTtp("talc replay " + kTrain + bad);
+    r = test::RunTtp("talc replay " + kTalcTrain + bad);
     EXPECT_EQ(r.exit_code, 2) << bad << "\n" << r.output;
     EXPECT_NE(r.output.find("is not a number in"), std::string::npos)
         << r.output;
@@ -163,7 +163,7 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
   // Outputs measured only within the calibration: nothing compensated is
   // measured, said instead of an exit 1 with zeros.
   {
-    std::ifstream in(kTrain);
+    std::ifstream in(kTalcTrain);
     std::ofstream out(dir / "early_outputs.csv");
     std::string line;
     while (std::getline(in, line)) {
@@ -189,7 +189,7 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
   // A plan of more shards than points fails before the cluster runs.
   std::ofstream(dir / "g3.toml") << "[grid]\ninterval_s = [1800, 3600, 7200]\n";
   r = test::RunTtp("talc sweep " + (dir / "g3.toml").string() + " --log " +
-                   kTrain + " --plan 4 " + (dir / "plan4").string());
+                   kTalcTrain + " --plan 4 " + (dir / "plan4").string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("4 shards for a grid of 3 points"), std::string::npos)
       << r.output;
@@ -208,11 +208,11 @@ fs::path WriteGrid(const fs::path& dir) {
 std::string InProcess(const fs::path& dir) {
   const fs::path grid = WriteGrid(dir);
   const auto r =
-      test::RunTtp("talc sweep " + grid.string() + " --log " + kTrain +
+      test::RunTtp("talc sweep " + grid.string() + " --log " + kTalcTrain +
                    " --json " + (dir / "in-process.json").string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("Pareto front"), std::string::npos) << r.output;
-  return Slurp(dir / "in-process.json");
+  return SlurpFile(dir / "in-process.json");
 }
 
 TEST(CliTalc, SweepThroughGnuParallelEqualsTheInProcessRun) {
@@ -222,14 +222,14 @@ TEST(CliTalc, SweepThroughGnuParallelEqualsTheInProcessRun) {
   const std::string expected = InProcess(dir);
   auto r =
       test::RunTtp("talc sweep " + (dir / "grid.toml").string() + " --log " +
-                   kTrain + " --plan 5 " + (dir / "plan").string());
+                   kTalcTrain + " --plan 5 " + (dir / "plan").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = test::RunCommand("sh " + (dir / "plan/parallel.sh").string() + " 2>&1");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = test::RunTtp("talc sweep --merge " + (dir / "plan").string() +
                    " --json " + (dir / "merged.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_EQ(Slurp(dir / "merged.json"), expected);
+  EXPECT_EQ(SlurpFile(dir / "merged.json"), expected);
 }
 
 // Runs `sh -c cmd`, true when it exits 0.
@@ -319,10 +319,10 @@ TEST(CliTalc, SweepThroughARealSlurmJobArrayEqualsTheInProcessRun) {
       << "PartitionName=debug Nodes=" << h << " Default=YES State=UP\n";
   const std::string env = "SLURM_CONF=" + (s / "slurm.conf").string() + " ";
   ASSERT_TRUE(Sh(env + "/usr/sbin/slurmctld -f " + (s / "slurm.conf").string()))
-      << Slurp(s / "log/slurmctld.log");
+      << SlurpFile(s / "log/slurmctld.log");
   daemons.pid_files.push_back(s / "slurmctld.pid");
   ASSERT_TRUE(Sh(env + "/usr/sbin/slurmd -f " + (s / "slurm.conf").string()))
-      << Slurp(s / "log/slurmd.log");
+      << SlurpFile(s / "log/slurmd.log");
   daemons.pid_files.push_back(s / "slurmd.pid");
   bool idle = false;
   for (int i = 0; i < 60 && !idle; ++i) {
@@ -330,22 +330,22 @@ TEST(CliTalc, SweepThroughARealSlurmJobArrayEqualsTheInProcessRun) {
                .output.find("idle") != std::string::npos;
     if (!idle) std::this_thread::sleep_for(std::chrono::milliseconds(500));
   }
-  ASSERT_TRUE(idle) << Slurp(s / "log/slurmctld.log");
+  ASSERT_TRUE(idle) << SlurpFile(s / "log/slurmctld.log");
 
   auto r =
       test::RunTtp("talc sweep " + (dir / "grid.toml").string() + " --log " +
-                   kTrain + " --plan 3 " + (dir / "plan").string());
+                   kTalcTrain + " --plan 3 " + (dir / "plan").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = test::RunCommand(env + "timeout 90 sbatch --array=0-2 --wait " +
                        (dir / "plan/talc-sweep.sbatch").string() + " 2>&1");
-  ASSERT_EQ(r.exit_code, 0) << r.output << Slurp(s / "log/slurmctld.log");
+  ASSERT_EQ(r.exit_code, 0) << r.output << SlurpFile(s / "log/slurmctld.log");
   for (int k = 0; k < 3; ++k)
     EXPECT_TRUE(
         fs::exists(dir / "plan" / ("result-" + std::to_string(k) + ".json")));
   r = test::RunTtp("talc sweep --merge " + (dir / "plan").string() +
                    " --json " + (dir / "merged.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_EQ(Slurp(dir / "merged.json"), expected);
+  EXPECT_EQ(SlurpFile(dir / "merged.json"), expected);
 }
 
 }  // namespace

@@ -12,12 +12,12 @@ namespace ttp {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kSamples = std::string(TTP_DATA_DIR) + "/samples/";
+const std::string kThermalSamples = std::string(TTP_DATA_DIR) + "/samples/";
 
 TEST(CliThermal, LogSummarisesTheSampleRun) {
   const fs::path json = test::TestDir("thermal") / "log.json";
-  const auto r = test::RunTtp("log " + kSamples + "run-b/talc.csv --json " +
-                              json.string());
+  const auto r = test::RunTtp("log " + kThermalSamples +
+                              "run-b/talc.csv --json " + json.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("compensation  on"), std::string::npos);
   const auto j = test::ReadJson(json);
@@ -42,7 +42,7 @@ TEST_P(CliSimulate, WritesFiguresAndTheInterpolationComparison) {
   const std::string run = GetParam();
   const fs::path json = test::TestDir("thermal") / (run + ".json");
   const auto r =
-      test::RunTtp("simulate --log " + kSamples + run +
+      test::RunTtp("simulate --log " + kThermalSamples + run +
                    "/talc.csv --compare-interpolation --json " + json.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("warm-up start"), std::string::npos);
@@ -63,7 +63,7 @@ TEST_P(CliSimulate, WritesFiguresAndTheInterpolationComparison) {
   EXPECT_GT(w[1]["max_line_um"].get<double>(), 1.0) << run;
   // Held-out R-tests are counted once however many phases hold them out:
   // never more than the log has.
-  std::ifstream log(kSamples + run + "/talc.csv");
+  std::ifstream log(kThermalSamples + run + "/talc.csv");
   int rtests = 0;
   for (std::string line; std::getline(log, line);)
     if (line.find(",rtest,") != std::string::npos) ++rtests;

@@ -15,7 +15,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path Dir() { return test::TestDir("verify"); }
+fs::path VerifyDir() { return test::TestDir("verify"); }
 
 std::vector<std::string> ReadLines(const fs::path& path) {
   std::ifstream in(path);
@@ -31,7 +31,8 @@ void WriteLines(const fs::path& path, const std::vector<std::string>& lines) {
 
 // Writes `ttp gcode NAME --dialect D` into the test folder.
 fs::path Program(const std::string& name, const std::string& dialect) {
-  const fs::path path = Dir() / (name + (dialect == "fanuc" ? ".nc" : ".ngc"));
+  const fs::path path =
+      VerifyDir() / (name + (dialect == "fanuc" ? ".nc" : ".ngc"));
   if (!fs::exists(path)) {
     const auto r = test::RunTtp("gcode " + name + " --dialect " + dialect +
                                 " -o " + path.string());
@@ -67,7 +68,7 @@ class CliVerifyDialect : public ::testing::TestWithParam<std::string> {};
 TEST_P(CliVerifyDialect, ProjectProgramsPass) {
   const fs::path pre = Program("pre", GetParam());
   const fs::path cycle = Program("cycle", GetParam());
-  const fs::path json = Dir() / ("pre_" + GetParam() + ".json");
+  const fs::path json = VerifyDir() / ("pre_" + GetParam() + ".json");
   auto r = test::RunTtp("verify " + pre.string() + " --json " + json.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("all checks passed"), std::string::npos);
@@ -86,13 +87,13 @@ TEST_P(CliVerifyDialect, ProjectProgramsPass) {
 }
 
 TEST_P(CliVerifyDialect, RapidThroughMaterialIsCaughtWithItsLine) {
-  const fs::path bad = Dir() / ("rapid_" + GetParam() + ".txt");
+  const fs::path bad = VerifyDir() / ("rapid_" + GetParam() + ".txt");
   const int line =
       InsertBeforeEnd(Program("pre", GetParam()), bad,
                       {"G0 X150.0000 Y60.0000 Z50.0000", "G0 Z-5.0000",
                        "G0 X-150.0000", "G0 Z50.0000"},
                       2);
-  const fs::path json = Dir() / ("rapid_" + GetParam() + ".json");
+  const fs::path json = VerifyDir() / ("rapid_" + GetParam() + ".json");
   const auto r = test::RunTtp("verify " + bad.string() + " --dialect " +
                               GetParam() + " --json " + json.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
@@ -112,13 +113,13 @@ TEST_P(CliVerifyDialect, RapidThroughMaterialIsCaughtWithItsLine) {
 }
 
 TEST_P(CliVerifyDialect, FeedIntoTheAdapterIsCaughtWithItsLine) {
-  const fs::path bad = Dir() / ("adapter_" + GetParam() + ".txt");
+  const fs::path bad = VerifyDir() / ("adapter_" + GetParam() + ".txt");
   const int line =
       InsertBeforeEnd(Program("pre", GetParam()), bad,
                       {"G0 X120.0000 Y0.0000 Z50.0000", "G0 Z-26.0000",
                        "G1 X95.0000 F300.0", "G1 X120.0000", "G0 Z50.0000"},
                       2);
-  const fs::path json = Dir() / ("adapter_" + GetParam() + ".json");
+  const fs::path json = VerifyDir() / ("adapter_" + GetParam() + ".json");
   const auto r =
       test::RunTtp("verify " + bad.string() + " --json " + json.string());
   EXPECT_EQ(r.exit_code, 1) << r.output;
@@ -141,7 +142,7 @@ INSTANTIATE_TEST_SUITE_P(BothDialects, CliVerifyDialect,
 
 TEST(CliVerify, CycleWithoutItsPreMachiningFails) {
   // An empty pre-machining: the cycle's rapids then run through the blank.
-  const fs::path empty = Dir() / "empty.ngc";
+  const fs::path empty = VerifyDir() / "empty.ngc";
   WriteLines(empty, {"%", "(nothing)", "M30", "%"});
   const auto r =
       test::RunTtp("verify " + Program("cycle", "linuxcnc").string() +
@@ -151,7 +152,7 @@ TEST(CliVerify, CycleWithoutItsPreMachiningFails) {
 }
 
 TEST(CliVerify, WithoutAProgramVerifiesTheProjectsOwnPrograms) {
-  const fs::path json = Dir() / "both.json";
+  const fs::path json = VerifyDir() / "both.json";
   auto r = test::RunTtp("verify --dialect linuxcnc --json " + json.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("both programs: passed"), std::string::npos)
@@ -168,7 +169,7 @@ TEST(CliVerify, WithoutAProgramVerifiesTheProjectsOwnPrograms) {
 }
 
 TEST(CliVerify, BadInputIsExit2) {
-  auto r = test::RunTtp("verify " + (Dir() / "missing.nc").string());
+  auto r = test::RunTtp("verify " + (VerifyDir() / "missing.nc").string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   r = test::RunTtp("verify " + Program("pre", "fanuc").string() +
                    " --stage half");
@@ -178,7 +179,7 @@ TEST(CliVerify, BadInputIsExit2) {
                    " --dialect heidenhain");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("dialect"), std::string::npos) << r.output;
-  const fs::path garbage = Dir() / "garbage.ngc";
+  const fs::path garbage = VerifyDir() / "garbage.ngc";
   WriteLines(garbage, {"%", "G1 X1 Y", "M30", "%"});
   r = test::RunTtp("verify " + garbage.string() + " --dialect linuxcnc");
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -188,9 +189,9 @@ TEST(CliVerify, BadInputIsExit2) {
 // A notch wider than the piece is refused with the field's name before
 // anything is written (it used to crash the cut simulation).
 TEST(CliVerify, FeaturesThatDoNotFitAreRefusedNamingTheField) {
-  const fs::path config = Dir() / "wide_notch.json";
+  const fs::path config = VerifyDir() / "wide_notch.json";
   WriteLines(config, {R"({"part":{"big_notch_half_width_mm":200}})"});
-  const fs::path json = Dir() / "wide_notch_result.json";
+  const fs::path json = VerifyDir() / "wide_notch_result.json";
   for (const std::string& args : {std::string("verify --json ") + json.string(),
                                   std::string("gcode cycle --dialect linuxcnc"),
                                   std::string("schedule")}) {

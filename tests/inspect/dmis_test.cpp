@@ -22,7 +22,7 @@
 namespace ttp::inspect {
 namespace {
 
-std::string ErrorOf(const std::string& text) {
+std::string DmisErrorOf(const std::string& text) {
   try {
     ParseDmisOutput(text, "r.dmo");
   } catch (const InputError& e) {
@@ -58,29 +58,30 @@ TEST(DmisTest, HonoursUnitsAndComments) {
 }
 
 TEST(DmisTest, BadFilesNameLineAndWord) {
-  EXPECT_NE(ErrorOf("UNITS/FURLONG\n").find("r.dmo:1: UNITS"),
+  EXPECT_NE(DmisErrorOf("UNITS/FURLONG\n").find("r.dmo:1: UNITS"),
             std::string::npos);
   EXPECT_NE(
-      ErrorOf("\nFA(A)=FEAT/PLANE,POL,1,2,3,0,0,1\n").find("r.dmo:2: POL"),
+      DmisErrorOf("\nFA(A)=FEAT/PLANE,POL,1,2,3,0,0,1\n").find("r.dmo:2: POL"),
       std::string::npos);
-  EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,2\n").find("expected 6 values"),
+  EXPECT_NE(
+      DmisErrorOf("FA(A)=FEAT/PLANE,CART,1,2\n").find("expected 6 values"),
+      std::string::npos);
+  EXPECT_NE(DmisErrorOf("FA(A)=FEAT/PLANE,CART,1,x,3,0,0,1\n").find("value 2"),
             std::string::npos);
-  EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,x,3,0,0,1\n").find("value 2"),
+  EXPECT_NE(DmisErrorOf("FA(A)=FEAT/PLANE,CART,1,2,3,0,0,0\n").find("zero"),
             std::string::npos);
-  EXPECT_NE(ErrorOf("FA(A)=FEAT/PLANE,CART,1,2,3,0,0,0\n").find("zero"),
-            std::string::npos);
-  EXPECT_NE(ErrorOf("").find("empty"), std::string::npos);
+  EXPECT_NE(DmisErrorOf("").find("empty"), std::string::npos);
   // A diameter is a size, never negative or zero.
   EXPECT_NE(
-      ErrorOf("\nFA(C)=FEAT/CIRCLE,OUTER,CART,0,0,60,0,0,1,-199\n")
+      DmisErrorOf("\nFA(C)=FEAT/CIRCLE,OUTER,CART,0,0,60,0,0,1,-199\n")
           .find("r.dmo:2: FA(C) value 7: -199: a diameter must be positive"),
       std::string::npos);
-  EXPECT_NE(ErrorOf("FA(S)=FEAT/SPHERE,CART,0,0,60,0\n")
+  EXPECT_NE(DmisErrorOf("FA(S)=FEAT/SPHERE,CART,0,0,60,0\n")
                 .find("FA(S) value 4: 0: a diameter must be positive"),
             std::string::npos);
   // A program given where its results belong.
-  EXPECT_NE(ErrorOf("DMISMN/'p',05.0\nF(A)=FEAT/PLANE,CART,0,0,0,0,0,1\n"
-                    "MEAS/PLANE,F(A),3\n")
+  EXPECT_NE(DmisErrorOf("DMISMN/'p',05.0\nF(A)=FEAT/PLANE,CART,0,0,0,0,0,1\n"
+                        "MEAS/PLANE,F(A),3\n")
                 .find("r.dmo:3: MEAS: this is a DMIS program"),
             std::string::npos);
 }
@@ -177,7 +178,8 @@ TEST(DmisTest, WithoutDatumsTheReportedFrameIsW) {
   EXPECT_FALSE(got.aligned_from_datums);
   ASSERT_EQ(got.warnings.size(), 1u);
   EXPECT_NEAR(got.results.at(test::Fid("X1-1")).angle_rad, 20e-6, 1e-12);
-  EXPECT_NEAR(got.results.at(test::Fid("X1-1")).d_mm, x11.size_mm + 0.001, 1e-9);
+  EXPECT_NEAR(got.results.at(test::Fid("X1-1")).d_mm, x11.size_mm + 0.001,
+              1e-9);
 }
 
 // The scatter of a facet's d = n . centroid and angle when the CMM touches
@@ -459,8 +461,10 @@ TEST(DmisTest, RefusesWhatCannotBeThisPiece) {
       DmisToFeatureResults(ParseDmisOutput(out_text, "o"), part);
   const DmisImport b =
       DmisToFeatureResults(ParseDmisOutput(in_text, "i"), part);
-  EXPECT_EQ(a.results.at(test::Fid("X1-5")).d_mm, b.results.at(test::Fid("X1-5")).d_mm);
-  EXPECT_EQ(a.results.at(test::Fid("X1-5")).angle_rad, b.results.at(test::Fid("X1-5")).angle_rad);
+  EXPECT_EQ(a.results.at(test::Fid("X1-5")).d_mm,
+            b.results.at(test::Fid("X1-5")).d_mm);
+  EXPECT_EQ(a.results.at(test::Fid("X1-5")).angle_rad,
+            b.results.at(test::Fid("X1-5")).angle_rad);
   EXPECT_EQ(b.warnings.size(), a.warnings.size() + 1);
   EXPECT_THROW(
       ParseDmisOutput("FA(X1_5)=FEAT/PLANE,CART,1e300,0,-6,1,0,0\n", "h"),

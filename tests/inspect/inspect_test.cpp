@@ -31,7 +31,7 @@ const Figure kFigures[] = {
     {"E_TTP", &CycleFigures::e_ttp_mm, &CycleFigures::u_ttp_mm, 1e3},
 };
 
-std::string ErrorOf(const PointCloud& cloud) {
+std::string CloudErrorOf(const PointCloud& cloud) {
   try {
     InspectCloud(PartSpec{}, cloud);
   } catch (const InputError& e) {
@@ -144,10 +144,10 @@ TEST(InspectCloudTest, BadCloudsNameTheProblem) {
   const SynthPiece s = RandomSynthPiece(5, 5000);
   PointCloud metres = s.cloud;
   metres.xyz_mm *= 1e-3;
-  EXPECT_NE(ErrorOf(metres).find("looks like metres"), std::string::npos);
+  EXPECT_NE(CloudErrorOf(metres).find("looks like metres"), std::string::npos);
   PointCloud inches = s.cloud;
   inches.xyz_mm /= 25.4;
-  EXPECT_NE(ErrorOf(inches).find("looks like inches"), std::string::npos);
+  EXPECT_NE(CloudErrorOf(inches).find("looks like inches"), std::string::npos);
 
   std::mt19937 rng(3);
   std::normal_distribution<double> g(0.0, 1.0);
@@ -166,11 +166,11 @@ TEST(InspectCloudTest, BadCloudsNameTheProblem) {
     b(i % 3) = (i % 2 ? 1 : -1) * (i % 3 == 2 ? 12.0 : 101.5);
     box.xyz_mm.col(i) = b;
   }
-  EXPECT_NE(ErrorOf(sphere).find("sphere.ply:"), std::string::npos);
-  EXPECT_NE(ErrorOf(sphere).find("no test piece"), std::string::npos);
-  EXPECT_NE(ErrorOf(box).find("no test piece"), std::string::npos);
+  EXPECT_NE(CloudErrorOf(sphere).find("sphere.ply:"), std::string::npos);
+  EXPECT_NE(CloudErrorOf(sphere).find("no test piece"), std::string::npos);
+  EXPECT_NE(CloudErrorOf(box).find("no test piece"), std::string::npos);
   empty.source = "empty.ply";
-  EXPECT_NE(ErrorOf(empty).find("no points"), std::string::npos);
+  EXPECT_NE(CloudErrorOf(empty).find("no points"), std::string::npos);
 }
 
 }  // namespace

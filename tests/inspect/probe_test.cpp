@@ -180,7 +180,7 @@ TEST(ProbeTest, ProgramFrameFileIsRecognised) {
   EXPECT_THROW(ReadProbeResults(config, csv, "p.csv", o), InputError);
 }
 
-std::string ErrorOf(const std::string& csv) {
+std::string ProbeErrorOf(const std::string& csv) {
   try {
     ReadProbeResults(Config{}, csv, "probe.csv");
   } catch (const InputError& e) {
@@ -207,7 +207,7 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
   {
     auto v = lines;
     v[2] = "99999" + v[2].substr(v[2].find(','));
-    const std::string e = ErrorOf(join(v));
+    const std::string e = ProbeErrorOf(join(v));
     EXPECT_NE(e.find("probe.csv:3: point_id"), std::string::npos) << e;
     EXPECT_NE(e.find("not in the point list"), std::string::npos) << e;
   }
@@ -215,7 +215,7 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
   {
     auto v = lines;
     v.push_back(v[1]);
-    EXPECT_NE(ErrorOf(join(v)).find("given twice"), std::string::npos);
+    EXPECT_NE(ProbeErrorOf(join(v)).find("given twice"), std::string::npos);
   }
   // Missing column.
   {
@@ -223,7 +223,7 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
     v[0] = "point_id,x,y,z";
     for (size_t i = 1; i < v.size(); ++i)
       v[i] = v[i].substr(0, v[i].rfind(','));
-    const std::string e = ErrorOf(join(v));
+    const std::string e = ProbeErrorOf(join(v));
     EXPECT_NE(e.find("probe.csv:1: c_deg"), std::string::npos) << e;
   }
   // NaN and text.
@@ -231,13 +231,14 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
     auto v = lines;
     v[4] = v[4].substr(0, v[4].find(',') + 1) + "nan" +
            v[4].substr(v[4].find(',', v[4].find(',') + 1));
-    const std::string e = ErrorOf(join(v));
+    const std::string e = ProbeErrorOf(join(v));
     EXPECT_NE(e.find("probe.csv:5: x"), std::string::npos) << e;
   }
   {
     auto v = lines;
     v[6] = v[6].substr(0, v[6].rfind(',') + 1) + "ninety";
-    EXPECT_NE(ErrorOf(join(v)).find("probe.csv:7: c_deg"), std::string::npos);
+    EXPECT_NE(ProbeErrorOf(join(v)).find("probe.csv:7: c_deg"),
+              std::string::npos);
   }
   // One row in the program frame among machine-frame rows (z 54 mm off).
   {
@@ -249,11 +250,11 @@ TEST(ProbeTest, BadRowsNameLineAndField) {
     cells[3] = fmt::format("{:.4f}", std::stod(cells[3]) - 54.0);
     v[2] = cells[0] + "," + cells[1] + "," + cells[2] + "," + cells[3] + "," +
            cells[4];
-    const std::string e = ErrorOf(join(v));
+    const std::string e = ProbeErrorOf(join(v));
     EXPECT_NE(e.find("probe.csv:3: x,y,z"), std::string::npos) << e;
     EXPECT_NE(e.find("machine frame"), std::string::npos) << e;
   }
-  EXPECT_NE(ErrorOf("point_id,x,y,z,c_deg\n").find("no probe results"),
+  EXPECT_NE(ProbeErrorOf("point_id,x,y,z,c_deg\n").find("no probe results"),
             std::string::npos);
   // A facet with too few points is missing, with a warning.
   {

@@ -20,7 +20,7 @@ PointCloud Disc(double scale) {
   return c;
 }
 
-std::string ErrorOf(const PointCloud& c, bool check = true) {
+std::string UnitsErrorOf(const PointCloud& c, bool check = true) {
   InspectOptions o;
   o.check_units = check;
   try {
@@ -32,13 +32,13 @@ std::string ErrorOf(const PointCloud& c, bool check = true) {
 }
 
 TEST(CheckCloudUnits, MillimetresPassOthersAreNamed) {
-  EXPECT_EQ(ErrorOf(Disc(1.0)), "");
-  EXPECT_NE(ErrorOf(Disc(1e-3)).find("units: "), std::string::npos);
-  EXPECT_NE(ErrorOf(Disc(1e-3)).find("--units m"), std::string::npos);
-  EXPECT_NE(ErrorOf(Disc(1 / 25.4)).find("--units in"), std::string::npos);
-  EXPECT_NE(ErrorOf(Disc(20.0)).find("alignment: no test piece"),
+  EXPECT_EQ(UnitsErrorOf(Disc(1.0)), "");
+  EXPECT_NE(UnitsErrorOf(Disc(1e-3)).find("units: "), std::string::npos);
+  EXPECT_NE(UnitsErrorOf(Disc(1e-3)).find("--units m"), std::string::npos);
+  EXPECT_NE(UnitsErrorOf(Disc(1 / 25.4)).find("--units in"), std::string::npos);
+  EXPECT_NE(UnitsErrorOf(Disc(20.0)).find("alignment: no test piece"),
             std::string::npos);
-  EXPECT_EQ(ErrorOf(Disc(1e-3), false), "");
+  EXPECT_EQ(UnitsErrorOf(Disc(1e-3), false), "");
 }
 
 }  // namespace

@@ -106,8 +106,8 @@ TEST(ProbeProgramTest, OurReaderReadsBothDialectsAndTheMovesHitThePlan) {
   }
 }
 
-// Lines of `text` in order, trimmed.
-std::vector<std::string> Lines(const std::string& text) {
+// Lines of `text` in order.
+std::vector<std::string> ProgramLines(const std::string& text) {
   std::vector<std::string> out;
   std::istringstream in(text);
   std::string l;
@@ -137,7 +137,7 @@ TEST(ProbeProgramTest, ProbeSwitchedOnOrientedAndOffFromTheProfile) {
   const auto points = PlanProbePoints(config);
   for (Dialect d : {Dialect::kFanuc, Dialect::kLinuxCnc}) {
     const bool fanuc = d == Dialect::kFanuc;
-    const auto l = Lines(WriteProbeProgram(config, points, d));
+    const auto l = ProgramLines(WriteProbeProgram(config, points, d));
     const size_t change = FirstLine(l, "T20 M6");
     const size_t stop = FirstLine(l, "M5");
     const size_t orient = FirstLine(l, "M19");
@@ -177,7 +177,8 @@ TEST(ProbeProgramTest, FanucChecksEveryTouch) {
   const Config config;
   const ProbeOptions options;
   const auto points = PlanProbePoints(config);
-  const auto l = Lines(WriteProbeProgram(config, points, Dialect::kFanuc));
+  const auto l =
+      ProgramLines(WriteProbeProgram(config, points, Dialect::kFanuc));
   const std::vector<Expected> expected = ExpectedTouches(config, points);
   static const std::regex g31(R"(G31 ([XYZ])(-?[0-9.]+) F[0-9.]+)");
   static const std::regex check(

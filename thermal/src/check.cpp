@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/format.h"
@@ -19,8 +20,6 @@ const char* const kFigureNames[kFigureCount] = {"E_X", "E_Y", "E_Z", "E_B",
 const char* const kFigureUnits[kFigureCount] = {"um", "um", "um", "um/m", "um"};
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Figure values in um (E_B in um/m).
 std::array<double, kFigureCount> Values(const CycleFigures& f) {

@@ -24,7 +24,7 @@ struct InputSpecPower {
   InputSpec spec;
   int power;  // heat from friction grows with speed (1) or its square (2)
 };
-const InputSpecPower kInputs[] = {
+const InputSpecPower kEstimatorInputs[] = {
     {{"c_rpm/1000", kCRpm, 1e-3, false}, 1},
     {{"(c_rpm/1000)^2", kCRpm, 1e-3, false}, 2},
     {{"spindle_rpm/1000", kSpindleRpm, 1e-3, false}, 1},
@@ -408,7 +408,7 @@ MachineErrorEstimator MachineErrorEstimator::FitExcluding(
   const double dt = options.grid_step_s;
   const int steps = static_cast<int>(std::ceil((t1 - t0) / dt)) + 1;
   est.grid_t0_ = t0;
-  for (const InputSpecPower& sp : kInputs) {
+  for (const InputSpecPower& sp : kEstimatorInputs) {
     const InputSpec& spec = sp.spec;
     std::vector<double> t, v;
     for (const auto& row : log.rows) {

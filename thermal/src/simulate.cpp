@@ -7,13 +7,12 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/frames.h"
 
 namespace ttp::thermal {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::vector<double> Linspace(double a, double b, int n) {
   std::vector<double> v(n);

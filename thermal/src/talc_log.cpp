@@ -11,6 +11,7 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
@@ -29,7 +30,6 @@ const char* const kNumericColumnNames[kNumericColumnCount] = {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 const std::pair<const char*, LogEvent> kEvents[] = {
@@ -65,7 +65,6 @@ std::vector<std::string> SplitCsv(const std::string& line) {
   cells.push_back(Trim(cell));
   return cells;
 }
-
 
 CAxisErrors ErrorsFrom(const LogRow& row, int first_column) {
   std::array<double, 7> micro;
@@ -246,8 +245,8 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
     for (int c = 0; c < kNumericColumnCount; ++c) {
       const int i = numeric_index[c];
       if (i >= 0 && !cells[i].empty()) {
-        row.values[c] =
-            ParseFiniteNumber(cells[i], source, line_no, kNumericColumnNames[c]);
+        row.values[c] = ParseFiniteNumber(cells[i], source, line_no,
+                                          kNumericColumnNames[c]);
         CheckMagnitude(c, row.values[c], source, line_no);
       }
     }
@@ -419,8 +418,8 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
   if (log.header.count("machine")) log.machine = log.header["machine"];
   if (log.header.count("sphere_distance_mm")) {
     const int line = key_line_of("sphere_distance_mm");
-    log.sphere_distance_mm = ParseFiniteNumber(log.header["sphere_distance_mm"],
-                                         source, line, "sphere_distance_mm");
+    log.sphere_distance_mm = ParseFiniteNumber(
+        log.header["sphere_distance_mm"], source, line, "sphere_distance_mm");
     if (!(log.sphere_distance_mm >= limits::kMinSphereDistanceMm &&
           log.sphere_distance_mm <= limits::kMaxSphereDistanceMm)) {
       throw InputError(
@@ -433,8 +432,8 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
   }
   if (log.header.count("sphere_height_mm")) {
     const int line = key_line_of("sphere_height_mm");
-    log.sphere_height_mm = ParseFiniteNumber(log.header["sphere_height_mm"], source,
-                                       line, "sphere_height_mm");
+    log.sphere_height_mm = ParseFiniteNumber(log.header["sphere_height_mm"],
+                                             source, line, "sphere_height_mm");
     if (std::abs(*log.sphere_height_mm) > limits::kMaxSphereDistanceMm) {
       throw InputError(
           source, line, "sphere_height_mm",

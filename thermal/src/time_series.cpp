@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/series.h"
@@ -14,13 +15,11 @@
 namespace ttp::thermal {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 struct InputColumn {
   NumericColumn column;
   const char* name;
 };
-constexpr InputColumn kInputs[] = {
+constexpr InputColumn kLoggedInputs[] = {
     {kTEnv, "T_env"},           {kTWs, "T_ws"},
     {kTMwf, "T_mwf"},           {kDTCool, "T_dT_cool"},
     {kSpindleRpm, "n_spindle"}, {kCRpm, "n_c"}};
@@ -54,7 +53,7 @@ models::TimeSeries TalcLogToTimeSeries(const TalcLog& log) {
 
   // Inputs the log fills at least once.
   std::vector<InputColumn> used;
-  for (const auto& c : kInputs) {
+  for (const auto& c : kLoggedInputs) {
     if (std::any_of(log.rows.begin(), log.rows.end(),
                     [&](const LogRow& r) { return r.Has(c.column); }))
       used.push_back(c);

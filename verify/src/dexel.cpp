@@ -4,12 +4,13 @@
 #include <cmath>
 #include <optional>
 
+#include "ttp/geometry/constants.h"
+
 namespace ttp::verify {
 namespace {
 
 using Interval = std::pair<double, double>;
 using Vec2 = Eigen::Vector2d;
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kHuge = 1e12;
 // Below this a length or a height difference counts as zero (mm).
 constexpr double kTiny = 1e-12;

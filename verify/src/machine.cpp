@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "ttp/gcode/execution.h"
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/frames.h"
 
 namespace ttp::verify {
@@ -13,8 +14,6 @@ namespace {
 
 using gcode::CanonKind;
 using gcode::CanonStatement;
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 // Sampling of a move: at most this far in XYZ and this much C.
 constexpr double kStepMm = 1.0;
 constexpr double kStepRad = 0.5 * kDeg;

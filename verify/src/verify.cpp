@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "ttp/gcode/execution.h"
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
@@ -19,8 +20,6 @@ namespace {
 
 using gcode::CanonKind;
 using gcode::CanonStatement;
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 // Removal below this (mm) along a ray is numerical noise, not a cut.
 constexpr double kCutEpsMm = 1e-6;
 // A tool-length offset within this of the tool's length is that tool's.

@@ -15,6 +15,10 @@
 
 namespace ttp::models {
 
+// thermal-log.md section 2: a step longer than this many sampling periods
+// (the median step) is a gap.
+inline constexpr double kGapPeriods = 10.0;
+
 struct TimeSeries {
   std::string source;                         // file name, for messages
   std::map<std::string, std::string> header;  // `# key: value` lines
@@ -23,8 +27,8 @@ struct TimeSeries {
   Eigen::MatrixXd inputs;                 // rows: samples; cols: input_names
   std::vector<std::string> output_names;  // d_* columns, in file order
   Eigen::MatrixXd outputs_um;             // NaN where not measured
-  // Rows i with t_s[i] - t_s[i-1] larger than ten sampling periods (the
-  // median step): a model restarts there instead of bridging the gap.
+  // Rows i with t_s[i] - t_s[i-1] larger than kGapPeriods sampling periods
+  // (the median step): a model restarts there instead of bridging the gap.
   std::vector<std::size_t> gap_rows;
   std::vector<std::string> warnings;
 
