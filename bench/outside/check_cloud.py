@@ -8,7 +8,8 @@ feature geometry are those of the specs as the CLI reads them.
 
 Usage: check_cloud.py [--ttp build/app/ttp] [--runs 6] [--seed 1]
                       [--effect none] [--points 20000]
-                      [--surroundings none|adapter|table|posts|both]
+                      [--surroundings none|adapter|table|posts|vise|
+                                      angle_plate|tilted|both]
                       [--table-share 2] [DIR ...]
        check_cloud.py --stats DIR ...   (points per surface, ranges in W)
 With DIRs: check those runs (each with truth.json and piece.ply/.xyz);
@@ -23,7 +24,17 @@ point up to 100 mm off the piece's axis); 'table' the piece straight on
 a CMM table (z = -24, same rectangle, no adapter); 'posts' that table
 with three clamp posts beside the piece (16 mm across, 125 mm from its
 axis, their tops 30 to 50 mm above the piece's top, a tenth as many
-points as the piece each); 'both' alternates adapter and table.
+points as the piece each); 'vise' the piece held in a vise on that table
+by its 201 mm cylinder (two jaws 30 mm thick and 150 mm wide touching
+it at x = +-100.5, their tops at z = -20.5, a vise base 360 x 200 mm
+at z = -24 under the piece, the CMM table at z = -90); 'angle_plate' an
+angle plate beside the piece on the table (a vertical face 120 to 250
+mm wide and 84 mm high, 105 mm from the axis at a random angle, its top 60 mm
+above the piece's top, half as many points as the piece, with its 25 mm
+thick top edge and ends); 'tilted' the table tilted against the piece by
+0.5 to 3 degrees (the piece on shims or a tilting fixture; the table 2 mm
+below the piece's bottom under its axis); 'both' alternates adapter and
+table.
 The table holds --table-share (default 2) times, the adapter a fifth as
 many points as the piece, with the piece's noise; the table's points under
 the piece's rim are not seen (a scanner looks from above).
@@ -112,7 +123,8 @@ def read_cloud(path):
 
 
 def add_surroundings(d, kind, seed, table_share=2.0):
-    """Appends the surroundings `kind` (adapter, table or posts: see the
+    """Appends the surroundings `kind` (adapter, table, posts, vise,
+    angle_plate or tilted: see the
     module doc) to the cloud in d, in the cloud's pose; rewrites it in its
     format."""
     truth = json.load(open(os.path.join(d, "truth.json")))
@@ -144,13 +156,61 @@ def add_surroundings(d, kind, seed, table_share=2.0):
             a = rng.uniform(0, 2 * math.pi)
             r = 90.0 + rng.gauss(0, noise)
             w.append((r * math.cos(a), r * math.sin(a), rng.uniform(-54.0, -24.5)))
+    if kind == "vise":
+        table_z = -90.0
+        phi = rng.uniform(0, 2 * math.pi)     # the jaws' direction in W
+        c, s = math.cos(phi), math.sin(phi)
+        vise = []
+        for _ in range(n // 4):
+            side = 1.0 if rng.random() < 0.5 else -1.0
+            f = rng.random()
+            if f < 0.5:      # a jaw's top
+                u, v, z = side * rng.uniform(100.5, 130.5), rng.uniform(-75, 75), -20.5 + rng.gauss(0, noise)
+            elif f < 0.75:   # a jaw's outer face
+                u, v, z = side * (130.5 + rng.gauss(0, noise)), rng.uniform(-75, 75), rng.uniform(-24, -20.5)
+            else:            # a jaw's inner face where the disc does not hide it
+                v = rng.uniform(-75, 75)
+                if abs(v) < 30.0:
+                    continue
+                u, z = side * (100.5 + rng.gauss(0, noise)), rng.uniform(-24, -20.5)
+            vise.append((u, v, z))
+        for _ in range(n // 2):  # the vise's base around the piece and the jaws
+            u, v = rng.uniform(-180, 180), rng.uniform(-100, 100)
+            if math.hypot(u, v) < 101.0 or (100.5 <= abs(u) <= 130.5 and abs(v) <= 75):
+                continue
+            vise.append((u, v, -24.0 + rng.gauss(0, noise)))
+        w.extend((c * u - s * v, s * u + c * v, z) for u, v, z in vise)
+    if kind == "angle_plate":
+        phi = rng.uniform(0, 2 * math.pi)
+        c, s = math.cos(phi), math.sin(phi)
+        half = rng.uniform(60.0, 125.0)   # half the plate's width
+        plate = []
+        for _ in range(n // 2):
+            f = rng.random()
+            if f < 0.75:     # the face towards the piece
+                u, v, z = 105.0 + rng.gauss(0, noise), rng.uniform(-half, half), rng.uniform(-24, 60)
+            elif f < 0.9:    # its top edge
+                u, v, z = rng.uniform(105, 130), rng.uniform(-half, half), 60.0 + rng.gauss(0, noise)
+            else:            # its ends
+                u, v, z = rng.uniform(105, 130), math.copysign(half, rng.random() - 0.5) + rng.gauss(0, noise), \
+                    rng.uniform(-24, 60)
+            plate.append((u, v, z))
+        w.extend((c * u - s * v, s * u + c * v, z) for u, v, z in plate)
+    tilt = None
+    if kind == "tilted":
+        a, phi = math.radians(rng.uniform(0.5, 3.0)), rng.uniform(0, 2 * math.pi)
+        tilt = (math.tan(a) * math.cos(phi), math.tan(a) * math.sin(phi))
+        table_z = -26.0
     cx, cy = rng.uniform(-100, 100), rng.uniform(-100, 100)
     n_before = len(w)
     while len(w) < n_before + int(table_share * n):
         x, y = cx + rng.uniform(-300, 300), cy + rng.uniform(-250, 250)
         if math.hypot(x, y) < 101.0:
             continue
-        w.append((x, y, table_z + rng.gauss(0, noise)))
+        if kind == "angle_plate" and 104.0 < x * c + y * s < 131.0 and abs(-x * s + y * c) < half + 1.0:
+            continue
+        z = table_z + (tilt[0] * x + tilt[1] * y if tilt else 0.0)
+        w.append((x, y, z + rng.gauss(0, noise)))
     extra = [tuple(R[i][0] * p[0] + R[i][1] * p[1] + R[i][2] * p[2] + t[i] for i in range(3)) for p in w]
     allp = list(pts) + extra
     rng.shuffle(allp)
@@ -225,9 +285,9 @@ def main():
     ap.add_argument("--stats", action="store_true",
                     help="only the points per surface and their ranges of the DIRs' clouds, in W "
                          "from truth.json's pose (the samples' or the generator's); no ttp")
-    ap.add_argument("--surroundings", choices=["none", "adapter", "table", "posts", "both"], default="none",
-                    help="add the adapter and the machine table, a CMM table, or a CMM table with clamp posts, "
-                         "to each cloud")
+    ap.add_argument("--surroundings", choices=["none", "adapter", "table", "posts", "vise", "angle_plate", "tilted", "both"], default="none",
+                    help="add the adapter and the machine table, a CMM table, a CMM table with clamp posts, "
+                         "a vise, an angle plate or a tilted table to each cloud")
     ap.add_argument("--table-share", type=float, default=2.0,
                     help="points on the table per point on the piece (--surroundings)")
     ap.add_argument("dirs", nargs="*")

@@ -171,6 +171,89 @@ TEST(AlignCloud, TableAdapterAndPostsInTheCloudAreLeftOut) {
   }
 }
 
+// Other fixtures a lab measures the piece in (measurements.md section 1:
+// present and ignored), each at a random direction about the piece:
+//  - a vise holding it by its 201 mm cylinder: two jaws 30 mm thick and
+//    150 mm wide, their tops (planes parallel to the top face, at
+//    z = -20.5) and outer faces seen, on a vise base at z = -24 wider
+//    than the piece, the CMM table at z = -90;
+//  - an angle plate beside it: a vertical face 105 mm from the axis,
+//    150 or 250 mm wide, rising 60 mm above the top face, with its 25 mm
+//    top edge (a plane parallel to the top face, above it);
+//  - the table tilted against the piece by 3 degrees (shims, a tilting
+//    fixture), 2 mm below the bottom face under the axis.
+// The pose is undone as without them.
+TEST(AlignCloud, ViseAnglePlateAndTiltedTableAreLeftOut) {
+  const SynthPiece s = Piece(8);
+  const Eigen::Index n = s.cloud.size();
+  enum Setup { kVise, kNarrowAnglePlate, kWideAnglePlate, kTiltedTable };
+  for (const Setup setup :
+       {kVise, kNarrowAnglePlate, kWideAnglePlate, kTiltedTable}) {
+    SCOPED_TRACE(setup == kVise               ? "vise"
+                 : setup == kNarrowAnglePlate ? "angle plate 150 mm"
+                 : setup == kWideAnglePlate   ? "angle plate 250 mm"
+                                              : "table tilted 3 deg");
+    std::mt19937 rng(31 + setup);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::normal_distribution<double> noise(0, 0.002);
+    const double dir = 2 * M_PI * u(rng);
+    // (along, across, z) about the fixture's direction -> W
+    const auto to_w = [dir](double a, double b, double z) {
+      return Eigen::Vector3d(a * std::cos(dir) - b * std::sin(dir),
+                             a * std::sin(dir) + b * std::cos(dir), z);
+    };
+    std::vector<Eigen::Vector3d> w;
+    double table_z = -24;
+    Eigen::Vector2d table_slope(0, 0);
+    if (setup == kVise) {
+      table_z = -90;
+      for (Eigen::Index k = 0; k < n / 2; ++k) {
+        const double side = u(rng) < 0.5 ? 1 : -1, f = u(rng);
+        const double b = 150 * (u(rng) - 0.5);
+        if (f < 0.6)  // a jaw's top
+          w.push_back(to_w(side * (100.5 + 30 * u(rng)), b, -20.5));
+        else if (f < 0.8)  // its outer face
+          w.push_back(to_w(side * 130.5, b, -24 + 3.5 * u(rng)));
+        else  // the vise's base around the piece
+          w.push_back(
+              to_w(side * (130.5 + 49.5 * u(rng)), 200 * (u(rng) - 0.5), -24));
+      }
+    }
+    if (setup == kNarrowAnglePlate || setup == kWideAnglePlate) {
+      const double half = setup == kNarrowAnglePlate ? 75 : 125;
+      for (Eigen::Index k = 0; k < n / 2; ++k) {
+        const double b = 2 * half * (u(rng) - 0.5);
+        if (u(rng) < 0.8)  // the face towards the piece
+          w.push_back(to_w(105, b, -24 + 84 * u(rng)));
+        else  // its top edge
+          w.push_back(to_w(105 + 25 * u(rng), b, 60));
+      }
+    }
+    if (setup == kTiltedTable) {
+      table_z = -26;
+      table_slope = std::tan(3 * M_PI / 180) *
+                    Eigen::Vector2d(std::cos(dir), std::sin(dir));
+    }
+    const size_t before = w.size();
+    while (w.size() < before + static_cast<size_t>(2 * n)) {
+      const double x = 40 + 600 * (u(rng) - 0.5);
+      const double y = -60 + 500 * (u(rng) - 0.5);
+      if (std::hypot(x, y) < 101) continue;  // under the rim: not seen
+      w.emplace_back(x, y, table_z + table_slope.dot(Eigen::Vector2d(x, y)));
+    }
+    PointCloud c = s.cloud;
+    c.xyz_mm.conservativeResize(3, n + static_cast<Eigen::Index>(w.size()));
+    for (size_t k = 0; k < w.size(); ++k) {
+      const Eigen::Vector3d jitter(noise(rng), noise(rng), noise(rng));
+      c.xyz_mm.col(n + static_cast<Eigen::Index>(k)) =
+          s.rotation * (w[k] + jitter) + s.translation;
+    }
+    const AlignedCloud a = AlignCloud(PartSpec{}, c, InspectOptions{});
+    ExpectPoseUndone(a, s);
+    EXPECT_NEAR(a.alignment.circle_diameter_mm, 199.0, 1e-3);
+  }
+}
+
 // x -> -x: every datum is still there, but the mark sits where only a
 // mirrored piece has it; the cycles would come out reversed.
 TEST(AlignCloud, MirrorImageIsRefused) {
