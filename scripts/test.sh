@@ -32,7 +32,7 @@ fi
 # that would only repeat the release stage), and the two that run the
 # finished ttp as a user does, many times over (Docs/: the commands of the
 # README and docs/*.md as written; outside.: the outside generator's
-# battery), 8-10 times slower here, about five minutes of the stage;
+# battery and cloud checks), 8-10 times slower here, about five minutes of the stage;
 # everything of ttp that those paths run is covered by the other tests
 # (the CLI tests run every command and measurement kind). The sanitized
 # build does not build the executables of the last four

@@ -9,8 +9,8 @@ feature geometry are those of the specs as the CLI reads them.
 Usage: check_cloud.py [--ttp build/app/ttp] [--runs 6] [--seed 1]
                       [--effect none] [--points 20000]
                       [--surroundings none|adapter|table|posts|vise|
-                                      angle_plate|tilted|both]
-                      [--table-share 2] [DIR ...]
+                                      angle_plate|tilted|both|fixtures]
+                      [--table-share 2] [--limits] [DIR ...]
        check_cloud.py --stats DIR ...   (points per surface, ranges in W)
 With DIRs: check those runs (each with truth.json and piece.ply/.xyz);
 without: generate --runs runs (seeds seed, seed+1, ...: PLY and .xyz, table
@@ -34,7 +34,12 @@ above the piece's top, half as many points as the piece, with its 25 mm
 thick top edge and ends); 'tilted' the table tilted against the piece by
 0.5 to 3 degrees (the piece on shims or a tilting fixture; the table 2 mm
 below the piece's bottom under its axis); 'both' alternates adapter and
-table.
+table, 'fixtures' vise, angle plate and tilted table.
+--limits: exit 1 also when a figure or a facet distance is off the truth
+by more than 1 um or a facet angle by more than 100 urad (the clouds'
+noise gives at most about 0.25 um and 40 urad); always exit 1 when ttp
+inspect refuses a cloud. The ctest outside.inspect_clouds_in_fixtures
+runs `--runs 12 --seed 11 --surroundings fixtures --limits`.
 The table holds --table-share (default 2) times, the adapter a fifth as
 many points as the piece, with the piece's noise; the table's points under
 the piece's rim are not seen (a scanner looks from above).
@@ -285,11 +290,15 @@ def main():
     ap.add_argument("--stats", action="store_true",
                     help="only the points per surface and their ranges of the DIRs' clouds, in W "
                          "from truth.json's pose (the samples' or the generator's); no ttp")
-    ap.add_argument("--surroundings", choices=["none", "adapter", "table", "posts", "vise", "angle_plate", "tilted", "both"], default="none",
+    ap.add_argument("--surroundings", choices=["none", "adapter", "table", "posts", "vise", "angle_plate", "tilted", "both",
+                             "fixtures"], default="none",
                     help="add the adapter and the machine table, a CMM table, a CMM table with clamp posts, "
                          "a vise, an angle plate or a tilted table to each cloud")
     ap.add_argument("--table-share", type=float, default=2.0,
                     help="points on the table per point on the piece (--surroundings)")
+    ap.add_argument("--limits", action="store_true",
+                    help="exit 1 also when a figure or facet distance is off by more than 1 um, "
+                         "or a facet angle by more than 100 urad")
     ap.add_argument("dirs", nargs="*")
     a = ap.parse_args()
     if a.stats:
@@ -305,11 +314,13 @@ def main():
                 d = os.path.join(work, "r%d" % i)
                 generate.generate(d, a.effect, size, a.seed + i, 300.0, False, "cloud", a.points)
                 if a.surroundings != "none":
-                    kind = a.surroundings if a.surroundings != "both" else ("adapter", "table")[i % 2]
+                    kind = {"both": ("adapter", "table")[i % 2],
+                            "fixtures": ("vise", "angle_plate", "tilted")[i % 3]}.get(a.surroundings,
+                                                                                   a.surroundings)
                     add_surroundings(d, kind, a.seed + i, a.table_share)
                 dirs.append(d)
         total = {}
-        bad = 0
+        bad = refused = 0
         for d in dirs:
             truth = json.load(open(os.path.join(d, "truth.json")))
             cloud = [f for f in os.listdir(d) if f.startswith("piece.") and f[-3:] in ("ply", "xyz")][0]
@@ -322,6 +333,7 @@ def main():
             if got is None:
                 print(head + ": ttp inspect exit %d: %s" % (rc, err.splitlines()[-1:] if err else ""))
                 bad += 1
+                refused += 1
                 continue
             diff = compare(truth, got)
             dev = max([abs(x) for k in ("E_X", "E_Y", "E_Z", "E_TTP") for x in diff[k]] or [float("nan")])
@@ -329,9 +341,16 @@ def main():
                 len(got.get("warnings") or []), dev, (got.get("alignment") or {}).get("top_face_rms_um", float("nan"))))
             for w in got.get("warnings") or []:
                 print("   warning: %s" % w)
+            worst_um = max([abs(x) for k in FIGS if k != "E_B" for x in diff[k]] +
+                           [abs(x) for x in diff["facet d um"]] or [0.0])
+            worst_urad = max([abs(x) for x in diff["facet angle urad"]] or [0.0])
+            if a.limits and (worst_um > 1.0 or worst_urad > 100.0):
+                print("   beyond the limits: %.2f um, %.0f urad" % (worst_um, worst_urad))
+                bad += 1
             for k, v in diff.items():
                 total.setdefault(k, []).extend(v)
-        print("measured - truth over %d runs:" % (len(dirs) - bad))
+        print("measured - truth over %d runs (%d refused; %d beyond the limits):" % (
+            len(dirs) - refused, refused, bad - refused))
         pairs = total.pop("angle pairs", [])
         for k, v in total.items():
             print("  %-18s %s" % (k, stats(v)))

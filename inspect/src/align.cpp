@@ -22,6 +22,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_circle.h>
 #include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
 
 #include <Eigen/Eigenvalues>
@@ -33,6 +34,7 @@
 #include <memory>
 #include <optional>
 #include <pcl/sample_consensus/impl/ransac.hpp>
+#include <pcl/sample_consensus/impl/sac_model_circle.hpp>
 #include <pcl/sample_consensus/impl/sac_model_perpendicular_plane.hpp>
 #include <pcl/sample_consensus/impl/sac_model_plane.hpp>
 
@@ -154,6 +156,47 @@ bool LargestPlaneAcross(const Eigen::Matrix3Xd& p, const Indices& idx,
   *normal = coeff.head<3>().cast<double>() / norm;
   *point = c - (static_cast<double>(coeff[3]) / norm) * *normal;
   return true;
+}
+
+// The points of `pts` within band_mm of the circle of radius within 3 mm
+// of radius_mm that most of them lie on (PCL's RANSAC with the 2-D circle
+// model, on at most 5,000 of them, moved to their centroid in double
+// before PCL's float copy): other surfaces at the same heights (a vise's
+// jaws, an angle plate or clamp posts beside the piece) must not pull the
+// rough centre. All of pts when no such circle holds 20 of them.
+std::vector<Eigen::Vector2d> NearCircleOfRadius(
+    const std::vector<Eigen::Vector2d>& pts, double radius_mm,
+    double band_mm) {
+  if (pts.size() < 20) return pts;
+  const Indices pick = Subsample(static_cast<Index>(pts.size()), 5000);
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (Index k : pick) c += pts[static_cast<size_t>(k)];
+  c /= static_cast<double>(pick.size());
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->reserve(pick.size());
+  for (Index k : pick) {
+    const Eigen::Vector2f d = (pts[static_cast<size_t>(k)] - c).cast<float>();
+    cloud->push_back(pcl::PointXYZ(d.x(), d.y(), 0.0f));
+  }
+  // PCL's fixed seed (random = false): the same cloud gives the same circle.
+  auto model =
+      std::make_shared<pcl::SampleConsensusModelCircle2D<pcl::PointXYZ>>(
+          cloud);
+  model->setRadiusLimits(radius_mm - 3, radius_mm + 3);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, band_mm);
+  ransac.setProbability(0.9999);
+  ransac.setMaxIterations(5000);
+  const internal::QuietPcl quiet;
+  if (!ransac.computeModel()) return pts;
+  Eigen::VectorXf coeff;
+  ransac.getModelCoefficients(coeff);
+  if (coeff.size() != 3 || !coeff.allFinite()) return pts;
+  const Eigen::Vector2d centre = c + coeff.head<2>().cast<double>();
+  const double radius = coeff[2];
+  std::vector<Eigen::Vector2d> near;
+  for (const auto& x : pts)
+    if (std::abs((x - centre).norm() - radius) < band_mm) near.push_back(x);
+  return near.size() >= 20 ? near : pts;
 }
 
 // 1. The top face datum: the end of the axis whose cross-section is a plane.
@@ -520,7 +563,10 @@ AlignedCloud AlignFromTopFace(const PartSpec& part, const PointCloud& cloud,
   fit::CircleFit2D rough;
   rough.summary.status = fit::FitStatus::kDegenerate;
   {
-    auto pts = ring(-part.height_mm() + 0.3, part.big_notch_floor_z_mm - 0.3);
+    // The reference cylinders' radii span 1 mm (199 to 201 mm).
+    auto pts = NearCircleOfRadius(
+        ring(-part.height_mm() + 0.3, part.big_notch_floor_z_mm - 0.3), r_cyl,
+        1.5);
     // Keep the outer points: interior floors would pull a first fit.
     if (pts.size() >= 20) {
       const fit::CircleFit2D c0 = CircleThrough(pts);
@@ -534,7 +580,9 @@ AlignedCloud AlignFromTopFace(const PartSpec& part, const PointCloud& cloud,
     }
     if (!Usable(rough) || rough.summary.points < 20 ||
         std::abs(rough.radius_mm - r_cyl) > 3) {
-      auto facet_pts = ring(part.facet_bottom_z_mm + 0.5, -0.5);
+      auto facet_pts =
+          NearCircleOfRadius(ring(part.facet_bottom_z_mm + 0.5, -0.5),
+                             part.facet_final_distance_mm, 0.5);
       const fit::CircleFit2D c0 = CircleThrough(facet_pts);
       std::vector<Eigen::Vector2d> outer;
       if (Usable(c0)) {

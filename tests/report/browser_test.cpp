@@ -87,14 +87,11 @@ std::map<std::string, int> ExpectedPoints(const json& data) {
   return out;
 }
 
+// Each test writes in a folder of its own, made by the test itself: ctest
+// runs every test in a process of its own, in parallel, so a folder made
+// for the whole suite would be emptied by the next test's start.
 class BrowserTest : public ::testing::Test {
  public:
-  static void SetUpTestSuite() {
-    dir_ = fs::path(TTP_BINARY_DIR) / "report_browser" / "run-a";
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-
   // Chromium headless, no network: a dead proxy, unresolvable hosts, a
   // fresh profile, no background services. stderr carries the console.
   // `profile`: a folder of the calling test's own (ctest runs the tests in
@@ -114,10 +111,7 @@ class BrowserTest : public ::testing::Test {
         " --hide-scrollbars --virtual-time-budget=10000 " +
         args + " 2>&1");
   }
-
-  static fs::path dir_;
 };
-fs::path BrowserTest::dir_;
 
 // Chromium's output for a page (console lines and the dumped DOM): nothing
 // logged, no uncaught error, and the page's script marked itself done
@@ -202,10 +196,13 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
       << "Chromium not found (" << TTP_CHROMIUM
       << "): install the Debian packages chromium and chromium-driver "
          "(scripts/install-deps.sh)";
+  const fs::path dir = fs::path(TTP_BINARY_DIR) / "report_browser" / "run-a";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
   // Made from the repository root with relative paths, as the README shows
   // it: the page names no build machine's folder.
-  const fs::path html = fs::absolute(dir_ / "run-a.html");
-  const fs::path data_path = fs::absolute(dir_ / "run-a.json");
+  const fs::path html = fs::absolute(dir / "run-a.html");
+  const fs::path data_path = fs::absolute(dir / "run-a.json");
   const RunResult report = RunCommand(
       "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
       "/app/ttp report --log samples/run-a/talc.csv samples/run-a/piece.ply"
@@ -229,7 +226,7 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   const RunResult shot =
       Chromium("--window-size=1280,2600 --screenshot=" + Quote(png) + " " +
                    Quote("file://" + fs::absolute(html).string()),
-               dir_ / "profile");
+               dir / "profile");
   ASSERT_EQ(shot.exit_code, 0) << shot.output;
   ASSERT_TRUE(fs::exists(png)) << shot.output;
   const std::string image = ReadFile(png);
