@@ -2,10 +2,9 @@
 
 #include <cmath>
 
+#include "ttp/geometry/constants.h"
+
 namespace ttp::gcode {
-namespace {
-constexpr double kDegToRad = M_PI / 180.0;
-}
 
 CanonStatement& CanonBuilder::Push(CanonKind kind) {
   Flush();
@@ -21,7 +20,7 @@ CanonStatement& CanonBuilder::PushRaw(CanonKind kind) {
   CanonStatement s;
   s.kind = kind;
   s.end_mm = position_mm_;
-  s.end_c_rad = c_deg_ * kDegToRad;
+  s.end_c_rad = c_deg_ * kDeg;
   s.length_offset_mm = tool_length_offset_mm_;
   s.length_offset_tool = tool_length_offset_tool_;
   s.source_line = line_;

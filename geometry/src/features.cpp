@@ -6,10 +6,9 @@
 #include <ostream>
 #include <regex>
 
+#include "ttp/geometry/constants.h"
+
 namespace ttp {
-namespace {
-constexpr double kDegToRad = M_PI / 180.0;
-}
 
 const char* SegmentName(Segment s) {
   switch (s) {
@@ -143,16 +142,17 @@ std::optional<FeatureId> FeatureIdForDmisLabel(const std::string& label) {
   const size_t b = label.find_first_not_of(" \t");
   const size_t e = label.find_last_not_of(" \t");
   std::string s = b == std::string::npos ? "" : label.substr(b, e - b + 1);
-  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  for (char& c : s)
+    c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   if (s == "FLANK_PY" || s == "FLANKPY") return FeatureId::Flank(+1);
   if (s == "FLANK_NY" || s == "FLANKNY") return FeatureId::Flank(-1);
   const std::string strip = "STRIP_";
   if (s.compare(0, strip.size(), strip) == 0) s = "Z" + s.substr(strip.size());
   std::replace(s.begin(), s.end(), '_', '-');
   const std::optional<FeatureId> id = FeatureId::Parse(s);
-  if (id && (id->IsTestFeature() || id->kind == FeatureKind::kTopFace ||
-             id->kind == FeatureKind::kFlank ||
-             id->kind == FeatureKind::kCylinder))
+  if (id &&
+      (id->IsTestFeature() || id->kind == FeatureKind::kTopFace ||
+       id->kind == FeatureKind::kFlank || id->kind == FeatureKind::kCylinder))
     return id;
   return std::nullopt;
 }
@@ -180,12 +180,12 @@ NominalFeature MakeFacet(const PartSpec& p, Segment s, int j, double distance) {
   NominalFeature f;
   f.id = FacetId(s, j);
   f.kind = FeatureKind::kFacet;
-  const double phi = FacetPhiDeg(p, s, j) * kDegToRad;
+  const double phi = FacetPhiDeg(p, s, j) * kDeg;
   f.normal = Eigen::Vector3d(std::cos(phi), std::sin(phi), 0.0);
   f.point = distance * f.normal;
   f.size_mm = distance;
   // Neighbouring facets at the same distance meet at +-d tan(step/2).
-  const double half = distance * std::tan(p.facet_step_deg / 2 * kDegToRad);
+  const double half = distance * std::tan(p.facet_step_deg / 2 * kDeg);
   f.t_min_mm = -half;
   f.t_max_mm = half;
   f.z_min_mm = p.facet_bottom_z_mm;
@@ -286,7 +286,7 @@ std::vector<NominalFeature> BuildNominalFeatures(const PartSpec& p,
   NominalFeature mark;
   mark.id = "MARK";
   mark.kind = FeatureKind::kMark;
-  const double phi = p.mark_phi_deg * kDegToRad;
+  const double phi = p.mark_phi_deg * kDeg;
   const Eigen::Vector3d dir(std::cos(phi), std::sin(phi), 0);
   mark.point = (p.mark_r_start_mm + p.mark_r_end_mm) / 2 * dir +
                Eigen::Vector3d(0, 0, -p.mark_depth_mm);

@@ -18,6 +18,7 @@
 #include <map>
 #include <unordered_map>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/part_mesh.h"
 
@@ -45,8 +46,6 @@ using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
 using Cdt =
     CGAL::Constrained_Delaunay_triangulation_2<K, Tds,
                                                CGAL::Exact_intersections_tag>;
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 enum class RegionKind {
   kBase,  // the disc of a band (blank, reference cylinder, rim)
@@ -239,7 +238,7 @@ PartMesh BuildPartMesh(const PartSpec& p, Stage stage,
   std::vector<double> z_levels = {-h, 0.0};
   std::vector<int> bolt_holes;
   for (double phi_deg : p.bolt_phi_deg) {
-    const double phi = phi_deg * kDegToRad;
+    const double phi = phi_deg * kDeg;
     Region r = MakeCircle(RegionKind::kBoltHole,
                           p.bolt_circle_diameter_mm / 2 *
                               Eigen::Vector2d(std::cos(phi), std::sin(phi)),
@@ -294,10 +293,10 @@ PartMesh BuildPartMesh(const PartSpec& p, Stage stage,
     std::vector<int> facets;
     const double d =
         finished ? p.facet_final_distance_mm : p.facet_pre_distance_mm;
-    const double half = d * std::tan(p.facet_step_deg / 2 * kDegToRad);
+    const double half = d * std::tan(p.facet_step_deg / 2 * kDeg);
     for (Segment s : kSegments) {
       for (int j = 1; j <= p.facets_per_segment; ++j) {
-        const double phi = FacetPhiDeg(p, s, j) * kDegToRad;
+        const double phi = FacetPhiDeg(p, s, j) * kDeg;
         const Eigen::Vector2d n(std::cos(phi), std::sin(phi));
         const Eigen::Vector2d t(-n.y(), n.x());
         // Between neighbours a pass overruns the corner (harmless: that
@@ -328,7 +327,7 @@ PartMesh BuildPartMesh(const PartSpec& p, Stage stage,
       }
       z_levels.push_back(p.strip_floor_z_mm);
     }
-    const double mark_phi = p.mark_phi_deg * kDegToRad;
+    const double mark_phi = p.mark_phi_deg * kDeg;
     const Eigen::Vector2d mu(std::cos(mark_phi), std::sin(mark_phi));
     const Eigen::Vector2d mv(-mu.y(), mu.x());
     const double mw = p.mark_width_mm / 2;

@@ -6,6 +6,7 @@
 // nominal surface.
 #include <cmath>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/features.h"
 #include "ttp/inspect/cloud_stages.h"
 
@@ -13,7 +14,6 @@ namespace ttp::inspect {
 
 Segmentation SegmentCloud(const PartSpec& part, const Eigen::Matrix3Xd& w,
                           const InspectOptions& o) {
-  constexpr double kDeg = M_PI / 180.0;
   const int facets = part.facets_per_segment;
   Segmentation out;
   out.facets.resize(4 * facets);
