@@ -99,7 +99,15 @@ void SetStatusFromCeres(const ceres::Solver::Summary& summary, FitSummary* s) {
 
 bool CheckRank(const Eigen::MatrixXd& jacobian,
                const std::vector<std::string>& names, FitSummary* s) {
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian, Eigen::ComputeThinV);
+  // The singular values and right vectors of the tall Jacobian (a row per
+  // point) are those of its QR factor R (square, a row per parameter): an
+  // SVD of R costs nothing, one of 10^5 rows as much as the fit.
+  Eigen::MatrixXd r = jacobian;
+  if (jacobian.rows() > jacobian.cols()) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jacobian);
+    r = qr.matrixQR().topRows(jacobian.cols()).triangularView<Eigen::Upper>();
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(r, Eigen::ComputeThinV);
   const Eigen::VectorXd& sv = svd.singularValues();
   const double largest = sv.size() ? sv(0) : 0.0;
   const double ratio =

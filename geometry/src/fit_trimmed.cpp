@@ -79,11 +79,16 @@ PlaneFit PlaneOf(const Eigen::Matrix3Xd& points,
   });
 }
 
+// with_covariance false: the rounds before the last, whose covariance no
+// one reads (a circle's covariance costs an SVD of its Jacobian, as much
+// as the fit of a large ring itself).
 CircleFit2D CircleOf(const Eigen::Matrix2Xd& points,
-                     const std::vector<Index>& indices) {
-  return FitSubset<CircleFit2D>(points, indices, [](const Eigen::Matrix2Xd& p) {
-    return FitCircle2D(p);
-  });
+                     const std::vector<Index>& indices, bool with_covariance) {
+  FitOptions options;
+  options.compute_covariance = with_covariance;
+  return FitSubset<CircleFit2D>(
+      points, indices,
+      [&](const Eigen::Matrix2Xd& p) { return FitCircle2D(p, options); });
 }
 
 }  // namespace
@@ -153,7 +158,7 @@ TrimmedCircle FitCircle2DTrimmed(const Eigen::Matrix2Xd& points,
   TrimmedCircle out;
   std::vector<Index> keep(static_cast<size_t>(points.cols()));
   for (Index i = 0; i < points.cols(); ++i) keep[static_cast<size_t>(i)] = i;
-  out.circle = CircleOf(points, keep);
+  out.circle = CircleOf(points, keep, false);
   auto usable = [&] {
     return out.circle.summary.status == FitStatus::kConverged;
   };
@@ -169,7 +174,7 @@ TrimmedCircle FitCircle2DTrimmed(const Eigen::Matrix2Xd& points,
       if (std::abs(r) < band) next.push_back(i);
     }
     keep = std::move(next);
-    out.circle = CircleOf(points, keep);
+    out.circle = CircleOf(points, keep, false);
   }
   for (int round = 0; round < rejection.max_rounds && usable(); ++round) {
     std::vector<double> res(keep.size());
@@ -183,8 +188,11 @@ TrimmedCircle FitCircle2DTrimmed(const Eigen::Matrix2Xd& points,
       if (res[j] <= limit) next.push_back(keep[j]);
     if (next.size() == keep.size()) break;
     keep = std::move(next);
-    out.circle = CircleOf(points, keep);
+    out.circle = CircleOf(points, keep, false);
   }
+  // The last round's fit again, now with its covariance (the same points:
+  // the same circle).
+  if (usable()) out.circle = CircleOf(points, keep, true);
   out.inliers = std::move(keep);
   return out;
 }

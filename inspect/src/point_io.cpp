@@ -948,30 +948,60 @@ void DropRepeatedPoints(PointCloud* cloud) {
     std::memcpy(&u, &v, sizeof u);
     return u;
   };
-  std::vector<std::pair<uint64_t, Eigen::Index>> keys(static_cast<size_t>(n));
-  for (Eigen::Index i = 0; i < n; ++i) {
-    uint64_t h = 1469598103934665603ull;
-    for (int a = 0; a < 3; ++a) h = (h ^ bits(i, a)) * 1099511628211ull;
-    keys[static_cast<size_t>(i)] = {h, i};
-  }
-  std::sort(keys.begin(), keys.end());
+  // One pass over an open-addressing table of the distinct points seen so
+  // far (linear probing, at most half full): a point whose coordinates are
+  // in it repeats an earlier one. A slot holds the hash's high 32 bits and
+  // 1 + the index of the first point with these coordinates (0: empty), so
+  // a million points take 16 MB. (Sorting the hashes instead took a tenth
+  // of a million-point inspection.)
+  static_assert(limits::kMaxCloudPoints < (std::int64_t{1} << 32) - 1);
+  size_t slots = 2;
+  while (slots < 2 * static_cast<size_t>(n)) slots *= 2;
+  const size_t mask = slots - 1;
+  std::vector<uint64_t> table(slots, 0);
   std::vector<char> repeat(static_cast<size_t>(n), 0);
   size_t repeats = 0;
-  for (size_t k = 0; k < keys.size();) {
-    size_t end = k + 1;
-    while (end < keys.size() && keys[end].first == keys[k].first) ++end;
-    for (size_t a = k; a < end; ++a) {
-      if (repeat[static_cast<size_t>(keys[a].second)]) continue;
-      for (size_t b = a + 1; b < end; ++b) {
-        const Eigen::Index i = keys[a].second, j = keys[b].second;
-        if (!repeat[static_cast<size_t>(j)] &&
-            cloud->xyz_mm.col(i) == cloud->xyz_mm.col(j)) {
-          repeat[static_cast<size_t>(j)] = 1;  // i < j: the first is kept
-          ++repeats;
-        }
+  const auto hash = [&](Eigen::Index i) {
+    uint64_t h = 1469598103934665603ull;
+    for (int a = 0; a < 3; ++a) h = (h ^ bits(i, a)) * 1099511628211ull;
+    // The product's low bits depend only on the coordinates' low mantissa
+    // bits (all zero for round numbers): MurmurHash3's finaliser mixes the
+    // high ones in before the table's mask keeps the low ones.
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdull;
+    h ^= h >> 33;
+    h *= 0xc4ceb9fe1a85ec53ull;
+    h ^= h >> 33;
+    return h;
+  };
+  // Each look-up is a cache miss in a table far larger than the cache: the
+  // slot of the point kAhead on is fetched while this one is looked up
+  // (its hash waits in a ring).
+  constexpr Eigen::Index kAhead = 16;
+  uint64_t ahead[kAhead];
+  for (Eigen::Index i = 0; i < std::min(kAhead, n); ++i) ahead[i] = hash(i);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const uint64_t h = ahead[i % kAhead];
+    if (i + kAhead < n) {
+      const uint64_t next = hash(i + kAhead);
+      ahead[i % kAhead] = next;
+      __builtin_prefetch(&table[next & mask]);
+    }
+    const uint64_t tag = h & 0xffffffff00000000ull;
+    for (size_t s = h & mask;; s = (s + 1) & mask) {
+      const uint64_t slot = table[s];
+      if (slot == 0) {
+        table[s] = tag | static_cast<uint64_t>(i + 1);
+        break;
+      }
+      const auto first = static_cast<Eigen::Index>(slot & 0xffffffffull) - 1;
+      if ((slot & 0xffffffff00000000ull) == tag &&
+          cloud->xyz_mm.col(first) == cloud->xyz_mm.col(i)) {
+        repeat[static_cast<size_t>(i)] = 1;
+        ++repeats;
+        break;
       }
     }
-    k = end;
   }
   if (repeats == 0) return;
   Eigen::Index kept = 0;

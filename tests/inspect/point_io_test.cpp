@@ -5,6 +5,7 @@
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/io/pcd_io.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -125,6 +126,38 @@ TEST_F(PointIoTest, RepeatedPointsCountOnce) {
       EXPECT_EQ(a.result.figures[c].u_b_rad, b.result.figures[c].u_b_rad);
     }
   }
+}
+
+// Repeats are found by the coordinates' bits through a hash table: points
+// on a grid of whole millimetres (their low mantissa bits all zero) are
+// all told apart, -0 repeats +0, and points that differ in the last bit of
+// one coordinate are two points.
+TEST_F(PointIoTest, RepeatsOfRoundCoordinatesAndSignedZeros) {
+  std::string text;
+  int distinct = 0;
+  for (int x = 0; x < 40; ++x)
+    for (int y = 0; y < 40; ++y) {
+      text += fmt::format("{} {} 0\n", x, y);
+      ++distinct;
+    }
+  // The grid again, zeros negative, and the first 100 points once more.
+  for (int x = 0; x < 40; ++x)
+    for (int y = 0; y < 40; ++y)
+      text += fmt::format("{} {} -0\n", x == 0 ? "-0" : std::to_string(x), y);
+  for (int k = 0; k < 100; ++k) text += fmt::format("0 {} 0\n", k % 40);
+  // Next to 1 in the last bit: distinct.
+  text += fmt::format("{:.17g} 1 0\n", std::nextafter(1.0, 2.0));
+  ++distinct;
+  const PointCloud back = ReadPointCloud(Write("grid.xyz", text));
+  ASSERT_EQ(back.size(), distinct);
+  EXPECT_EQ(back.xyz_mm(0, 41), 1.0);
+  EXPECT_EQ(back.xyz_mm(1, 41), 1.0);
+  EXPECT_EQ(back.xyz_mm(0, distinct - 1), std::nextafter(1.0, 2.0));
+  ASSERT_EQ(back.warnings.size(), 1u);
+  EXPECT_NE(back.warnings[0].find(fmt::format("{} of {} points repeat",
+                                              1600 + 100, 3200 + 100 + 1)),
+            std::string::npos)
+      << back.warnings[0];
 }
 
 TEST_F(PointIoTest, BadFilesNameTheProblem) {
