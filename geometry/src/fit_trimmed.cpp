@@ -158,7 +158,9 @@ TrimmedCircle FitCircle2DTrimmed(const Eigen::Matrix2Xd& points,
   TrimmedCircle out;
   std::vector<Index> keep(static_cast<size_t>(points.cols()));
   for (Index i = 0; i < points.cols(); ++i) keep[static_cast<size_t>(i)] = i;
-  out.circle = CircleOf(points, keep, false);
+  // Without rounds the first fit is the last: with its covariance at once.
+  const bool rounds = !bands_mm.empty() || rejection.max_rounds > 0;
+  out.circle = CircleOf(points, keep, !rounds);
   auto usable = [&] {
     return out.circle.summary.status == FitStatus::kConverged;
   };
@@ -192,7 +194,7 @@ TrimmedCircle FitCircle2DTrimmed(const Eigen::Matrix2Xd& points,
   }
   // The last round's fit again, now with its covariance (the same points:
   // the same circle).
-  if (usable()) out.circle = CircleOf(points, keep, true);
+  if (rounds && usable()) out.circle = CircleOf(points, keep, true);
   out.inliers = std::move(keep);
   return out;
 }
