@@ -165,8 +165,7 @@ bool LargestPlaneAcross(const Eigen::Matrix3Xd& p, const Indices& idx,
 // jaws, an angle plate or clamp posts beside the piece) must not pull the
 // rough centre. All of pts when no such circle holds 20 of them.
 std::vector<Eigen::Vector2d> NearCircleOfRadius(
-    const std::vector<Eigen::Vector2d>& pts, double radius_mm,
-    double band_mm) {
+    const std::vector<Eigen::Vector2d>& pts, double radius_mm, double band_mm) {
   if (pts.size() < 20) return pts;
   const Indices pick = Subsample(static_cast<Index>(pts.size()), 5000);
   Eigen::Vector2d c = Eigen::Vector2d::Zero();
@@ -180,8 +179,7 @@ std::vector<Eigen::Vector2d> NearCircleOfRadius(
   }
   // PCL's fixed seed (random = false): the same cloud gives the same circle.
   auto model =
-      std::make_shared<pcl::SampleConsensusModelCircle2D<pcl::PointXYZ>>(
-          cloud);
+      std::make_shared<pcl::SampleConsensusModelCircle2D<pcl::PointXYZ>>(cloud);
   model->setRadiusLimits(radius_mm - 3, radius_mm + 3);
   pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, band_mm);
   ransac.setProbability(0.9999);
@@ -515,12 +513,15 @@ void CheckTopFace(const TopFace& top, const double flank_rms_mm[2],
 
 }  // namespace
 
-Eigen::Matrix3Xd PointsInW(const Alignment& a, const Eigen::Matrix3Xd& p) {
-  Eigen::Matrix3Xd w(3, p.cols());
-  AdviseHugePages(w.data(), sizeof(double) * 3 * p.cols());
+void PointsInW(const Alignment& a, const Eigen::Matrix3Xd& p,
+               Eigen::Matrix3Xd* points_w_mm) {
+  Eigen::Matrix3Xd& w = *points_w_mm;
+  if (w.cols() != p.cols()) {
+    w.resize(3, p.cols());
+    AdviseHugePages(w.data(), sizeof(double) * 3 * p.cols());
+  }
   for (Index i = 0; i < p.cols(); ++i)
     w.col(i).noalias() = a.rotation * p.col(i) + a.translation;
-  return w;
 }
 
 namespace {
@@ -799,6 +800,8 @@ AlignedCloud AlignFromTopFace(const PartSpec& part, const PointCloud& cloud,
   out.alignment.translation = -rz * (f_rot * f_origin + origin_q);
   const Eigen::Matrix2d rz2 = rz.topLeftCorner<2, 2>();
   out.origin_covariance_mm2 = rz2 * origin_cov * rz2.transpose();
+  out.points_w_mm = std::move(q);  // q is done with: its storage takes W
+  PointsInW(out.alignment, p, &out.points_w_mm);
   return out;
 }
 

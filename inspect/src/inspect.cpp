@@ -97,11 +97,11 @@ InspectionResult InspectCloud(const PartSpec& part, const PointCloud& cloud,
   if (cloud.xyz_mm.cols() == 0)
     throw InputError(cloud.source, 0, "", "the cloud has no points");
   CheckCloudUnits(part, cloud, o);
-  const AlignedCloud aligned = AlignCloud(part, cloud, o);
+  AlignedCloud aligned = AlignCloud(part, cloud, o);
   out.alignment = aligned.alignment;
   out.warnings.insert(out.warnings.end(), aligned.warnings.begin(),
                       aligned.warnings.end());
-  const Eigen::Matrix3Xd w = PointsInW(aligned.alignment, cloud.xyz_mm);
+  const Eigen::Matrix3Xd w = std::move(aligned.points_w_mm);
   const Segmentation segmentation = SegmentCloud(part, w, o);
   FittedFeatures fitted =
       FitFeatures(part, w, segmentation, aligned.origin_covariance_mm2, o);

@@ -77,6 +77,10 @@ TEST(AlignCloud, UndoesAnyPose) {
     EXPECT_NEAR(a.alignment.circle_diameter_mm, 199.0, 1e-3);
     EXPECT_GT(a.origin_covariance_mm2(0, 0), 0);
     EXPECT_TRUE(a.warnings.empty());
+    // The points in W it hands on are the cloud moved by its alignment.
+    Eigen::Matrix3Xd w;
+    PointsInW(a.alignment, s.cloud.xyz_mm, &w);
+    EXPECT_EQ(a.points_w_mm, w);
   }
 }
 

@@ -38,6 +38,10 @@ struct AlignedCloud {
   Alignment alignment;  // W = rotation * cloud + translation
   // Covariance of the origin (the datum circle's centre) in W's x, y (mm^2).
   Eigen::Matrix2d origin_covariance_mm2 = Eigen::Matrix2d::Zero();
+  // The cloud's points in W (3 x N, mm; PointsInW of the alignment), made
+  // in the storage the alignment worked in: a second buffer of a large
+  // cloud's size is fresh memory the kernel must zero first.
+  Eigen::Matrix3Xd points_w_mm;
   std::vector<std::string> warnings;
 };
 // Throws InputError(source, 0, "alignment", ...) when the cloud holds no
@@ -49,9 +53,10 @@ struct AlignedCloud {
 AlignedCloud AlignCloud(const PartSpec& part, const PointCloud& cloud,
                         const InspectOptions& options);
 
-// The cloud's points in W (3 x N, mm).
-Eigen::Matrix3Xd PointsInW(const Alignment& alignment,
-                           const Eigen::Matrix3Xd& cloud_mm);
+// The cloud's points in W (3 x N, mm), into *points_w_mm (resized to the
+// cloud's; its storage reused when it has the size already).
+void PointsInW(const Alignment& alignment, const Eigen::Matrix3Xd& cloud_mm,
+               Eigen::Matrix3Xd* points_w_mm);
 
 // Stage 2: the points (column indices into the W points) in each feature's
 // region: facets[s * facets_per_segment + j - 1] for segment s (kSegments
