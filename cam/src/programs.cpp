@@ -12,6 +12,7 @@
 #include "ttp/cam/cutting_data.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/gcode/writer.h"
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/frames.h"
@@ -19,7 +20,6 @@
 namespace ttp::cam {
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr const char* kSource = "config";
 // Fraction of the cutter diameter between neighbouring passes.
@@ -177,7 +177,7 @@ void EngraveMark(PathWriter& path, const Config& c) {
   const ToolSpec& tool = c.process.engraver;
   path.Add(gcode::Comment{"step 2: engrave the mark"});
   path.IndexC(0);
-  const double phi = part.mark_phi_deg * kDegToRad;
+  const double phi = part.mark_phi_deg * kDeg;
   const Eigen::Vector2d dir(std::cos(phi), std::sin(phi));
   path.RapidXY(part.mark_r_start_mm * dir);
   path.RapidZ(c.process.clearance_mm);
@@ -239,7 +239,7 @@ void PreFacets(PathWriter& path, const Config& c) {
   path.RapidZ(part.facet_bottom_z_mm);
   for (Segment s : kSegments) {
     for (int j = 1; j <= part.facets_per_segment; ++j) {
-      const double phi = FacetPhiDeg(part, s, j) * kDegToRad;
+      const double phi = FacetPhiDeg(part, s, j) * kDeg;
       path.IndexC(TableAngleFor(phi, 0.0, c.machine.c_sense) * kRadToDeg);
       path.RapidAround(Eigen::Vector2d(x, y), keep, route);
       path.FeedXY(Eigen::Vector2d(x, -y), tool.feed_mm_min);
@@ -261,12 +261,12 @@ std::string CycleCommentText(int cycle) {
 }
 
 double XFacetTableAngleDeg(const Config& c, int j) {
-  const double phi = FacetPhiDeg(c.part, Segment::kX1, j) * kDegToRad;
+  const double phi = FacetPhiDeg(c.part, Segment::kX1, j) * kDeg;
   return TableAngleFor(phi, 0.0, c.machine.c_sense) * kRadToDeg;
 }
 
 double YFacetTableAngleDeg(const Config& c, int j) {
-  const double phi = FacetPhiDeg(c.part, Segment::kY1, j) * kDegToRad;
+  const double phi = FacetPhiDeg(c.part, Segment::kY1, j) * kDeg;
   return TableAngleFor(phi, M_PI / 2, c.machine.c_sense) * kRadToDeg;
 }
 
@@ -613,7 +613,7 @@ RTestLayout ComputeRTestLayout(const Config& c) {
   RTestLayout l;
   // Sphere on the machine's +X axis first, then C by +90 deg each.
   const double c1 =
-      TableAngleFor(m.sphere_phi_deg * kDegToRad, 0.0, m.c_sense) * kRadToDeg;
+      TableAngleFor(m.sphere_phi_deg * kDeg, 0.0, m.c_sense) * kRadToDeg;
   for (int k = 0; k < kRTestPositions; ++k) l.c_deg[k] = c1 + 90.0 * k;
   l.sphere_centre_z_mm =
       m.table_top_z_mm + m.sphere_height_mm - WorkpieceOriginHeightMm(c);
@@ -628,11 +628,11 @@ RTestLayout ComputeRTestLayout(const Config& c) {
 
 Eigen::Vector2d SpherePositionProgramXY(const Config& c, double c_deg) {
   const MachineProfile& m = c.machine;
-  const double phi = m.sphere_phi_deg * kDegToRad;
+  const double phi = m.sphere_phi_deg * kDeg;
   const Eigen::Vector3d w(m.sphere_distance_mm * std::cos(phi),
                           m.sphere_distance_mm * std::sin(phi), 0.0);
   Eigen::Vector2d xy =
-      (WorkpieceToMachineRotation(c_deg * kDegToRad, m.c_sense) * w).head<2>();
+      (WorkpieceToMachineRotation(c_deg * kDeg, m.c_sense) * w).head<2>();
   // No "-0.0000" in the program for a rounding residue.
   for (int a = 0; a < 2; ++a)
     if (std::abs(xy[a]) < 1e-9) xy[a] = 0.0;

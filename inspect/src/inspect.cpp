@@ -18,7 +18,6 @@
 #include "ttp/inspect/cloud_stages.h"
 
 namespace ttp::inspect {
-namespace {}  // namespace
 
 bool InspectOptions::IsValid(std::string* error) const {
   const auto fail = [error](const char* field, const char* problem) {

@@ -12,8 +12,6 @@
 namespace ttp::plan {
 namespace {
 
-constexpr double kDegToRad = kPi / 180.0;
-
 // n evenly spread values inside [lo, hi] (cell centres), or the middle.
 std::vector<double> Spread(double lo, double hi, int n) {
   std::vector<double> v;
@@ -87,7 +85,7 @@ std::vector<PlannedPoint> PlanPoints(const PartSpec& part,
     const int n = options.top_points_per_segment;
     for (double offset : Spread(-8.0, 8.0, n)) {
       const double phi_deg = centre + offset;
-      const double phi = phi_deg * kDegToRad;
+      const double phi = phi_deg * kDeg;
       const double r_min = y_min / std::max(0.1, std::abs(std::sin(phi)));
       double r = std::min(r_out, (r_min + r_out) / 2);
       const bool on_mark =

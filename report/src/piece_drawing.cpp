@@ -7,12 +7,11 @@
 #include <cmath>
 #include <string>
 
+#include "ttp/geometry/constants.h"
 #include "ttp/geometry/features.h"
 
 namespace ttp::report_internal {
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 // SVG y grows downwards; W's y grows upwards.
 std::string Pt(double x, double y) {
@@ -86,13 +85,13 @@ std::string PieceSvg(const PartSpec& part) {
       -small, -outer_r, 2 * small, 2 * outer_r);
   // Segments: top faces (facet wedges, clipped by the notches) then facets.
   const double facet_d = part.facet_final_distance_mm;
-  const double half_step = part.facet_step_deg / 2 * kDegToRad;
+  const double half_step = part.facet_step_deg / 2 * kDeg;
   const double corner_r = facet_d / std::cos(half_step);
   svg += "<g clip-path=\"url(#segments-clip)\">\n";
   for (Segment s : kSegments) {
     std::string points = "0,0";
     for (int j = 1; j <= part.facets_per_segment; ++j) {
-      const double phi = FacetPhiDeg(part, s, j) * kDegToRad;
+      const double phi = FacetPhiDeg(part, s, j) * kDeg;
       points += " " + Pt(corner_r * std::cos(phi - half_step),
                          corner_r * std::sin(phi - half_step));
       points += " " + Pt(corner_r * std::cos(phi + half_step),
@@ -100,7 +99,7 @@ std::string PieceSvg(const PartSpec& part) {
     }
     svg += fmt::format("<polygon class=\"segment\" points=\"{}\"/>\n", points);
     for (int j = 1; j <= part.facets_per_segment; ++j) {
-      const double phi = FacetPhiDeg(part, s, j) * kDegToRad;
+      const double phi = FacetPhiDeg(part, s, j) * kDeg;
       const int cycle = CycleForIndex(part, j);
       svg += fmt::format(
           "<line class=\"facet\" x1=\"{:.3f}\" y1=\"{:.3f}\" x2=\"{:.3f}\" "
@@ -116,21 +115,20 @@ std::string PieceSvg(const PartSpec& part) {
   // Facet index labels outside the rim, segment names inside.
   for (Segment s : kSegments) {
     for (int j = 1; j <= part.facets_per_segment; ++j) {
-      const double phi = FacetPhiDeg(part, s, j) * kDegToRad;
+      const double phi = FacetPhiDeg(part, s, j) * kDeg;
       svg += fmt::format(
           "<text class=\"lbl small\" x=\"{:.3f}\" y=\"{:.3f}\" "
           "fill=\"{}\">{}</text>\n",
           (outer_r + 6) * std::cos(phi), -(outer_r + 6) * std::sin(phi) + 1.2,
           CycleColour(CycleForIndex(part, j)), j);
     }
-    const double centre =
-        part.segment_centre_deg[static_cast<int>(s)] * kDegToRad;
+    const double centre = part.segment_centre_deg[static_cast<int>(s)] * kDeg;
     svg += fmt::format(
         "<text class=\"lbl seg\" x=\"{:.3f}\" y=\"{:.3f}\">{}</text>\n",
         78 * std::cos(centre), -78 * std::sin(centre) + 2.5, SegmentName(s));
   }
   // Engraved mark.
-  const double mark = part.mark_phi_deg * kDegToRad;
+  const double mark = part.mark_phi_deg * kDeg;
   svg += fmt::format(
       "<line class=\"mark\" x1=\"{:.3f}\" y1=\"{:.3f}\" x2=\"{:.3f}\" "
       "y2=\"{:.3f}\"><title>engraved mark</title></line>\n",

@@ -18,10 +18,6 @@ namespace fs = std::filesystem;
 using test::RunCommand;
 using test::RunTtp;
 
-std::string SamplePath(const std::string& rel) {
-  return std::string(TTP_DATA_DIR) + "/samples/" + rel;
-}
-
 TEST(EditDistance, CountsInsertionsDeletionsSubstitutionsSwaps) {
   EXPECT_EQ(app::EditDistance("inspct", "inspect"), 1);
   EXPECT_EQ(app::EditDistance("--jsn", "--json"), 1);
@@ -34,11 +30,11 @@ TEST(EditDistance, CountsInsertionsDeletionsSubstitutionsSwaps) {
 }
 
 TEST(CliCommand, SuggestsMisspeltCommandsAndOptions) {
-  auto r = RunTtp("inspct " + SamplePath("run-a/piece.ply"));
+  auto r = RunTtp("inspct " + test::DataPath("samples/run-a/piece.ply"));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("did you mean 'inspect'?"), std::string::npos)
       << r.output;
-  r = RunTtp("grade --jsn x.json " + SamplePath("run-b/piece.xyz"));
+  r = RunTtp("grade --jsn x.json " + test::DataPath("samples/run-b/piece.xyz"));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("did you mean '--json'?"), std::string::npos)
       << r.output;
@@ -58,15 +54,15 @@ TEST(CliCommand, GlobalOptionsAfterTheSubcommand) {
   const fs::path dir = test::TestDir("cli-command-config");
   auto r = RunTtp("config --config /no/such.toml");
   EXPECT_EQ(r.exit_code, 2) << r.output;  // read, and refused
-  r = RunTtp("grade " + SamplePath("run-b/piece.xyz") + " -q");
+  r = RunTtp("grade " + test::DataPath("samples/run-b/piece.xyz") + " -q");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(r.output, "");
 }
 
 TEST(CliCommand, JsonToStdoutIsPureJson) {
-  const auto r =
-      test::RunCommand(std::string(TTP_BINARY_DIR) + "/app/ttp grade " +
-                       SamplePath("run-b/piece.xyz") + " --json - 2>/dev/null");
+  const auto r = test::RunCommand(
+      std::string(TTP_BINARY_DIR) + "/app/ttp grade " +
+      test::DataPath("samples/run-b/piece.xyz") + " --json - 2>/dev/null");
   EXPECT_EQ(r.exit_code, 0);
   const nlohmann::json j = nlohmann::json::parse(r.output);  // throws if not
   EXPECT_EQ(j["verdict"], "pass");
@@ -75,12 +71,12 @@ TEST(CliCommand, JsonToStdoutIsPureJson) {
 // `simulate --json` gives the simulated figures the U that `check` uses.
 TEST(CliCommand, SimulateAndCheckShareTheSimulatedU) {
   const std::string ttp = std::string(TTP_BINARY_DIR) + "/app/ttp ";
-  const std::string log = SamplePath("run-a/talc.csv");
+  const std::string log = test::DataPath("samples/run-a/talc.csv");
   const auto sim =
       RunCommand(ttp + "simulate --log " + log + " --json - 2>/dev/null");
-  const auto check =
-      RunCommand(ttp + "check --log " + log + " " +
-                 SamplePath("run-a/piece.ply") + " --json - 2>/dev/null");
+  const auto check = RunCommand(ttp + "check --log " + log + " " +
+                                test::DataPath("samples/run-a/piece.ply") +
+                                " --json - 2>/dev/null");
   ASSERT_EQ(sim.exit_code, 0);
   const nlohmann::json s = nlohmann::json::parse(sim.output);
   const nlohmann::json c = nlohmann::json::parse(check.output);

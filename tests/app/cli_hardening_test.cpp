@@ -20,27 +20,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 fs::path Put(const fs::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary) << text;
   return p;
 }
 
-std::string Data(const std::string& rel) {
-  return (fs::path(TTP_DATA_DIR) / rel).string();
-}
-
-std::string Quoted(const fs::path& p) { return "'" + p.string() + "'"; }
-
 // The sample log with `from` replaced by `to` (first occurrence).
 std::string LogWith(const std::string& from, const std::string& to) {
-  std::string text = Slurp(Data("samples/run-a/talc.csv"));
+  std::string text = FileBytes(DataPath("samples/run-a/talc.csv"));
   const size_t at = text.find(from);
   EXPECT_NE(at, std::string::npos) << from;
   if (at != std::string::npos) text.replace(at, from.size(), to);
@@ -85,7 +72,7 @@ TEST(CliHardening, TalcLogHeaderAndValueLimits) {
   };
   for (const Case& c : cases) {
     const fs::path log = Put(dir / "bad.csv", LogWith(c.from, c.to));
-    const RunResult r = RunTtp("log " + Quoted(log));
+    const RunResult r = RunTtp("log " + ShellQuoted(log));
     EXPECT_EQ(r.exit_code, 2) << c.to << "\n" << r.output;
     for (const char* f : c.expect)
       EXPECT_NE(r.output.find(f), std::string::npos)
@@ -96,9 +83,9 @@ TEST(CliHardening, TalcLogHeaderAndValueLimits) {
   const fs::path span =
       Put(dir / "span.csv", LogWith("29700.0000,sample", "9000000,sample"));
   for (const std::string& cmd :
-       {"log " + Quoted(span), "simulate --log " + Quoted(span),
-        "check --log " + Quoted(span) + " " +
-            Data("samples/run-a/piece.ply")}) {
+       {"log " + ShellQuoted(span), "simulate --log " + ShellQuoted(span),
+        "check --log " + ShellQuoted(span) + " " +
+            DataPath("samples/run-a/piece.ply")}) {
     const RunResult r = RunTtp(cmd);
     ExpectBadInput(r, {"span.csv:", "t_s", "limit"});
   }
@@ -113,7 +100,7 @@ TEST(CliHardening, CloudLimitsAndTrailingData) {
       "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\n"
       "COUNT 1000000000 1 1\nWIDTH 10\nHEIGHT 1\nPOINTS 10\nDATA binary\n" +
           std::string(240, '\0'));
-  ExpectBadInput(RunTtp("inspect " + Quoted(dir / "count.pcd")),
+  ExpectBadInput(RunTtp("inspect " + ShellQuoted(dir / "count.pcd")),
                  {"count.pcd", "COUNT of x", "limit"});
   // A PLY element count that overflows the skip size.
   Put(dir / "overflow.ply",
@@ -121,21 +108,21 @@ TEST(CliHardening, CloudLimitsAndTrailingData) {
       "4611686018427387904\nproperty int a\nelement vertex 3\nproperty "
       "double x\nproperty double y\nproperty double z\nend_header\n" +
           std::string(72, '\0'));
-  ExpectBadInput(RunTtp("inspect " + Quoted(dir / "overflow.ply")),
+  ExpectBadInput(RunTtp("inspect " + ShellQuoted(dir / "overflow.ply")),
                  {"overflow.ply:3", "element face", "limit"});
   // Data after the declared vertices: read, and said aloud.
-  std::string ply = Slurp(Data("samples/run-a/piece.ply"));
+  std::string ply = FileBytes(DataPath("samples/run-a/piece.ply"));
   ply += std::string(48, '\x01');
   Put(dir / "trailing.ply", ply);
-  const RunResult r = RunTtp("inspect " + Quoted(dir / "trailing.ply") +
-                             " --json " + Quoted(dir / "t.json"));
+  const RunResult r = RunTtp("inspect " + ShellQuoted(dir / "trailing.ply") +
+                             " --json " + ShellQuoted(dir / "t.json"));
   EXPECT_EQ(r.exit_code, 0) << r.output;
   const auto doc = ReadJson(dir / "t.json");
   EXPECT_NE(doc.dump().find("48 bytes after the 19530 declared vertices"),
             std::string::npos);
   // A coordinate of 1e300 in a text cloud.
   Put(dir / "huge.xyz", "1 2 3\n4 1e300 6\n7 8 9\n");
-  ExpectBadInput(RunTtp("inspect " + Quoted(dir / "huge.xyz")),
+  ExpectBadInput(RunTtp("inspect " + ShellQuoted(dir / "huge.xyz")),
                  {"huge.xyz:2", "limit"});
 }
 
@@ -144,11 +131,11 @@ TEST(CliHardening, CloudLimitsAndTrailingData) {
 TEST(CliHardening, InspectionJsonOutOfRangeValues) {
   const fs::path dir = TestDir("hard");
   const fs::path good = dir / "good.json";
-  ASSERT_EQ(RunTtp("inspect " + Data("samples/run-a/piece.ply") + " --json " +
-                   Quoted(good))
+  ASSERT_EQ(RunTtp("inspect " + DataPath("samples/run-a/piece.ply") +
+                   " --json " + ShellQuoted(good))
                 .exit_code,
             0);
-  const std::string text = Slurp(good);
+  const std::string text = FileBytes(good);
   const std::regex first_distance(R"("distance_mm": [-0-9.e]+)");
   const std::regex first_u(R"("U_distance_um": [-0-9.e]+)");
   struct Case {
@@ -173,11 +160,11 @@ TEST(CliHardening, InspectionJsonOutOfRangeValues) {
     ASSERT_NE(c.replaced, text);
     const fs::path bad = Put(dir / "bad.json", c.replaced);
     for (const std::string& cmd :
-         {"inspect " + Quoted(bad),
-          "diagnose --log " + Data("samples/run-a/talc.csv") + " " +
-              Quoted(bad),
-          "report --log " + Data("samples/run-a/talc.csv") + " " + Quoted(bad) +
-              " -o " + Quoted(dir / "r.html")}) {
+         {"inspect " + ShellQuoted(bad),
+          "diagnose --log " + DataPath("samples/run-a/talc.csv") + " " +
+              ShellQuoted(bad),
+          "report --log " + DataPath("samples/run-a/talc.csv") + " " +
+              ShellQuoted(bad) + " -o " + ShellQuoted(dir / "r.html")}) {
       const RunResult r = RunTtp(cmd);
       EXPECT_EQ(r.exit_code, 2) << cmd << "\n" << r.output;
       for (const char* f : c.expect)
@@ -187,15 +174,15 @@ TEST(CliHardening, InspectionJsonOutOfRangeValues) {
   }
   // A truth-style file with an angle of 1e308: a truth file is no
   // measurement, whatever its values.
-  std::string truth = Slurp(Data("samples/run-a/truth.json"));
+  std::string truth = FileBytes(DataPath("samples/run-a/truth.json"));
   const std::regex angle(
       R"(("facet_angle_err_urad": \{\s*"[^"]+": )[-0-9.e]+)");
   const std::string bad_truth = std::regex_replace(
       truth, angle, "$011e308", std::regex_constants::format_first_only);
   ASSERT_NE(bad_truth, truth);
   const fs::path bt = Put(dir / "truth.json", bad_truth);
-  ExpectBadInput(RunTtp("diagnose --log " + Data("samples/run-a/talc.csv") +
-                        " " + Quoted(bt)),
+  ExpectBadInput(RunTtp("diagnose --log " + DataPath("samples/run-a/talc.csv") +
+                        " " + ShellQuoted(bt)),
                  {"truth.json", "not a measurement"});
 }
 
@@ -208,14 +195,15 @@ TEST(CliHardening, DmisUnitsNormalsAndHugeReadings) {
   Put(inch,
       "DMISMN/'x'\nUNITS/INCH,ANGDEC\n"
       "FA(X1_5)=FEAT/PLANE,CART,48.6505,84.2660,-6,0.5,0.8660254,0\n");
-  ExpectBadInput(RunTtp("inspect " + Quoted(inch)),
+  ExpectBadInput(RunTtp("inspect " + ShellQuoted(inch)),
                  {"inch.dmo:3", "FA(X1_5)", "units"});
   // A reading of 1e300.
   const fs::path huge = dir / "huge.dmo";
   Put(huge,
       "DMISMN/'x'\nUNITS/MM,ANGDEC\n"
       "FA(X1_1)=FEAT/PLANE,CART,1e300,0,-6,1,0,0\n");
-  ExpectBadInput(RunTtp("inspect " + Quoted(huge)), {"huge.dmo:3", "limit"});
+  ExpectBadInput(RunTtp("inspect " + ShellQuoted(huge)),
+                 {"huge.dmo:3", "limit"});
   // A plane normal reported into the piece: the same plane, said aloud.
   const fs::path out_n = dir / "out.dmo", in_n = dir / "in.dmo";
   Put(out_n,
@@ -227,10 +215,10 @@ TEST(CliHardening, DmisUnitsNormalsAndHugeReadings) {
       "FA(X1_5)=FEAT/PLANE,CART,48.6505,84.2660,-6,-0.5,-0.8660254,0\n"
       "FA(X1_1)=FEAT/PLANE,CART,78.7182,57.1921,-6,-0.8090170,-0.5877853,"
       "0\n");
-  const RunResult a = RunTtp("inspect " + Quoted(out_n) + " --json " +
-                             Quoted(dir / "out.json"));
-  const RunResult b =
-      RunTtp("inspect " + Quoted(in_n) + " --json " + Quoted(dir / "in.json"));
+  const RunResult a = RunTtp("inspect " + ShellQuoted(out_n) + " --json " +
+                             ShellQuoted(dir / "out.json"));
+  const RunResult b = RunTtp("inspect " + ShellQuoted(in_n) + " --json " +
+                             ShellQuoted(dir / "in.json"));
   ASSERT_EQ(a.exit_code, 0) << a.output;
   ASSERT_EQ(b.exit_code, 0) << b.output;
   auto ja = ReadJson(dir / "out.json"), jb = ReadJson(dir / "in.json");
@@ -241,10 +229,10 @@ TEST(CliHardening, DmisUnitsNormalsAndHugeReadings) {
 TEST(CliHardening, DialReadingsHugeAndHeaderOnly) {
   const fs::path dir = TestDir("hard");
   Put(dir / "huge.csv", "feature,reading_um\nX1-1,1e300\n");
-  ExpectBadInput(RunTtp("inspect " + Quoted(dir / "huge.csv")),
+  ExpectBadInput(RunTtp("inspect " + ShellQuoted(dir / "huge.csv")),
                  {"huge.csv:2", "reading_um", "limit"});
   Put(dir / "header.csv", "feature,reading_um\n");
-  ExpectBadInput(RunTtp("inspect " + Quoted(dir / "header.csv")),
+  ExpectBadInput(RunTtp("inspect " + ShellQuoted(dir / "header.csv")),
                  {"header.csv", "no readings"});
 }
 
@@ -252,13 +240,13 @@ TEST(CliHardening, DialReadingsHugeAndHeaderOnly) {
 
 TEST(CliHardening, OptionLimits) {
   const fs::path dir = TestDir("hard");
-  const std::string out = " -o " + Quoted(dir / "p.nc");
+  const std::string out = " -o " + ShellQuoted(dir / "p.nc");
   // An output given as an empty word is refused, not skipped.
-  ExpectBadInput(
-      RunTtp("grade " +
-             Quoted(std::string(TTP_DATA_DIR) + "/samples/run-b/piece.xyz") +
-             " --json ''"),
-      {"--json", "file name"});
+  ExpectBadInput(RunTtp("grade " +
+                        ShellQuoted(std::string(TTP_DATA_DIR) +
+                                    "/samples/run-b/piece.xyz") +
+                        " --json ''"),
+                 {"--json", "file name"});
   ExpectBadInput(RunTtp("gcode pre -o ''"), {"--output", "file name"});
   ExpectBadInput(RunTtp("plan probe --facet-columns 100000 --facet-rows "
                         "100000" +
@@ -267,7 +255,7 @@ TEST(CliHardening, OptionLimits) {
   ExpectBadInput(RunTtp("plan probe --strip-points 2000000000" + out),
                  {"strip_points_per_side", "limit"});
   ExpectBadInput(
-      RunTtp("plan cmm --facet-rows 2147483647 -o " + Quoted(dir / "cmm")),
+      RunTtp("plan cmm --facet-rows 2147483647 -o " + ShellQuoted(dir / "cmm")),
       {"facet_rows", "limit"});
   ExpectBadInput(RunTtp("plan probe --overtravel-mm 1e308" + out),
                  {"overtravel_mm"});
@@ -278,12 +266,12 @@ TEST(CliHardening, OptionLimits) {
        {"--stray-fraction 5", "--stray-fraction -1", "--size 1e30",
         "--stray-fraction nan", "--points 0"}) {
     const RunResult r = RunTtp(std::string("twin --effect tool_wear ") + bad +
-                               " -o " + Quoted(dir / "twin"));
+                               " -o " + ShellQuoted(dir / "twin"));
     EXPECT_EQ(r.exit_code, 2) << bad << "\n" << r.output;
   }
   EXPECT_FALSE(fs::exists(dir / "twin"));
-  const std::string log = Data("samples/run-a/talc.csv");
-  const std::string piece = Data("samples/run-a/piece.ply");
+  const std::string log = DataPath("samples/run-a/talc.csv");
+  const std::string piece = DataPath("samples/run-a/piece.ply");
   for (const std::string& args :
        {"check --log " + log + " " + piece + " --time-tolerance-s nan",
         "check --log " + log + " " + piece + " --time-tolerance-s -5",
@@ -304,8 +292,8 @@ TEST(CliHardening, OptionLimits) {
            {"simulate --log " + log +
                 " --compare-interpolation --rtest-interval-s 1e300",
             "--rtest-interval-s"},
-           {"thermal fit " + Data("samples/thermal-log.csv") + " -o " +
-                Quoted(dir / "m.json") + " --temperature-lag-s 1e300",
+           {"thermal fit " + DataPath("samples/thermal-log.csv") + " -o " +
+                ShellQuoted(dir / "m.json") + " --temperature-lag-s 1e300",
             "--temperature-lag-s"}}) {
     const RunResult r = RunTtp(args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
@@ -319,7 +307,7 @@ TEST(CliHardening, OptionLimits) {
           "cycle,c_deg,x,y,z\n1,0,160,0,80\n1,90,0,160,80\n1,180,-160,0,80\n"
           "99999999999999999999,0,160,0,80\n99999999999999999999,90,0,160,80\n"
           "99999999999999999999,180,-160,0,80\n");
-  ExpectBadInput(RunTtp("rtest " + Quoted(spheres)),
+  ExpectBadInput(RunTtp("rtest " + ShellQuoted(spheres)),
                  {"spheres.csv:5", "cycle", "limit"});
 }
 
@@ -329,8 +317,8 @@ TEST(CliHardening, ProgramsEmptyHugeAndLongDwells) {
   const fs::path dir = TestDir("hard");
   const fs::path empty = Put(dir / "empty.nc", "%\n%\n");
   for (const std::string& cmd :
-       {"gcode read " + Quoted(empty), "gcode check " + Quoted(empty),
-        "verify " + Quoted(empty)}) {
+       {"gcode read " + ShellQuoted(empty), "gcode check " + ShellQuoted(empty),
+        "verify " + ShellQuoted(empty)}) {
     const RunResult r = RunTtp(cmd);
     EXPECT_EQ(r.exit_code, 2) << cmd << "\n" << r.output;
     EXPECT_NE(r.output.find("empty.nc"), std::string::npos) << r.output;
@@ -338,14 +326,15 @@ TEST(CliHardening, ProgramsEmptyHugeAndLongDwells) {
   }
   const fs::path dwell =
       Put(dir / "dwell.ngc", "G21 G90\nG4 P999999999999\nM30\n");
-  ExpectBadInput(RunTtp("gcode read " + Quoted(dwell)),
+  ExpectBadInput(RunTtp("gcode read " + ShellQuoted(dwell)),
                  {"dwell.ngc:2", "limit"});
   const fs::path huge =
       Put(dir / "huge.ngc", "G21 G90\nG0 X123456789012.5\nM30\n");
-  ExpectBadInput(RunTtp("gcode read " + Quoted(huge)), {"huge.ngc:2", "limit"});
+  ExpectBadInput(RunTtp("gcode read " + ShellQuoted(huge)),
+                 {"huge.ngc:2", "limit"});
   const fs::path digits = Put(
       dir / "digits.ngc", "G21 G90\nG0 X" + std::string(400, '9') + "\nM30\n");
-  ExpectBadInput(RunTtp("gcode read " + Quoted(digits)),
+  ExpectBadInput(RunTtp("gcode read " + ShellQuoted(digits)),
                  {"digits.ngc:2", "digits"});
   // One line of a hundred thousand comments: a line past the limit, not a
   // hundred thousand statements.
@@ -353,7 +342,8 @@ TEST(CliHardening, ProgramsEmptyHugeAndLongDwells) {
   for (int k = 0; k < 100000; ++k) comments += "(a)";
   const fs::path wide =
       Put(dir / "wide.ngc", "G21 G90\n" + comments + "\nM30\n");
-  ExpectBadInput(RunTtp("gcode read " + Quoted(wide)), {"wide.ngc:2", "limit"});
+  ExpectBadInput(RunTtp("gcode read " + ShellQuoted(wide)),
+                 {"wide.ngc:2", "limit"});
 }
 
 // ---------------------------------------------------------------- outputs
@@ -361,58 +351,62 @@ TEST(CliHardening, ProgramsEmptyHugeAndLongDwells) {
 TEST(CliHardening, NeverWritesOverAnInput) {
   const fs::path dir = TestDir("hard");
   const fs::path log = dir / "same.csv";
-  fs::copy_file(Data("samples/run-a/talc.csv"), log);
-  const std::string before = Slurp(log);
-  ExpectBadInput(RunTtp("log " + Quoted(log) + " --json " + Quoted(log)),
-                 {"same.csv", "input"});
-  EXPECT_EQ(Slurp(log), before);
+  fs::copy_file(DataPath("samples/run-a/talc.csv"), log);
+  const std::string before = FileBytes(log);
+  ExpectBadInput(
+      RunTtp("log " + ShellQuoted(log) + " --json " + ShellQuoted(log)),
+      {"same.csv", "input"});
+  EXPECT_EQ(FileBytes(log), before);
   // Through another name: a symbolic link to the input.
   fs::create_symlink(log, dir / "link.json");
-  ExpectBadInput(
-      RunTtp("log " + Quoted(log) + " --json " + Quoted(dir / "link.json")),
-      {"input"});
-  EXPECT_EQ(Slurp(log), before);
+  ExpectBadInput(RunTtp("log " + ShellQuoted(log) + " --json " +
+                        ShellQuoted(dir / "link.json")),
+                 {"input"});
+  EXPECT_EQ(FileBytes(log), before);
 
   const fs::path ply = dir / "same.ply";
-  fs::copy_file(Data("samples/run-a/piece.ply"), ply);
-  const std::string ply_before = Slurp(ply);
-  ExpectBadInput(RunTtp("inspect " + Quoted(ply) + " --json " + Quoted(ply)),
-                 {"same.ply", "input"});
-  EXPECT_EQ(Slurp(ply), ply_before);
+  fs::copy_file(DataPath("samples/run-a/piece.ply"), ply);
+  const std::string ply_before = FileBytes(ply);
+  ExpectBadInput(
+      RunTtp("inspect " + ShellQuoted(ply) + " --json " + ShellQuoted(ply)),
+      {"same.ply", "input"});
+  EXPECT_EQ(FileBytes(ply), ply_before);
 
   const fs::path nc = dir / "same.nc";
-  ASSERT_EQ(RunTtp("gcode cycle -o " + Quoted(nc)).exit_code, 0);
-  const std::string nc_before = Slurp(nc);
-  ExpectBadInput(RunTtp("gcode translate " + Quoted(nc) + " --to linuxcnc -o " +
-                        Quoted(nc)),
+  ASSERT_EQ(RunTtp("gcode cycle -o " + ShellQuoted(nc)).exit_code, 0);
+  const std::string nc_before = FileBytes(nc);
+  ExpectBadInput(RunTtp("gcode translate " + ShellQuoted(nc) +
+                        " --to linuxcnc -o " + ShellQuoted(nc)),
                  {"same.nc", "input"});
-  EXPECT_EQ(Slurp(nc), nc_before);
+  EXPECT_EQ(FileBytes(nc), nc_before);
 }
 
 TEST(CliHardening, WritesThroughLinksIntoDevicesAndFifos) {
   const fs::path dir = TestDir("hard");
-  const std::string log = Data("samples/run-a/talc.csv");
+  const std::string log = DataPath("samples/run-a/talc.csv");
   // A symbolic link: the target gets the output, the link stays a link.
   Put(dir / "target.json", "old\n");
   fs::create_symlink(dir / "target.json", dir / "link.json");
-  ASSERT_EQ(
-      RunTtp("log " + log + " --json " + Quoted(dir / "link.json")).exit_code,
-      0);
+  ASSERT_EQ(RunTtp("log " + log + " --json " + ShellQuoted(dir / "link.json"))
+                .exit_code,
+            0);
   EXPECT_TRUE(fs::is_symlink(dir / "link.json"));
-  EXPECT_NE(Slurp(dir / "target.json").find("\"rtests\""), std::string::npos);
+  EXPECT_NE(FileBytes(dir / "target.json").find("\"rtests\""),
+            std::string::npos);
   // A dangling link is refused.
   fs::create_symlink(dir / "nowhere" / "x.json", dir / "dangling.json");
   ExpectBadInput(
-      RunTtp("log " + log + " --json " + Quoted(dir / "dangling.json")),
+      RunTtp("log " + log + " --json " + ShellQuoted(dir / "dangling.json")),
       {"dangling.json", "missing"});
   EXPECT_TRUE(fs::is_symlink(dir / "dangling.json"));
   // A FIFO is written into, not replaced.
   const fs::path fifo = dir / "fifo";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-  const RunResult r = RunCommand(
-      "(cat " + Quoted(fifo) + " > " + Quoted(dir / "from_fifo.json") +
-      " &) ; " + std::string(TTP_BINARY_DIR) + "/app/ttp log " + log +
-      " --json " + Quoted(fifo) + " 2>&1; wait");
+  const RunResult r =
+      RunCommand("(cat " + ShellQuoted(fifo) + " > " +
+                 ShellQuoted(dir / "from_fifo.json") + " &) ; " +
+                 std::string(TTP_BINARY_DIR) + "/app/ttp log " + log +
+                 " --json " + ShellQuoted(fifo) + " 2>&1; wait");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::is_fifo(fifo));
   // /dev/null is written into; /dev/full (a full disk) fails as bad output,
@@ -429,30 +423,32 @@ TEST(CliHardening, SeveralOutputsAllOrNone) {
   const fs::path dir = TestDir("hard");
   // A folder stands where the second output goes.
   fs::create_directories(dir / "blocked.json");
-  ExpectBadInput(RunTtp("schedule --csv " + Quoted(dir / "ok.csv") +
-                        " --json " + Quoted(dir / "blocked.json")),
+  ExpectBadInput(RunTtp("schedule --csv " + ShellQuoted(dir / "ok.csv") +
+                        " --json " + ShellQuoted(dir / "blocked.json")),
                  {"blocked.json", "folder"});
   EXPECT_FALSE(fs::exists(dir / "ok.csv"));
-  const RunResult p = RunTtp("plan probe -o " + Quoted(dir / "probe.nc") +
-                             " --points-csv " + Quoted(dir / "blocked.json"));
+  const RunResult p =
+      RunTtp("plan probe -o " + ShellQuoted(dir / "probe.nc") +
+             " --points-csv " + ShellQuoted(dir / "blocked.json"));
   EXPECT_EQ(p.exit_code, 2) << p.output;
   EXPECT_FALSE(fs::exists(dir / "probe.nc"));
   // A file where a command writes its folder (or above it) is the user's.
   Put(dir / "afile", "x\n");
   for (const char* plan : {"plan cmm -o ", "plan dial -o "}) {
-    ExpectBadInput(RunTtp(plan + Quoted(dir / "afile")), {"afile"});
-    ExpectBadInput(RunTtp(plan + Quoted(dir / "afile" / "sub")), {"afile"});
+    ExpectBadInput(RunTtp(plan + ShellQuoted(dir / "afile")), {"afile"});
+    ExpectBadInput(RunTtp(plan + ShellQuoted(dir / "afile" / "sub")),
+                   {"afile"});
   }
-  EXPECT_EQ(Slurp(dir / "afile"), "x\n");
+  EXPECT_EQ(FileBytes(dir / "afile"), "x\n");
   // The twin: an existing run survives a failure untouched.
   fs::create_directories(dir / "twin" / "truth.json");
   Put(dir / "twin" / "talc.csv", "previous run\n");
   const RunResult t = RunTtp(
       "twin --effect tool_wear --size 3 --points 2000 "
       "-o " +
-      Quoted(dir / "twin"));
+      ShellQuoted(dir / "twin"));
   EXPECT_EQ(t.exit_code, 2) << t.output;
-  EXPECT_EQ(Slurp(dir / "twin" / "talc.csv"), "previous run\n");
+  EXPECT_EQ(FileBytes(dir / "twin" / "talc.csv"), "previous run\n");
   EXPECT_FALSE(fs::exists(dir / "twin" / "piece.ply"));
   int entries = 0;
   for (const auto& e : fs::directory_iterator(dir)) {
@@ -464,11 +460,11 @@ TEST(CliHardening, SeveralOutputsAllOrNone) {
   // Without the obstacle the twin writes all three files.
   fs::remove_all(dir / "twin" / "truth.json");
   ASSERT_EQ(RunTtp("twin --effect tool_wear --size 3 --points 2000 -o " +
-                   Quoted(dir / "twin"))
+                   ShellQuoted(dir / "twin"))
                 .exit_code,
             0);
   EXPECT_TRUE(fs::is_regular_file(dir / "twin" / "truth.json"));
-  EXPECT_NE(Slurp(dir / "twin" / "talc.csv"), "previous run\n");
+  EXPECT_NE(FileBytes(dir / "twin" / "talc.csv"), "previous run\n");
 }
 
 // A result that cannot reach standard output (a full disk behind `>`) is
@@ -486,7 +482,7 @@ TEST(CliHardening, StandardOutputThatCannotBeWritten) {
 TEST(CliHardening, FitsThePointsDoNotDetermine) {
   const fs::path dir = TestDir("hard");
   const fs::path four = Put(dir / "four.xyz", "0 0 0\n1 0 0\n0 1 0\n0 0 1\n");
-  const RunResult cone = RunTtp("fit cone " + Quoted(four));
+  const RunResult cone = RunTtp("fit cone " + ShellQuoted(four));
   EXPECT_EQ(cone.exit_code, 2) << cone.output;
   EXPECT_EQ(cone.output.find("inf"), std::string::npos) << cone.output;
   // Points on a plane (a lattice, not collinear): no cylinder.
@@ -496,7 +492,7 @@ TEST(CliHardening, FitsThePointsDoNotDetermine) {
       plane += std::to_string(i * 1.5 + 0.1 * j) + " " +
                std::to_string(j * 1.25) + " 0\n";
   const fs::path p = Put(dir / "plane.xyz", plane);
-  const RunResult cyl = RunTtp("fit cylinder " + Quoted(p));
+  const RunResult cyl = RunTtp("fit cylinder " + ShellQuoted(p));
   ExpectBadInput(cyl, {"plane.xyz", "cylinder", "do not determine"});
   EXPECT_EQ(cyl.output.find("covariance_impl"), std::string::npos)
       << cyl.output;

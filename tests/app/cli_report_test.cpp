@@ -26,8 +26,6 @@ fs::path Sample(const std::string& run, const std::string& file) {
 
 fs::path OutDir() { return test::TestDir("report"); }
 
-std::string Q(const fs::path& p) { return "'" + p.string() + "'"; }
-
 struct SampleCase {
   const char* run;
   const char* measurement;
@@ -39,9 +37,10 @@ TEST_P(CliReport, WritesThePageAndItsDataForTheSampleRun) {
   const SampleCase c = GetParam();
   const fs::path html = OutDir() / (std::string(c.run) + ".html");
   const fs::path data_path = OutDir() / (std::string(c.run) + ".json");
-  const auto r = RunTtp("report --log " + Q(Sample(c.run, "talc.csv")) + " " +
-                        Q(Sample(c.run, c.measurement)) + " -o " + Q(html) +
-                        " --json " + Q(data_path));
+  const auto r = RunTtp(
+      "report --log " + test::ShellQuoted(Sample(c.run, "talc.csv")) + " " +
+      test::ShellQuoted(Sample(c.run, c.measurement)) + " -o " +
+      test::ShellQuoted(html) + " --json " + test::ShellQuoted(data_path));
   const json data = json::parse(ReadTextFile(data_path));
   // Exit 1 unless the verdict is pass (as `ttp grade`) and the diagnosis
   // is not refused.
@@ -78,7 +77,8 @@ TEST_P(CliReport, WritesThePageAndItsDataForTheSampleRun) {
 
   // report-html renders the same page from the data file.
   const fs::path again = OutDir() / (std::string(c.run) + "-again.html");
-  const auto h = RunTtp("report-html " + Q(data_path) + " -o " + Q(again));
+  const auto h = RunTtp("report-html " + test::ShellQuoted(data_path) + " -o " +
+                        test::ShellQuoted(again));
   ASSERT_EQ(h.exit_code, 0) << h.output;
   EXPECT_EQ(ReadTextFile(again), page);
 }
@@ -110,9 +110,10 @@ TEST(CliReportErrors, ALogThatDoesNotCoverTheCutsIsARefusedDiagnosis) {
     }
   }
   const fs::path html = dir / "short.html", data_path = dir / "short.json";
-  const auto r = RunTtp("report --log " + Q(shortened) + " " +
-                        Q(Sample("run-a", "piece.ply")) + " -o " + Q(html) +
-                        " --json " + Q(data_path));
+  const auto r = RunTtp("report --log " + test::ShellQuoted(shortened) + " " +
+                        test::ShellQuoted(Sample("run-a", "piece.ply")) +
+                        " -o " + test::ShellQuoted(html) + " --json " +
+                        test::ShellQuoted(data_path));
   EXPECT_EQ(r.exit_code, 1) << r.output;
   ASSERT_TRUE(fs::exists(html)) << r.output;
   const json data = json::parse(ReadTextFile(data_path));
@@ -125,40 +126,46 @@ TEST(CliReportErrors, ALogThatDoesNotCoverTheCutsIsARefusedDiagnosis) {
 
 TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
   const fs::path html = OutDir() / "bad.html";
-  auto r = RunTtp("report --log " + Q(Sample("run-a", "talc.csv")) +
-                  " /no/such/piece.ply -o " + Q(html));
+  auto r =
+      RunTtp("report --log " + test::ShellQuoted(Sample("run-a", "talc.csv")) +
+             " /no/such/piece.ply -o " + test::ShellQuoted(html));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("/no/such/piece.ply"), std::string::npos);
   // A point cloud given as the log.
-  r = RunTtp("report --log " + Q(Sample("run-a", "piece.ply")) + " " +
-             Q(Sample("run-a", "piece.ply")) + " -o " + Q(html));
+  r = RunTtp("report --log " + test::ShellQuoted(Sample("run-a", "piece.ply")) +
+             " " + test::ShellQuoted(Sample("run-a", "piece.ply")) + " -o " +
+             test::ShellQuoted(html));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("piece.ply"), std::string::npos);
   EXPECT_FALSE(fs::exists(html));
   // -o is required, its folder must exist, and an input is never replaced.
-  r = RunTtp("report " + Q(Sample("run-a", "piece.ply")));
+  r = RunTtp("report " + test::ShellQuoted(Sample("run-a", "piece.ply")));
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  r = RunTtp("report " + Q(Sample("run-a", "piece.ply")) + " -o " +
-             Q(OutDir() / "no-such-folder" / "r.html"));
+  r = RunTtp("report " + test::ShellQuoted(Sample("run-a", "piece.ply")) +
+             " -o " +
+             test::ShellQuoted(OutDir() / "no-such-folder" / "r.html"));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("does not exist"), std::string::npos) << r.output;
   const fs::path copy = OutDir() / "talc-copy.csv";
   fs::copy_file(Sample("run-a", "talc.csv"), copy,
                 fs::copy_options::overwrite_existing);
   const std::string before = ReadTextFile(copy);
-  r = RunTtp("report --log " + Q(copy) + " " + Q(Sample("run-a", "piece.ply")) +
-             " -o " + Q(copy));
+  r = RunTtp("report --log " + test::ShellQuoted(copy) + " " +
+             test::ShellQuoted(Sample("run-a", "piece.ply")) + " -o " +
+             test::ShellQuoted(copy));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("is an input"), std::string::npos) << r.output;
   EXPECT_EQ(ReadTextFile(copy), before);
   // A truth file is not a measurement.
-  r = RunTtp("report " + Q(Sample("run-a", "truth.json")) + " -o " + Q(html));
+  r = RunTtp("report " + test::ShellQuoted(Sample("run-a", "truth.json")) +
+             " -o " + test::ShellQuoted(html));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("truth file"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(html));
   // Another run's piece: no cause named (as by `ttp diagnose`).
-  r = RunTtp("report --log " + Q(Sample("run-b", "talc.csv")) + " " +
-             Q(Sample("run-a", "piece.ply")) + " -o " + Q(html));
+  r = RunTtp("report --log " + test::ShellQuoted(Sample("run-b", "talc.csv")) +
+             " " + test::ShellQuoted(Sample("run-a", "piece.ply")) + " -o " +
+             test::ShellQuoted(html));
   EXPECT_EQ(r.output.find("cause workpiece_expansion"), std::string::npos)
       << r.output;
   // A dial sheet with only a reference cycle's reading: nothing to
@@ -166,8 +173,10 @@ TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
   const fs::path dial = OutDir() / "one-reading.csv";
   WriteFileAtomic(dial, "feature,reading_um\nX1-1,1.5\n");
   for (const std::string cmd : {"report", "diagnose"}) {
-    r = RunTtp(cmd + " --log " + Q(Sample("run-a", "talc.csv")) + " " +
-               Q(dial) + (cmd == "report" ? " -o " + Q(html) : ""));
+    r = RunTtp(cmd + " --log " +
+               test::ShellQuoted(Sample("run-a", "talc.csv")) + " " +
+               test::ShellQuoted(dial) +
+               (cmd == "report" ? " -o " + test::ShellQuoted(html) : ""));
     EXPECT_EQ(r.exit_code, 2) << cmd << r.output;
     EXPECT_NE(r.output.find("one-reading.csv"), std::string::npos)
         << cmd << r.output;
@@ -176,25 +185,28 @@ TEST(CliReportErrors, BadInputExitsWithTwoNamingTheFile) {
   const fs::path bad = OutDir() / "bad.json";
   WriteFileAtomic(bad,
                   R"({"schema": "ttp-report/1", "limits": {"linear_um": -1}})");
-  r = RunTtp("report-html " + Q(bad) + " -o " + Q(html));
+  r = RunTtp("report-html " + test::ShellQuoted(bad) + " -o " +
+             test::ShellQuoted(html));
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("limits.linear_um"), std::string::npos) << r.output;
 }
 
 TEST(CliReportFormats, AnyMeasurementFileGivesTheSameReport) {
   const fs::path dir = OutDir();
-  const std::string log = Q(Sample("run-a", "talc.csv"));
+  const std::string log = test::ShellQuoted(Sample("run-a", "talc.csv"));
   auto r = RunTtp("report --log " + log + " " +
-                  Q(Sample("run-a", "piece.ply")) + " -o " +
-                  Q(dir / "cloud.html") + " --json " + Q(dir / "cloud.json"));
+                  test::ShellQuoted(Sample("run-a", "piece.ply")) + " -o " +
+                  test::ShellQuoted(dir / "cloud.html") + " --json " +
+                  test::ShellQuoted(dir / "cloud.json"));
   ASSERT_EQ(r.exit_code, 1) << r.output;  // run-a fails
   // The inspection JSON of the same cloud.
-  r = RunTtp("inspect " + Q(Sample("run-a", "piece.ply")) + " --json " +
-             Q(dir / "inspection.json"));
+  r = RunTtp("inspect " + test::ShellQuoted(Sample("run-a", "piece.ply")) +
+             " --json " + test::ShellQuoted(dir / "inspection.json"));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;  // graded
-  r = RunTtp("report --log " + log + " " + Q(dir / "inspection.json") + " -o " +
-             Q(dir / "inspection.html") + " --json " +
-             Q(dir / "inspection.json.report"));
+  r = RunTtp("report --log " + log + " " +
+             test::ShellQuoted(dir / "inspection.json") + " -o " +
+             test::ShellQuoted(dir / "inspection.html") + " --json " +
+             test::ShellQuoted(dir / "inspection.json.report"));
   const json cloud = json::parse(ReadTextFile(dir / "cloud.json"));
   const json insp = json::parse(ReadTextFile(dir / "inspection.json.report"));
   ASSERT_EQ(insp["figures"]["measured"].size(),
@@ -211,8 +223,9 @@ TEST(CliReportFormats, AnyMeasurementFileGivesTheSameReport) {
 
   // The report's diagnosis is the one `ttp diagnose` gives for the same
   // file: one reading of a measurement for both.
-  r = RunTtp("diagnose --log " + log + " " + Q(Sample("run-a", "piece.ply")) +
-             " --json " + Q(dir / "diagnose.json"));
+  r = RunTtp("diagnose --log " + log + " " +
+             test::ShellQuoted(Sample("run-a", "piece.ply")) + " --json " +
+             test::ShellQuoted(dir / "diagnose.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const json diagnose = json::parse(ReadTextFile(dir / "diagnose.json"));
   for (const json* report : {&cloud, &insp}) {
@@ -234,11 +247,12 @@ TEST(CliReportFormats, AnyMeasurementFileGivesTheSameReport) {
   // The per-feature results `ttp twin` writes (and `ttp diagnose` reads).
   r = RunTtp(
       "twin --effect tool_wear --size 4 --seed 3 --measurement json -o " +
-      Q(dir / "twin"));
+      test::ShellQuoted(dir / "twin"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = RunTtp("report --log " + Q(dir / "twin" / "talc.csv") + " " +
-             Q(dir / "twin" / "measured.json") + " -o " + Q(dir / "twin.html") +
-             " --json " + Q(dir / "twin.json"));
+  r = RunTtp("report --log " + test::ShellQuoted(dir / "twin" / "talc.csv") +
+             " " + test::ShellQuoted(dir / "twin" / "measured.json") + " -o " +
+             test::ShellQuoted(dir / "twin.html") + " --json " +
+             test::ShellQuoted(dir / "twin.json"));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;
   const json twin = json::parse(ReadTextFile(dir / "twin.json"));
   const json truth = json::parse(ReadTextFile(dir / "twin" / "truth.json"));
@@ -258,13 +272,16 @@ class CliVerdicts : public ::testing::TestWithParam<KindCase> {};
 TEST_P(CliVerdicts, GradeAndReportAgree) {
   const KindCase c = GetParam();
   const fs::path dir = OutDir();
-  const std::string m = Q(Sample(c.run, c.file));
-  const auto g = RunTtp("grade " + m + " --json " + Q(dir / "grade.json"));
+  const std::string m = test::ShellQuoted(Sample(c.run, c.file));
+  const auto g =
+      RunTtp("grade " + m + " --json " + test::ShellQuoted(dir / "grade.json"));
   ASSERT_TRUE(g.exit_code == 0 || g.exit_code == 1) << g.output;
   const auto r = RunTtp(
       "report " + m +
-      (c.with_log ? " --log " + Q(Sample(c.run, "talc.csv")) : std::string()) +
-      " -o " + Q(dir / "r.html") + " --json " + Q(dir / "r.json"));
+      (c.with_log ? " --log " + test::ShellQuoted(Sample(c.run, "talc.csv"))
+                  : std::string()) +
+      " -o " + test::ShellQuoted(dir / "r.html") + " --json " +
+      test::ShellQuoted(dir / "r.json"));
   EXPECT_EQ(r.exit_code, g.exit_code) << r.output;
   const json grade = json::parse(ReadTextFile(dir / "grade.json"));
   const json data = json::parse(ReadTextFile(dir / "r.json"));
@@ -307,10 +324,11 @@ INSTANTIATE_TEST_SUITE_P(
 // shows that grade; its summary leads with the verdict.
 TEST(CliVerdicts, RunAgreesWithGrade) {
   const fs::path dir = OutDir() / "run";
-  const auto run = RunTtp("run --seed 4 -o " + Q(dir));
+  const auto run = RunTtp("run --seed 4 -o " + test::ShellQuoted(dir));
   ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 1) << run.output;
-  const auto g = RunTtp("grade " + Q(dir / "twin" / "piece.ply") + " --json " +
-                        Q(OutDir() / "run-grade.json"));
+  const auto g =
+      RunTtp("grade " + test::ShellQuoted(dir / "twin" / "piece.ply") +
+             " --json " + test::ShellQuoted(OutDir() / "run-grade.json"));
   ASSERT_TRUE(g.exit_code == 0 || g.exit_code == 1) << g.output;
   const json grade = json::parse(ReadTextFile(OutDir() / "run-grade.json"));
   EXPECT_EQ(json::parse(ReadTextFile(dir / "grade.json")), grade);
@@ -326,10 +344,11 @@ TEST(CliVerdicts, RunAgreesWithGrade) {
 // (on).
 TEST(CliReportCompare, SpansOfTwoPieces) {
   const fs::path dir = OutDir();
-  const auto r =
-      RunTtp("report --compare " + Q(Sample("run-a", "piece.ply")) + " " +
-             Q(Sample("run-b", "piece.xyz")) + " -o " +
-             Q(dir / "compare.html") + " --json " + Q(dir / "compare.json"));
+  const auto r = RunTtp("report --compare " +
+                        test::ShellQuoted(Sample("run-a", "piece.ply")) + " " +
+                        test::ShellQuoted(Sample("run-b", "piece.xyz")) +
+                        " -o " + test::ShellQuoted(dir / "compare.html") +
+                        " --json " + test::ShellQuoted(dir / "compare.json"));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;
   const json data = json::parse(ReadTextFile(dir / "compare.json"));
   // Exit 1 unless both verdicts are pass, as for one piece.

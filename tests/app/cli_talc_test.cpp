@@ -26,13 +26,6 @@ namespace fs = std::filesystem;
 const std::string kTalcTrain =
     std::string(TTP_DATA_DIR) + "/reference/fl-thermal/train.csv";
 
-std::string SlurpFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 TEST(CliTalc, ReplayOnTheRealDataBeatsHoldingTheLastMeasurement) {
   const fs::path json = test::TestDir("talc") / "replay.json";
   const auto r = test::RunTtp("talc replay " + kTalcTrain +
@@ -212,7 +205,7 @@ std::string InProcess(const fs::path& dir) {
                    " --json " + (dir / "in-process.json").string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("Pareto front"), std::string::npos) << r.output;
-  return SlurpFile(dir / "in-process.json");
+  return test::FileBytes(dir / "in-process.json");
 }
 
 TEST(CliTalc, SweepThroughGnuParallelEqualsTheInProcessRun) {
@@ -229,7 +222,7 @@ TEST(CliTalc, SweepThroughGnuParallelEqualsTheInProcessRun) {
   r = test::RunTtp("talc sweep --merge " + (dir / "plan").string() +
                    " --json " + (dir / "merged.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_EQ(SlurpFile(dir / "merged.json"), expected);
+  EXPECT_EQ(test::FileBytes(dir / "merged.json"), expected);
 }
 
 // Runs `sh -c cmd`, true when it exits 0.
@@ -319,10 +312,10 @@ TEST(CliTalc, SweepThroughARealSlurmJobArrayEqualsTheInProcessRun) {
       << "PartitionName=debug Nodes=" << h << " Default=YES State=UP\n";
   const std::string env = "SLURM_CONF=" + (s / "slurm.conf").string() + " ";
   ASSERT_TRUE(Sh(env + "/usr/sbin/slurmctld -f " + (s / "slurm.conf").string()))
-      << SlurpFile(s / "log/slurmctld.log");
+      << test::FileBytes(s / "log/slurmctld.log");
   daemons.pid_files.push_back(s / "slurmctld.pid");
   ASSERT_TRUE(Sh(env + "/usr/sbin/slurmd -f " + (s / "slurm.conf").string()))
-      << SlurpFile(s / "log/slurmd.log");
+      << test::FileBytes(s / "log/slurmd.log");
   daemons.pid_files.push_back(s / "slurmd.pid");
   bool idle = false;
   for (int i = 0; i < 60 && !idle; ++i) {
@@ -330,7 +323,7 @@ TEST(CliTalc, SweepThroughARealSlurmJobArrayEqualsTheInProcessRun) {
                .output.find("idle") != std::string::npos;
     if (!idle) std::this_thread::sleep_for(std::chrono::milliseconds(500));
   }
-  ASSERT_TRUE(idle) << SlurpFile(s / "log/slurmctld.log");
+  ASSERT_TRUE(idle) << test::FileBytes(s / "log/slurmctld.log");
 
   auto r =
       test::RunTtp("talc sweep " + (dir / "grid.toml").string() + " --log " +
@@ -338,14 +331,15 @@ TEST(CliTalc, SweepThroughARealSlurmJobArrayEqualsTheInProcessRun) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   r = test::RunCommand(env + "timeout 90 sbatch --array=0-2 --wait " +
                        (dir / "plan/talc-sweep.sbatch").string() + " 2>&1");
-  ASSERT_EQ(r.exit_code, 0) << r.output << SlurpFile(s / "log/slurmctld.log");
+  ASSERT_EQ(r.exit_code, 0)
+      << r.output << test::FileBytes(s / "log/slurmctld.log");
   for (int k = 0; k < 3; ++k)
     EXPECT_TRUE(
         fs::exists(dir / "plan" / ("result-" + std::to_string(k) + ".json")));
   r = test::RunTtp("talc sweep --merge " + (dir / "plan").string() +
                    " --json " + (dir / "merged.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_EQ(SlurpFile(dir / "merged.json"), expected);
+  EXPECT_EQ(test::FileBytes(dir / "merged.json"), expected);
 }
 
 }  // namespace

@@ -6,8 +6,10 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "test_dir.h"
@@ -36,6 +38,26 @@ inline RunResult RunCommand(const std::string& command) {
 
 inline RunResult RunTtp(const std::string& args) {
   return RunCommand(std::string(TTP_BINARY_DIR) + "/app/ttp " + args + " 2>&1");
+}
+
+// A path as one /bin/sh word (the tests' paths hold no single quote).
+inline std::string ShellQuoted(const std::filesystem::path& p) {
+  return "'" + p.string() + "'";
+}
+
+// A file of the repository's data (samples/, reference/), by its path
+// relative to the data folder.
+inline std::string DataPath(const std::string& relative) {
+  return (std::filesystem::path(TTP_DATA_DIR) / relative).string();
+}
+
+// The bytes of a file; empty when it cannot be read (the test's own
+// assertions then say what is missing).
+inline std::string FileBytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
 }
 
 inline nlohmann::json ReadJson(const std::filesystem::path& path) {

@@ -94,13 +94,6 @@ std::vector<DocCommand> ExtractCommands(const std::string& text) {
   return out;
 }
 
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // README.md and docs/*.md, relative to the source folder.
 std::vector<std::string> Documents() {
   std::vector<std::string> docs = {"README.md"};
@@ -165,7 +158,7 @@ class DocCommands : public ::testing::TestWithParam<std::string> {};
 TEST_P(DocCommands, RunAsWritten) {
   const std::string doc = GetParam();
   const std::vector<DocCommand> commands =
-      ExtractCommands(ReadFile(fs::path(TTP_SOURCE_DIR) / doc));
+      ExtractCommands(ttp::test::FileBytes(fs::path(TTP_SOURCE_DIR) / doc));
   if (doc == "README.md") {
     ASSERT_FALSE(commands.empty()) << "README.md shows no ```sh command";
   }

@@ -28,15 +28,6 @@ using nlohmann::json;
 using ttp::test::RunCommand;
 using ttp::test::RunResult;
 
-std::string Quote(const fs::path& p) { return "'" + p.string() + "'"; }
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 int Finite(const json& column) {
   int n = 0;
   for (const json& v : column)
@@ -102,7 +93,7 @@ class BrowserTest : public ::testing::Test {
         std::string("timeout 120 ") + TTP_CHROMIUM +
         " --headless --no-sandbox --disable-gpu"
         " --user-data-dir=" +
-        Quote(profile) +
+        ttp::test::ShellQuoted(profile) +
         " --proxy-server=127.0.0.1:9"
         " --host-resolver-rules='MAP * ~NOTFOUND'"
         " --disable-background-networking --disable-component-update"
@@ -147,7 +138,7 @@ void CheckPageDrawsEverything(const fs::path& html,
                               const std::map<std::string, int>& expected,
                               const std::string& verdict,
                               std::string* dom_out) {
-  const std::string page = ReadFile(html);
+  const std::string page = ttp::test::FileBytes(html);
 
   // Self-contained: nothing is fetched (scripts, styles, images, fonts).
   const std::regex external(
@@ -157,10 +148,10 @@ void CheckPageDrawsEverything(const fs::path& html,
   EXPECT_FALSE(std::regex_search(page, hit, external))
       << "external reference: " << hit.str();
 
-  const RunResult dom =
-      BrowserTest::Chromium("--window-size=1280,1000 --dump-dom " +
-                                Quote("file://" + fs::absolute(html).string()),
-                            html.parent_path() / "profile");
+  const RunResult dom = BrowserTest::Chromium(
+      "--window-size=1280,1000 --dump-dom " +
+          ttp::test::ShellQuoted("file://" + fs::absolute(html).string()),
+      html.parent_path() / "profile");
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
   *dom_out = dom.output;
   CheckPageRanClean(dom.output);
@@ -204,32 +195,34 @@ TEST_F(BrowserTest, SampleRunReportDrawsEveryPlotOffline) {
   const fs::path html = fs::absolute(dir / "run-a.html");
   const fs::path data_path = fs::absolute(dir / "run-a.json");
   const RunResult report = RunCommand(
-      "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
+      "cd " + ttp::test::ShellQuoted(TTP_DATA_DIR) + " && " +
+      std::string(TTP_BINARY_DIR) +
       "/app/ttp report --log samples/run-a/talc.csv samples/run-a/piece.ply"
       " -o " +
-      Quote(html) + " --json " + Quote(data_path) + " 2>&1");
+      ttp::test::ShellQuoted(html) + " --json " +
+      ttp::test::ShellQuoted(data_path) + " 2>&1");
   ASSERT_EQ(report.exit_code, 1) << report.output;  // run-a fails
-  const json data = json::parse(ReadFile(data_path));
+  const json data = json::parse(ttp::test::FileBytes(data_path));
   std::string dom;
   CheckPageDrawsEverything(html, ExpectedPoints(data),
                            data["grade"]["verdict"].get<std::string>(), &dom);
   EXPECT_NE(dom.find("id=\"cause\">" +
                      data["diagnosis"]["cause"].get<std::string>() + "<"),
             std::string::npos);
-  EXPECT_EQ(ReadFile(html).find(TTP_DATA_DIR), std::string::npos)
+  EXPECT_EQ(ttp::test::FileBytes(html).find(TTP_DATA_DIR), std::string::npos)
       << "the page names the build machine's folder";
 
   // The screenshot for the README.
   const fs::path png = fs::path(TTP_BINARY_DIR) / "docs" / "report.png";
   fs::create_directories(png.parent_path());
   fs::remove(png);
-  const RunResult shot =
-      Chromium("--window-size=1280,2600 --screenshot=" + Quote(png) + " " +
-                   Quote("file://" + fs::absolute(html).string()),
-               dir / "profile");
+  const RunResult shot = Chromium(
+      "--window-size=1280,2600 --screenshot=" + ttp::test::ShellQuoted(png) +
+          " " + ttp::test::ShellQuoted("file://" + fs::absolute(html).string()),
+      dir / "profile");
   ASSERT_EQ(shot.exit_code, 0) << shot.output;
   ASSERT_TRUE(fs::exists(png)) << shot.output;
-  const std::string image = ReadFile(png);
+  const std::string image = ttp::test::FileBytes(png);
   EXPECT_EQ(image.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
   EXPECT_GT(image.size(), 50000u);  // a drawn page, not a blank one
 }
@@ -246,18 +239,21 @@ TEST_F(BrowserTest, ThermalLogPageDrawsTheComparisonAndTheReplay) {
   fs::create_directories(dir);
   const fs::path html = fs::absolute(dir / "thermal.html");
   const fs::path data_path = fs::absolute(dir / "thermal.json");
-  const RunResult report = RunCommand(
-      "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
-      "/app/ttp report --log reference/fl-thermal/train.csv -o " + Quote(html) +
-      " --json " + Quote(data_path) + " 2>&1");
+  const RunResult report =
+      RunCommand("cd " + ttp::test::ShellQuoted(TTP_DATA_DIR) + " && " +
+                 std::string(TTP_BINARY_DIR) +
+                 "/app/ttp report --log reference/fl-thermal/train.csv -o " +
+                 ttp::test::ShellQuoted(html) + " --json " +
+                 ttp::test::ShellQuoted(data_path) + " 2>&1");
   ASSERT_EQ(report.exit_code, 0) << report.output;
-  const json data = json::parse(ReadFile(data_path));
+  const json data = json::parse(ttp::test::FileBytes(data_path));
   const size_t outputs = data["outputs"].size();
   ASSERT_EQ(outputs, 5u);
   ASSERT_EQ(data["replay"]["outputs"].size(), outputs);
-  const RunResult dom = Chromium(
-      "--window-size=1280,1000 --dump-dom " + Quote("file://" + html.string()),
-      dir / "profile");
+  const RunResult dom =
+      Chromium("--window-size=1280,1000 --dump-dom " +
+                   ttp::test::ShellQuoted("file://" + html.string()),
+               dir / "profile");
   ASSERT_EQ(dom.exit_code, 0) << dom.output;
   CheckPageRanClean(dom.output);
   const size_t instances = UplotInstances(dom.output);
@@ -286,12 +282,13 @@ TEST_P(BrowserKinds, DrawsEveryPlot) {
   const fs::path html = fs::absolute(dir / (std::string(c.name) + ".html"));
   const fs::path data_path =
       fs::absolute(dir / (std::string(c.name) + ".json"));
-  const RunResult report = RunCommand(
-      "cd " + Quote(TTP_DATA_DIR) + " && " + std::string(TTP_BINARY_DIR) +
-      "/app/ttp report " + c.args + " -o " + Quote(html) + " --json " +
-      Quote(data_path) + " 2>&1");
+  const RunResult report =
+      RunCommand("cd " + ttp::test::ShellQuoted(TTP_DATA_DIR) + " && " +
+                 std::string(TTP_BINARY_DIR) + "/app/ttp report " + c.args +
+                 " -o " + ttp::test::ShellQuoted(html) + " --json " +
+                 ttp::test::ShellQuoted(data_path) + " 2>&1");
   ASSERT_TRUE(report.exit_code == 0 || report.exit_code == 1) << report.output;
-  const json data = json::parse(ReadFile(data_path));
+  const json data = json::parse(ttp::test::FileBytes(data_path));
   std::string verdict;
   if (data.contains("grade")) {
     verdict = data["grade"]["verdict"];

@@ -18,17 +18,17 @@ namespace fs = std::filesystem;
 using ttp::test::RunCommand;
 using ttp::test::RunTtp;
 
-std::string Q(const fs::path& p) { return "'" + p.string() + "'"; }
 std::string Sample(const std::string& rel) {
-  return Q(fs::path(TTP_DATA_DIR) / "samples" / rel);
+  return ttp::test::ShellQuoted(fs::path(TTP_DATA_DIR) / "samples" / rel);
 }
 
 // Validates `doc` against schemas/NAME.schema.json; the validator's output
 // on failure.
 ::testing::AssertionResult Valid(const std::string& name, const fs::path& doc) {
   const auto r = RunCommand(
-      "python3 " + Q(fs::path(TTP_SOURCE_DIR) / "schemas/validate.py") + " " +
-      name + " " + Q(doc) + " 2>&1");
+      "python3 " +
+      ttp::test::ShellQuoted(fs::path(TTP_SOURCE_DIR) / "schemas/validate.py") +
+      " " + name + " " + ttp::test::ShellQuoted(doc) + " 2>&1");
   if (r.exit_code == 0) return ::testing::AssertionSuccess();
   return ::testing::AssertionFailure()
          << doc.filename() << " against " << name << ".schema.json:\n"
@@ -44,9 +44,11 @@ TEST(Schemas, MeasurementOutputsOfEveryKind) {
     const fs::path insp = dir / ("inspection-" + std::to_string(k) + ".json");
     const fs::path grade = dir / ("grade-" + std::to_string(k) + ".json");
     ++k;
-    auto r = RunTtp("inspect " + Sample(f) + " --json " + Q(insp));
+    auto r = RunTtp("inspect " + Sample(f) + " --json " +
+                    ttp::test::ShellQuoted(insp));
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    r = RunTtp("grade " + Sample(f) + " --json " + Q(grade));
+    r = RunTtp("grade " + Sample(f) + " --json " +
+               ttp::test::ShellQuoted(grade));
     ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;
     EXPECT_TRUE(Valid("inspection", insp)) << f;
     EXPECT_TRUE(Valid("grade", grade)) << f;
@@ -58,24 +60,26 @@ TEST(Schemas, CheckDiagnosisReportAndComparison) {
   const std::string log = Sample("run-a/talc.csv");
   const std::string piece = Sample("run-a/piece.ply");
   auto r = RunTtp("check --log " + log + " " + piece + " --json " +
-                  Q(dir / "check.json"));
+                  ttp::test::ShellQuoted(dir / "check.json"));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;
   EXPECT_TRUE(Valid("check", dir / "check.json"));
   r = RunTtp("diagnose --log " + log + " " + piece + " --json " +
-             Q(dir / "diagnosis.json"));
+             ttp::test::ShellQuoted(dir / "diagnosis.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(Valid("diagnosis", dir / "diagnosis.json"));
   r = RunTtp("report --log " + log + " " + piece + " -o " +
-             Q(dir / "report.html") + " --json " + Q(dir / "report.json"));
+             ttp::test::ShellQuoted(dir / "report.html") + " --json " +
+             ttp::test::ShellQuoted(dir / "report.json"));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;
   EXPECT_TRUE(Valid("report", dir / "report.json"));
   r = RunTtp("report " + Sample("run-c/dial.csv") + " -o " +
-             Q(dir / "dial.html") + " --json " + Q(dir / "dial.json"));
+             ttp::test::ShellQuoted(dir / "dial.html") + " --json " +
+             ttp::test::ShellQuoted(dir / "dial.json"));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;
   EXPECT_TRUE(Valid("report", dir / "dial.json"));
   r = RunTtp("report --compare " + piece + " " + Sample("run-b/piece.xyz") +
-             " -o " + Q(dir / "compare.html") + " --json " +
-             Q(dir / "compare.json"));
+             " -o " + ttp::test::ShellQuoted(dir / "compare.html") +
+             " --json " + ttp::test::ShellQuoted(dir / "compare.json"));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 1) << r.output;  // graded
   EXPECT_TRUE(Valid("compare", dir / "compare.json"));
 }
@@ -84,7 +88,7 @@ TEST(Schemas, CheckDiagnosisReportAndComparison) {
 TEST(Schemas, BrokenDocumentsAreRefused) {
   const fs::path dir = ttp::test::TestDir("schemas-broken");
   auto r = RunTtp("grade " + Sample("run-b/piece.xyz") + " --json " +
-                  Q(dir / "grade.json"));
+                  ttp::test::ShellQuoted(dir / "grade.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::ifstream in(dir / "grade.json");
   const nlohmann::json good = nlohmann::json::parse(in);

@@ -30,8 +30,6 @@ const char* const kNumericColumnNames[kNumericColumnCount] = {
 
 namespace {
 
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-
 const std::pair<const char*, LogEvent> kEvents[] = {
     {"sample", LogEvent::kSample}, {"rtest", LogEvent::kRTest},
     {"cut", LogEvent::kCut},       {"phase", LogEvent::kPhase},
@@ -366,7 +364,7 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
           }
         }
         log.cuts.push_back(
-            {line_no, row.t_s, *feature, row.values[kCDeg] * kDegToRad});
+            {line_no, row.t_s, *feature, row.values[kCDeg] * kDeg});
         break;
       }
       case LogEvent::kPhase: {
@@ -469,7 +467,7 @@ nlohmann::json LogSummaryJson(const TalcLog& log) {
   for (const auto& c : log.cuts) {
     cuts.push_back({{"feature", c.feature.ToString()},
                     {"t_s", c.t_s},
-                    {"c_deg", c.c_rad / kDegToRad}});
+                    {"c_deg", c.c_rad / kDeg}});
   }
   j["cut_list"] = cuts;
   nlohmann::json phases = nlohmann::json::array();
@@ -514,7 +512,7 @@ std::string LogSummaryText(const TalcLog& log) {
   s += fmt::format("cuts          {}\n", log.cuts.size());
   for (const auto& c : log.cuts) {
     s += fmt::format("  {:>6}  t = {:7.0f} s  C = {:7.2f} deg\n",
-                     c.feature.ToString(), c.t_s, c.c_rad / kDegToRad);
+                     c.feature.ToString(), c.t_s, c.c_rad / kDeg);
   }
   s += fmt::format("phases        {}\n", log.phases.size());
   s += fmt::format("gaps > {:.0f} s  {}\n", kMaxGapS, log.gaps.size());
