@@ -42,11 +42,27 @@ std::vector<std::string> SplitCells(const std::string& line) {
 
 }  // namespace
 
+std::string SeparatorHint(const std::vector<std::string>& header_cells) {
+  if (header_cells.size() != 1) return "";
+  const std::string& only = header_cells.front();
+  for (const char* separator : {";", "\t", "|"}) {
+    if (only.find(separator[0]) == std::string::npos) continue;
+    const std::string shown = separator[0] == '\t'
+                                  ? std::string("a tab")
+                                  : "'" + std::string(separator) + "'";
+    return ": the header holds no comma but " + shown +
+           " (a file separated by " + shown +
+           "); the format is comma separated";
+  }
+  return "";
+}
+
 int CsvTable::Require(const std::string& column) const {
   auto it = index.find(column);
   if (it == index.end()) {
-    throw InputError(source, header_line, column,
-                     "required column is missing from the header");
+    throw InputError(
+        source, header_line, column,
+        "required column is missing from the header" + SeparatorHint(columns));
   }
   return it->second;
 }

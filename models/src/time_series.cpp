@@ -173,7 +173,8 @@ TimeSeries ParseThermalLog(std::string_view text, const std::string& source) {
       }
       if (time_position < 0)
         throw InputError(source, line_no, "t_s",
-                         "required column is missing from the header");
+                         "required column is missing from the header" +
+                             SeparatorHint(names));
       if (ts.input_names.empty())
         throw InputError(source, line_no, "n_* / T_*",
                          "no input column (a speed n_<name> or a temperature "

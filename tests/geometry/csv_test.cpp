@@ -34,6 +34,26 @@ TEST(Csv, ErrorsNameFileLineAndColumn) {
   EXPECT_THROW(ParseCsv("a,a\n", "f.csv"), InputError);
 }
 
+// A header read as one cell because the file is separated by something
+// else says so; a comma-separated header missing a column says nothing more.
+TEST(Csv, MissingColumnOfAFileSeparatedOtherwiseNamesTheSeparator) {
+  const CsvTable semicolons = ParseCsv("feature;reading_um\nX1-1;2\n", "d.csv");
+  try {
+    semicolons.Require("feature");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "d.csv:1: feature: required column is missing from the header: "
+              "the header holds no comma but ';' (a file separated by ';'); "
+              "the format is comma separated");
+  }
+  EXPECT_EQ(SeparatorHint({"a\tb"}),
+            ": the header holds no comma but a tab (a file separated by a "
+            "tab); the format is comma separated");
+  EXPECT_EQ(SeparatorHint({"a", "b;c"}), "");
+  EXPECT_EQ(SeparatorHint({"reading_um"}), "");
+}
+
 // A number too small for a normal double (1e-320, strtod's ERANGE on
 // underflow) is still a number near zero; one too large for a double is
 // not finite. Each table cell reads numbers the same way.

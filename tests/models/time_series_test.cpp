@@ -92,6 +92,13 @@ TEST(ThermalLog, MissingTimeColumn) {
   EXPECT_EQ(e.source(), "bad.csv");
 }
 
+TEST(ThermalLog, MissingTimeColumnOfASemicolonFileNamesTheSeparator) {
+  const InputError e = ExpectError(kHeader + "t_s;n_s;T_a\n0;0;20\n");
+  EXPECT_EQ(e.field(), "t_s");
+  EXPECT_NE(std::string(e.what()).find("no comma but ';'"), std::string::npos)
+      << e.what();
+}
+
 TEST(ThermalLog, MissingVersionKey) {
   const InputError e =
       ExpectError("# start: 2024-01-01T00:00:00Z\nt_s,T_a\n0,20\n");

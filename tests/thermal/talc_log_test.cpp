@@ -103,6 +103,14 @@ TEST(TalcLog, RejectsMissingRequiredHeaderKeys) {
 TEST(TalcLog, RejectsMissingTimeOrEventColumn) {
   ExpectRejected(kHead + "event,T_env\nsample,20\n", 5, "t_s");
   ExpectRejected(kHead + "t_s,T_env\n0,20\n", 5, "event");
+  // A file separated by semicolons says so.
+  try {
+    ParseTalcLog(kHead + "t_s;event\n0;sample\n", "semi.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no comma but ';'"), std::string::npos)
+        << e.what();
+  }
 }
 
 // Strict: non-numeric cell, naming the line and the column.

@@ -198,8 +198,9 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
         if (!known) log.unknown_columns.push_back(name);
       }
       if (t_index < 0) {
-        throw InputError(source, line_no, "t_s",
-                         "missing required column 't_s'");
+        throw InputError(
+            source, line_no, "t_s",
+            "missing required column 't_s'" + SeparatorHint(log.columns));
       }
       if (event_index < 0) {
         throw InputError(source, line_no, "event",
