@@ -13,11 +13,7 @@ namespace {
 
 // The median sampling step; 1 s for a single row (a step to divide by).
 double MedianStepOrOne(const TimeSeries& ts) {
-  std::vector<double> s;
-  for (size_t i = 1; i < ts.rows(); ++i) s.push_back(ts.t_s[i] - ts.t_s[i - 1]);
-  if (s.empty()) return 1;
-  std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
-  return s[s.size() / 2];
+  return ts.rows() < 2 ? 1.0 : MedianStepS(ts);
 }
 
 double Corr(const std::vector<double>& a, const std::vector<double>& b) {

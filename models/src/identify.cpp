@@ -470,14 +470,6 @@ double UpperMedian(std::vector<double> v) {
   return *mid;
 }
 
-double MedianStep(const TimeSeries& ts) {
-  if (ts.rows() < 2) return 0;
-  std::vector<double> steps;
-  for (size_t i = 1; i < ts.rows(); ++i)
-    steps.push_back(ts.t_s[i] - ts.t_s[i - 1]);
-  return UpperMedian(std::move(steps));
-}
-
 void CheckOptions(const FitOptions& o) {
   std::string error;
   if (!o.IsValid(&error)) throw InputError("options", 0, "", error);
@@ -817,7 +809,7 @@ std::vector<char> RowsNearStateChanges(const TimeSeries& ts, size_t w) {
 std::vector<FittedJump> FindFittedJumps(const TimeSeries& span) {
   std::vector<FittedJump> out;
   const size_t n = span.rows();
-  const double dt = MedianStep(span);
+  const double dt = MedianStepS(span);
   if (n < 8 || !(dt > 0)) return out;
   const size_t w =
       std::max<size_t>(4, static_cast<size_t>(std::lround(kJumpWindowS / dt)));
@@ -948,7 +940,7 @@ ThermalModel FitThermalModel(const TimeSeries& ts,
   model.fit_t_begin_s = fit.t_s.front();
   model.fit_t_end_s = fit.t_s.back();
   if (StartEpochS(ts)) model.fit_start = ts.header.at("start");
-  model.median_step_s = MedianStep(fit);
+  model.median_step_s = MedianStepS(fit);
   model.input_ranges = InputRanges(fit);
   std::set<std::string> needed;
   for (int j : which) {

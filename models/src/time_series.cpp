@@ -55,26 +55,32 @@ struct Column {
 // lines of the rows (empty: name the row's t_s instead).
 void FindGaps(TimeSeries& ts, const std::vector<int>& lines) {
   if (ts.rows() < 3) return;
-  std::vector<double> steps(ts.rows() - 1);
-  for (size_t i = 1; i < ts.rows(); ++i)
-    steps[i - 1] = ts.t_s[i] - ts.t_s[i - 1];
-  std::vector<double> sorted = steps;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
-                   sorted.end());
-  const double median = sorted[sorted.size() / 2];
+  const double median = MedianStepS(ts);
   for (size_t i = 1; i < ts.rows(); ++i) {
-    if (steps[i - 1] > kGapPeriods * median) {
+    const double step = ts.t_s[i] - ts.t_s[i - 1];
+    if (step > kGapPeriods * median) {
       ts.gap_rows.push_back(i);
       ts.warnings.push_back(fmt::format(
           "{}:{}: t_s: gap of {:g} s from t_s = {:g} to {:g} ({:.0f} sampling "
           "periods of {:g} s); models restart after it",
-          ts.source, lines.empty() ? 0 : lines[i], steps[i - 1], ts.t_s[i - 1],
-          ts.t_s[i], steps[i - 1] / median, median));
+          ts.source, lines.empty() ? 0 : lines[i], step, ts.t_s[i - 1],
+          ts.t_s[i], step / median, median));
     }
   }
 }
 
 }  // namespace
+
+double MedianStepS(const TimeSeries& ts) {
+  if (ts.rows() < 2) return 0;
+  std::vector<double> steps(ts.rows() - 1);
+  for (size_t i = 1; i < ts.rows(); ++i)
+    steps[i - 1] = ts.t_s[i] - ts.t_s[i - 1];
+  const auto mid =
+      steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+  std::nth_element(steps.begin(), mid, steps.end());
+  return *mid;
+}
 
 int TimeSeries::InputIndex(std::string_view name) const {
   for (size_t i = 0; i < input_names.size(); ++i)

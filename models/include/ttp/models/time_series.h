@@ -55,6 +55,10 @@ std::string Iso8601Problem(const std::string& text);
 std::optional<double> StartEpochS(const TimeSeries& ts);
 std::optional<double> Iso8601EpochS(const std::string& text);
 
+// The sampling period: the upper median of the steps between rows (of two
+// middle values, the larger); 0 for fewer than two rows.
+double MedianStepS(const TimeSeries& ts);
+
 // Recomputes gap_rows (and adds a warning per gap) from t_s by the rule
 // above; for series built by other readers.
 void FindGapRows(TimeSeries& ts);
