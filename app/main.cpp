@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
                   "part/machine/process description (TOML or JSON)")
       ->check(CLI::ExistingFile);
   root.add_flag("-q,--quiet", global.quiet, "no progress or info output");
+  root.set_version_flag("--version", "ttp " TTP_VERSION);
   RegisterAll(root, global);
   ApplyConventions(root);
   try {

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <string>
 
 #include "../../app/command.h"
@@ -106,6 +107,16 @@ TEST(CliCommand, OutputIsDashOOrOutputEverywhere) {
   EXPECT_EQ(
       RunTtp("twin --seed 2 --output " + (dir / "twin").string()).exit_code, 0);
   EXPECT_TRUE(fs::exists(dir / "twin" / "talc.csv"));
+}
+
+// The version a result was made with, for a lab's records: the project's
+// version from CMake, with no subcommand needed.
+TEST(CliCommand, VersionNeedsNoSubcommand) {
+  const auto r = RunTtp("--version");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(
+      std::regex_match(r.output, std::regex("ttp [0-9]+\\.[0-9]+\\.[0-9]+\n")))
+      << r.output;
 }
 
 TEST(CliCommand, HelpShowsDefaults) {
