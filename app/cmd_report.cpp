@@ -101,6 +101,14 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
                  options, limits, figures, no_schedule, how] {
     limits->figures = inspect::ParseFigureList(*figures);
     limits->Validate();
+    // A thermal log given as the measurement (`ttp report train.csv -o
+    // page.html`) is that log's page, as with --log.
+    if (log_path->empty() && compare->empty() && !measurement->empty() &&
+        inspect::SniffLogFormat(ReadFileHead(*measurement, 4096)) ==
+            "thermal-log") {
+      *log_path = *measurement;
+      measurement->clear();
+    }
     if (!log_path->empty() &&
         report::LooksLikeThermalLog(ReadTextFile(*log_path))) {
       // A thermal log's page is the log's alone: a piece given beside it

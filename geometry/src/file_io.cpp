@@ -187,7 +187,9 @@ void ClearNotedFiles() {
   n.written.clear();
 }
 
-std::string ReadTextFile(const fs::path& path) {
+namespace {
+
+std::ifstream OpenInput(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) {
     throw InputError(path.string(), 0, "", "file does not exist");
@@ -198,9 +200,24 @@ std::string ReadTextFile(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "", "cannot be opened");
   NoteInput(path);
+  return in;
+}
+
+}  // namespace
+
+std::string ReadTextFile(const fs::path& path) {
+  std::ifstream in = OpenInput(path);
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+std::string ReadFileHead(const fs::path& path, size_t max_bytes) {
+  std::ifstream in = OpenInput(path);
+  std::string head(max_bytes, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
+  return head;
 }
 
 void WriteFileAtomic(const fs::path& path, const std::string& content) {

@@ -98,6 +98,29 @@ MeasurementKind SniffMeasurement(const std::string& head,
   return MeasurementKind::kCloud;
 }
 
+std::string SniffLogFormat(const std::string& head) {
+  std::istringstream in(head);
+  std::string line;
+  bool first = true;
+  while (std::getline(in, line)) {
+    if (first && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+    first = false;
+    const size_t b = line.find_first_not_of(" \t\r");
+    if (b == std::string::npos) continue;
+    if (line[b] != '#') return "";
+    const size_t k = line.find_first_not_of(" \t", b + 1);
+    if (k == std::string::npos) continue;
+    for (const char* key : {"thermal-log", "talc-log"}) {
+      const std::string tag = std::string(key);
+      if (Lower(line.substr(k, tag.size())) == tag &&
+          line.find(':', k + tag.size()) ==
+              line.find_first_not_of(" \t", k + tag.size()))
+        return tag;
+    }
+  }
+  return "";
+}
+
 namespace {
 
 // Every test feature gets an entry (missing ones present = false) and a
@@ -464,6 +487,22 @@ Measurement LoadMeasurement(const Config& config,
   }
   if (head.find_first_not_of(" \t\r\n") == std::string::npos)
     throw InputError(m.source, 0, "", "the file is empty");
+  // A log given where the piece goes (`ttp inspect talc.csv`, the
+  // arguments of `ttp check` swapped) would otherwise be read as a text
+  // cloud and fail on its header row.
+  const std::string log_format = SniffLogFormat(head);
+  if (log_format == "thermal-log")
+    throw InputError(m.source, 1, "# thermal-log",
+                     "a thermal test log (thermal-log.md), not a measured "
+                     "piece: `ttp thermal fit`, `thermal compare` and `talc "
+                     "replay` read it, and `ttp report " +
+                         m.source + " -o page.html` makes its page");
+  if (log_format == "talc-log")
+    throw InputError(m.source, 1, "# talc-log",
+                     "a TALC log (talc-log.md), not a measured piece: give it "
+                     "with --log, and the measured piece (point cloud, "
+                     "inspection JSON, dial or probe CSV, DMIS output) as the "
+                     "measurement");
   m.kind = SniffMeasurement(head, path);
   switch (m.kind) {
     case MeasurementKind::kCloud: {

@@ -11,6 +11,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/json_text.h"
+#include "ttp/inspect/measurement.h"
 #include "ttp/models/time_series.h"
 #include "ttp/talc/replay.h"
 #include "ttp/talc/strategy.h"
@@ -231,14 +232,7 @@ json ReplayData(const models::TimeSeries& ts) {
 }  // namespace
 
 bool LooksLikeThermalLog(const std::string& text) {
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
-    if (line.empty() || line[0] != '#') return false;
-    if (line.find("thermal-log:") != std::string::npos) return true;
-  }
-  return false;
+  return inspect::SniffLogFormat(text) == "thermal-log";
 }
 
 json ThermalReportData(const models::CompareResult& r) {

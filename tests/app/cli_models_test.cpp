@@ -164,6 +164,12 @@ TEST(CliModels, ReportOnThermalLog) {
   const auto data = ReadJson(dir / "r.json");
   ASSERT_EQ(data["outputs"].size(), 5u);
   EXPECT_EQ(data["outputs"][0]["measured"].size(), data["t_h"].size());
+  // Given where a measurement goes, the thermal log is still its page.
+  const RunResult positional =
+      RunTtp("report " + log + " -o " + (dir / "p.html").string() + " --json " +
+             (dir / "p.json").string());
+  ASSERT_EQ(positional.exit_code, 0) << positional.output;
+  EXPECT_EQ(ReadJson(dir / "p.json"), data);
 
   // The TALC replay on the same page: the default strategy, its
   // calibration (8.5 h) shortened to a third of this 10 h excerpt, at five

@@ -63,6 +63,35 @@ TEST(SniffTest, RecognisesEachFormatFromItsContent) {
   EXPECT_EQ(SniffMeasurement("ply\n", "p.json"), MeasurementKind::kCloud);
 }
 
+TEST(SniffTest, TellsLogsByTheirFormatKey) {
+  EXPECT_EQ(SniffLogFormat("# thermal-log: 1\n# start: x\nt_s,n_a\n"),
+            "thermal-log");
+  // Keys in any order, spaces, a byte-order mark, CRLF.
+  EXPECT_EQ(SniffLogFormat("\xEF\xBB\xBF# machine: m\r\n\n#  talc-log : 1\r\n"),
+            "talc-log");
+  EXPECT_EQ(SniffLogFormat("# .PCD v0.7\nVERSION 0.7\n"), "");
+  EXPECT_EQ(SniffLogFormat("# talc-logger notes\nfeature,reading_um\n"), "");
+  // Only the comment lines before the data count.
+  EXPECT_EQ(SniffLogFormat("1 2 3\n# talc-log: 1\n"), "");
+  EXPECT_EQ(SniffLogFormat(""), "");
+}
+
+TEST_F(MeasurementTest, ALogGivenAsThePieceSaysWhatItIs) {
+  const std::string thermal =
+      ErrorOf(Write("t.csv",
+                    "# thermal-log: 1\n# start: 2024-01-01T00:00:00Z\n"
+                    "t_s,n_s,T_a\n0,0,20\n"));
+  EXPECT_NE(thermal.find("t.csv:1: # thermal-log: a thermal test log"),
+            std::string::npos)
+      << thermal;
+  const std::string talc = ErrorOf(Write(
+      "l.csv", "# compensation: off\n# talc-log: 1\nt_s,event\n0,sample\n"));
+  EXPECT_NE(talc.find("a TALC log (talc-log.md), not a measured piece: give "
+                      "it with --log"),
+            std::string::npos)
+      << talc;
+}
+
 // Random per-feature results -> inspection JSON -> LoadMeasurement: the
 // figures and their U come back as computed from the features directly.
 TEST_F(MeasurementTest, InspectionJsonRoundTrip) {

@@ -103,6 +103,14 @@ TEST(TalcLog, RejectsMissingRequiredHeaderKeys) {
 TEST(TalcLog, RejectsMissingTimeOrEventColumn) {
   ExpectRejected(kHead + "event,T_env\nsample,20\n", 5, "t_s");
   ExpectRejected(kHead + "t_s,T_env\n0,20\n", 5, "event");
+  // A file that is no TALC log at all (a PLY given as the log) says so.
+  try {
+    ParseTalcLog("ply\nformat ascii 1.0\n", "piece.ply");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a TALC log"), std::string::npos)
+        << e.what();
+  }
   // A file separated by semicolons says so.
   try {
     ParseTalcLog(kHead + "t_s;event\n0;sample\n", "semi.csv");

@@ -200,7 +200,11 @@ TalcLog ParseTalcLog(const std::string& text, const std::string& source) {
       if (t_index < 0) {
         throw InputError(
             source, line_no, "t_s",
-            "missing required column 't_s'" + SeparatorHint(log.columns));
+            "missing required column 't_s'" + SeparatorHint(log.columns) +
+                (header_lines.count("talc-log")
+                     ? ""
+                     : " (and no `# talc-log: 1` line before the header row: "
+                       "not a TALC log, talc-log.md)"));
       }
       if (event_index < 0) {
         throw InputError(source, line_no, "event",

@@ -21,6 +21,10 @@ namespace ttp {
 // The file is noted as an input (NoteInput).
 std::string ReadTextFile(const std::filesystem::path& path);
 
+// Reads the first `max_bytes` bytes of a file (all of a shorter one), to
+// tell its format; throws and notes the input as ReadTextFile does.
+std::string ReadFileHead(const std::filesystem::path& path, size_t max_bytes);
+
 // Notes `path` as an input of this process: WriteFileAtomic and OutputBatch
 // refuse to write over it (compared with filesystem::equivalent, so another
 // name, a hard link or a symbolic link to it is caught too). Files this

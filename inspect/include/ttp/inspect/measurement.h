@@ -60,6 +60,13 @@ Measurement LoadMeasurement(const Config& config,
 MeasurementKind SniffMeasurement(const std::string& head,
                                  const std::filesystem::path& path);
 
+// "thermal-log" or "talc-log" when `head` (a file's first bytes) opens
+// with the `# key: value` header of such a log (thermal-log.md,
+// talc-log.md: the format's key among the leading comment lines, in any
+// order); "" otherwise. LoadMeasurement refuses such a file naming what it
+// is and where it goes.
+std::string SniffLogFormat(const std::string& head);
+
 // InspectionToJson plus "kind" (no "alignment" unless a cloud).
 nlohmann::json MeasurementToJson(const Measurement& m);
 
