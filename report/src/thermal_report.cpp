@@ -137,11 +137,7 @@ json ReplayData(const models::TimeSeries& ts) {
   }
   const double span_s = ts.t_s.back() - ts.t_s.front();
   talc::Strategy base;
-  out["calibration_shortened"] = false;
-  if (base.calibration_s > span_s * 2.0 / 3.0) {
-    base.calibration_s = span_s / 3.0;
-    out["calibration_shortened"] = true;
-  }
+  out["calibration_shortened"] = talc::FitDefaultCalibration(span_s, &base);
   constexpr double kShownIntervalS = 3600.0;
   try {
     json curve = json::array();

@@ -12,6 +12,12 @@
 
 namespace ttp::talc {
 
+bool FitDefaultCalibration(double span_s, Strategy* s) {
+  if (!(s->calibration_s > span_s * 2.0 / 3.0)) return false;
+  s->calibration_s = span_s / 3.0;
+  return true;
+}
+
 bool Strategy::IsValid(std::string* error) const {
   auto fail = [&](const std::string& m) {
     if (error) *error = m;

@@ -110,8 +110,10 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
   EXPECT_NE(r.output.find(":5"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("T_a"), std::string::npos) << r.output;
 
-  // The default calibration phase (8.5 h) outlasts a 6 h log: nothing
-  // would be compensated, and zeros would read as perfect compensation.
+  // The default calibration phase (8.5 h) outlasts a 6 h log: it is
+  // shortened to a third of the log, as on the report's page, and said;
+  // one chosen with --calibration-s that leaves nothing compensated is
+  // refused (zeros would read as perfect compensation).
   {
     std::ifstream in(kTalcTrain);
     std::ofstream out(dir / "six_hours.csv");
@@ -124,7 +126,18 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
     }
   }
   const std::string six = (dir / "six_hours.csv").string();
-  r = test::RunTtp("talc replay " + six + " --interval-s 1800");
+  r = test::RunTtp("talc replay " + six + " --interval-s 1800 --json " +
+                   (dir / "six_default.json").string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("calibration phase shortened to"), std::string::npos)
+      << r.output;
+  const nlohmann::json shortened =
+      nlohmann::json::parse(test::FileBytes(dir / "six_default.json"));
+  // The log's last sample lies at most one step (15 s) before 6 h.
+  EXPECT_NEAR(shortened["strategy"]["calibration_s"].get<double>(),
+              6 * 3600.0 / 3.0, 15.0 / 3.0 + 1e-9);
+  r = test::RunTtp("talc replay " + six +
+                   " --interval-s 1800 --calibration-s 30600");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--calibration-s"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("reaches past the log's end"), std::string::npos)
@@ -133,6 +146,7 @@ TEST(CliTalc, BadInputNamesFileLineColumnOrField) {
                    " --interval-s 1800 --calibration-s 7200");
   EXPECT_NE(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("Q_Prod"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("shortened"), std::string::npos) << r.output;
   r = test::RunTtp("talc replay " + kTalcTrain +
                    " --interval-s 3600 --static-from-s 100 --static-to-s 101");
   EXPECT_EQ(r.exit_code, 2) << r.output;

@@ -54,6 +54,13 @@ struct Strategy {
   bool IsValid(std::string* error) const;  // names the bad field
 };
 
+// The default calibration phase fitted to a log of `span_s` seconds: left
+// as it is while it leaves at least a third of the log compensated, else
+// shortened to a third of the span (true returned). For replays whose
+// calibration nobody chose (the report's page, `talc replay --interval-s`
+// without --calibration-s); a strategy that sets it keeps it.
+bool FitDefaultCalibration(double span_s, Strategy* s);
+
 // JSON object with any subset of the fields above (names as in the struct;
 // "mode": "fixed" | "adaptive"; regressor fields at top level:
 // speed_lags_s, speed_squared, temperatures, temperature_lag_s). Unknown
