@@ -19,6 +19,7 @@
 // PCL's RANSAC templates are compiled here from their impl headers (below,
 // header-only use): linking libpcl_sample_consensus would cost every ttp
 // process ~7 ms of symbol relocation at start-up for two small classes.
+#include <fmt/format.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
@@ -274,9 +275,19 @@ bool SearchTopFace(const PartSpec& part, const Eigen::Matrix3Xd& p,
     s.noalias() += d * d.transpose();
     ++used;
   }
-  if (used < 100)
+  if (used < 100) {
+    // How far the points lie tells a cloud in other units (a piece 203 mm
+    // across read from metres or inches) from one with too few points.
+    std::vector<double> r(n);
+    for (Index k = 0; k < n; ++k) r[k] = (p.col(sub[k]) - med).norm();
     NoPiece(source,
-            "fewer than 100 points within 160 mm of the cloud's median");
+            fmt::format("fewer than 100 points within 160 mm of the cloud's "
+                        "median (half of them lie within {:.4g} mm of it; the "
+                        "piece is {:g} mm across: are the cloud's units "
+                        "right? --units mm|m|in)",
+                        n > 0 ? Median(std::move(r)) : 0.0,
+                        part.blank_diameter_mm));
+  }
   mean /= static_cast<double>(used);
   s = s / static_cast<double>(used) - mean * mean.transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(s);

@@ -65,6 +65,27 @@ TEST(CliInspect, SampleCloudToFiguresThenGrade) {
   EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
+// A millimetre cloud read with the wrong --units is 1000 (25.4) times the
+// piece: the refusal says how far its points lie and asks about the units,
+// and a log given where the piece goes says what it is.
+TEST(CliInspect, WrongUnitsAndALogInThePiecesPlaceSayWhatIsWrong) {
+  const std::string sample =
+      std::string(TTP_DATA_DIR) + "/samples/run-b/piece.xyz";
+  for (const char* units : {"m", "in"}) {
+    const auto r = test::RunTtp("inspect " + sample + " --units " + units);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("are the cloud's units right? --units"),
+              std::string::npos)
+        << r.output;
+  }
+  const auto r = test::RunTtp("inspect " + std::string(TTP_DATA_DIR) +
+                              "/samples/run-a/talc.csv");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("a TALC log (talc-log.md), not a measured piece"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST(CliInspect, DialReadingsAndBadInput) {
   const fs::path dial = InspectDir() / "dial.csv";
   std::ofstream(dial) << "feature,reading_um\nX1-1,4\nX2-1,-2\n";
