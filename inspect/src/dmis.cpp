@@ -307,8 +307,10 @@ DmisImport DmisToFeatureResults(const DmisResults& dmis, const PartSpec& part,
     auto it = by_id.find(id);
     return it != by_id.end() && of_type(it->second, t);
   };
-  if (has(FeatureId::Top(), {"PLANE"}) && has(FeatureId::Flank(+1), {"PLANE"}) &&
-      has(FeatureId::Flank(-1), {"PLANE"}) && has(datum, {"CIRCLE", "CYLNDR"})) {
+  if (has(FeatureId::Top(), {"PLANE"}) &&
+      has(FeatureId::Flank(+1), {"PLANE"}) &&
+      has(FeatureId::Flank(-1), {"PLANE"}) &&
+      has(datum, {"CIRCLE", "CYLNDR"})) {
     const DmisFeature& top = *by_id[FeatureId::Top()];
     const Eigen::Vector3d z = top.direction.z() >= 0
                                   ? top.direction
@@ -1044,16 +1046,17 @@ class Obstacles {
         adapter_r_(part.adapter_diameter_mm / 2),
         adapter_top_(-part.height_mm()),
         table_z_(-part.height_mm() - part.adapter_height_mm) {}
-  double Distance(const Eigen::Vector3d& p) const {
-    const double piece = (p - query_.Closest(p).point).norm();
+  // Distance to the piece and the adapter, the bounded obstacles (the
+  // table's is a plane: TraceMove takes its least along a move exactly).
+  double BoundedDistance(const Eigen::Vector3d& p) const {
     // Finite cylinder about Z.
     const double dr = std::hypot(p.x(), p.y()) - adapter_r_;
     const double dz = std::max(p.z() - adapter_top_, table_z_ - p.z());
     const double adapter =
         dr > 0 && dz > 0 ? std::hypot(dr, dz) : std::max(dr, dz);
-    const double table = p.z() - table_z_;
-    return std::min({piece, adapter, table});
+    return std::min(adapter, (p - query_.Closest(p).point).norm());
   }
+  double table_z() const { return table_z_; }
 
  private:
   PartQuery query_;
@@ -1068,24 +1071,43 @@ struct MoveResult {
 // Sphere tracing along a straight move of the ball centre: the distance is
 // 1-Lipschitz, so from a point with excess e the next e millimetres are
 // clear; steps of at least min_step (a violation is then seen within it).
+// Inside the table or the adapter (a signed distance below zero, beyond
+// what any clearance requires) the step is that depth: the move fails
+// already, and the reported depth stays within a factor two of the
+// deepest. Steps of min_step through a move a metre into the table took
+// seconds per move (a hostile program); a stylus grazing a surface keeps
+// steps of min_step, so where it comes closest is found as before.
 MoveResult TraceMove(const Obstacles& obs, const Eigen::Vector3d& a,
                      const Eigen::Vector3d& b, double ball_required_mm,
                      double shaft_required_mm, double shaft_length_mm) {
   MoveResult r;
   const double length = (b - a).norm();
+  // Shaft: points every 2 mm above the ball; the half-spacing is added to
+  // what each must clear.
   const auto excess_at = [&](const Eigen::Vector3d& c) {
-    double e = obs.Distance(c) - ball_required_mm;
-    // Shaft: points every 2 mm above the ball; the half-spacing is added
-    // to what each must clear.
+    double e = obs.BoundedDistance(c) - ball_required_mm;
     for (double h = 2.0; h <= shaft_length_mm + 1e-9; h += 2.0)
-      e = std::min(e, obs.Distance(c + Eigen::Vector3d(0, 0, h)) -
+      e = std::min(e, obs.BoundedDistance(c + Eigen::Vector3d(0, 0, h)) -
                           shaft_required_mm - 1.0);
     return e;
   };
+  // The table, a plane under everything: the least clearance along a
+  // straight move is at its lower end, exactly (tracing a move that runs
+  // along the table would take steps of the minimum the whole way).
+  {
+    const Eigen::Vector3d& low = a.z() <= b.z() ? a : b;
+    double e = low.z() - obs.table_z() - ball_required_mm;
+    for (double h = 2.0; h <= shaft_length_mm + 1e-9; h += 2.0)
+      e = std::min(e, low.z() + h - obs.table_z() - shaft_required_mm - 1.0);
+    r.min_excess_mm = e;
+    r.where = low;
+  }
   double s = 0;
   constexpr double kMinStep = 0.05;
-  // At most this many samples per move (a move of 1e6 mm grazing a
-  // surface): beyond it the move counts as not shown clear.
+  // At most this many samples per move (a safety net: the piece and the
+  // adapter are bounded, so a move can graze them only along their size,
+  // and far from them the steps grow with the distance): beyond it the
+  // move counts as not shown clear.
   constexpr int kMaxSamples = 2'000'000;
   int samples = 0;
   while (true) {
@@ -1101,7 +1123,9 @@ MoveResult TraceMove(const Obstacles& obs, const Eigen::Vector3d& a,
       r.where = c;
     }
     if (s >= length) break;
-    s = std::min(length, s + std::max(kMinStep, e));
+    const double depth =
+        -e - std::max(ball_required_mm, shaft_required_mm + 1.0);
+    s = std::min(length, s + std::max({kMinStep, e, depth}));
   }
   return r;
 }

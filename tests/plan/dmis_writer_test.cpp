@@ -157,6 +157,34 @@ TEST(DmisWriterTest, MissingClearanceMoveIsFound) {
   EXPECT_LT(c.min_clearance_mm, 0);
 }
 
+// The table is a plane under everything: a move along it, 300 km at 0.01
+// mm more than the required clearance, is clear exactly (sampled, it took
+// minutes and ended as "not shown clear"); a move a metre down through it
+// fails by its depth.
+TEST(DmisWriterTest, MovesAlongAndThroughTheTable) {
+  const PartSpec part;
+  const double table_z = -part.height_mm() - part.adapter_height_mm;
+  const double ball_r = 2.0, margin = inspect::DmisPathOptions{}.margin_mm;
+  const auto with_moves = [&](const std::vector<std::string>& moves) {
+    auto lines = Lines(WriteDmisProgram(part, CmmPoints(part)));
+    const auto end = std::find(lines.begin(), lines.end(), "ENDFIL");
+    EXPECT_NE(end, lines.end());
+    lines.insert(end, moves.begin(), moves.end());
+    return Check(Join(lines));
+  };
+  const std::string z = fmt::format("{:.4f}", table_z + ball_r + margin + 0.01);
+  auto c = with_moves(
+      {"GOTO/300.0000,0.0000,50.0000", "GOTO/300.0000,0.0000," + z,
+       "GOTO/300000.0000,0.0000," + z, "GOTO/300.0000,0.0000,50.0000"});
+  EXPECT_TRUE(CheckPassed(c, kPath));
+  EXPECT_NEAR(c.min_clearance_mm, margin + 0.01, 1e-9);
+  c = with_moves({"GOTO/300.0000,0.0000,50.0000",
+                  "GOTO/300.0000,0.0000,-1000.0000",
+                  "GOTO/300.0000,0.0000,50.0000"});
+  EXPECT_FALSE(CheckPassed(c, kPath));
+  EXPECT_NEAR(c.min_clearance_mm, -1000.0 - table_z - ball_r, 1e-9);
+}
+
 TEST(DmisWriterTest, DatumUsedBeforeItIsMeasuredIsFound) {
   const PartSpec part;
   auto lines = Lines(WriteDmisProgram(part, CmmPoints(part)));
