@@ -1033,11 +1033,11 @@ std::vector<DmisFinding> CheckDmisStandard(const DmisProgram& program) {
 
 namespace {
 
-// Distance of a point to what the stylus must not touch: the finished
-// piece (its mesh), the adapter under it and the table the adapter stands
-// on (W frame, mm). The piece's distance is unsigned: the sign of the
-// closest triangle's normal is wrong beside convex edges. A path that
-// starts outside (above the top face) and never comes closer than a
+// What the stylus must not touch: the finished piece (its mesh), the
+// adapter under it (their distance from a point) and the table the adapter
+// stands on (its height) (W frame, mm). The piece's distance is unsigned: the
+// sign of the closest triangle's normal is wrong beside convex edges. A path
+// that starts outside (above the top face) and never comes closer than a
 // positive distance to any surface cannot have entered the material.
 class Obstacles {
  public:
@@ -1071,12 +1071,14 @@ struct MoveResult {
 // Sphere tracing along a straight move of the ball centre: the distance is
 // 1-Lipschitz, so from a point with excess e the next e millimetres are
 // clear; steps of at least min_step (a violation is then seen within it).
-// Inside the table or the adapter (a signed distance below zero, beyond
-// what any clearance requires) the step is that depth: the move fails
-// already, and the reported depth stays within a factor two of the
-// deepest. Steps of min_step through a move a metre into the table took
-// seconds per move (a hostile program); a stylus grazing a surface keeps
-// steps of min_step, so where it comes closest is found as before.
+// Inside the adapter (its signed distance below zero, beyond what any
+// clearance requires) the step is that depth: the move fails already, and
+// the reported depth stays within a factor two of the deepest; a stylus
+// grazing a surface keeps steps of min_step, so where it comes closest is
+// found as before. The table is not traced: the least clearance above a
+// plane along a straight move is at its lower end (traced, a move along
+// the table took steps of min_step the whole way: minutes for a hostile
+// program's 300 km).
 MoveResult TraceMove(const Obstacles& obs, const Eigen::Vector3d& a,
                      const Eigen::Vector3d& b, double ball_required_mm,
                      double shaft_required_mm, double shaft_length_mm) {

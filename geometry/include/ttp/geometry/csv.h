@@ -36,9 +36,9 @@ std::string Upper(std::string s);
 std::string Lower(std::string s);
 
 // What to add to a "missing column" error when the header row was read as
-// one cell holding another separator: "" when it holds a comma-free header
-// of none, else ": the header holds no comma but ';' (a file separated by
-// ';'); the format is comma separated" (likewise a tab).
+// one cell holding another separator (';', a tab or '|'): ": the header
+// holds no comma but ';' (a file separated by ';'); the format is comma
+// separated"; "" for any other header.
 std::string SeparatorHint(const std::vector<std::string>& header_cells);
 
 // A cell as a finite number; throws InputError(source, line, column) when it
