@@ -32,6 +32,16 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const std::string hint = DidYouMean(root, argc, argv);
     if (!hint.empty()) std::cerr << "ttp: " << hint << "\n";
+    // `ttp` or `ttp thermal` alone: what there is to run, not only that
+    // something is missing.
+    if (hint.empty() && e.get_name() == "RequiredError" &&
+        std::string(e.what()) == "A subcommand is required") {
+      const CLI::App* app = &root;
+      while (!app->get_subcommands().empty())
+        app = app->get_subcommands().front();
+      std::cerr << app->help() << "\nttp: give one of the subcommands above\n";
+      return kExitBadInput;
+    }
     const int rc = root.exit(e);
     return rc == 0 ? kExitOk : kExitBadInput;
   } catch (const ttp::InputError& e) {

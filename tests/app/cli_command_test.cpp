@@ -119,6 +119,25 @@ TEST(CliCommand, VersionNeedsNoSubcommand) {
       << r.output;
 }
 
+// A command group given alone lists what it holds (exit 2: nothing ran).
+TEST(CliCommand, AGroupAloneListsItsSubcommands) {
+  auto r = RunTtp("");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("diagnose"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("give one of the subcommands above"),
+            std::string::npos)
+      << r.output;
+  r = RunTtp("thermal");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("predict"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("compare"), std::string::npos) << r.output;
+  // A misspelt subcommand keeps its suggestion.
+  r = RunTtp("thermal fitt x");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("did you mean 'fit'?"), std::string::npos)
+      << r.output;
+}
+
 TEST(CliCommand, HelpShowsDefaults) {
   const auto r = RunTtp("grade --help");
   EXPECT_NE(r.output.find("--limit-linear-um FLOAT=5"), std::string::npos)
