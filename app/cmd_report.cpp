@@ -110,7 +110,7 @@ void RegisterReport(CLI::App& root, GlobalOptions& global) {
       measurement->clear();
     }
     if (!log_path->empty() &&
-        report::LooksLikeThermalLog(ReadTextFile(*log_path))) {
+        report::LooksLikeThermalLog(ReadFileHead(*log_path, 4096))) {
       // A thermal log's page is the log's alone: a piece given beside it
       // would silently not be shown.
       if (!measurement->empty() || !compare->empty())

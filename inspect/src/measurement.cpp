@@ -110,11 +110,10 @@ std::string SniffLogFormat(const std::string& head) {
     if (line[b] != '#') return "";
     const size_t k = line.find_first_not_of(" \t", b + 1);
     if (k == std::string::npos) continue;
-    for (const char* key : {"thermal-log", "talc-log"}) {
-      const std::string tag = std::string(key);
+    for (const std::string tag : {"thermal-log", "talc-log"}) {
+      const size_t colon = line.find_first_not_of(" \t", k + tag.size());
       if (Lower(line.substr(k, tag.size())) == tag &&
-          line.find(':', k + tag.size()) ==
-              line.find_first_not_of(" \t", k + tag.size()))
+          colon != std::string::npos && line[colon] == ':')
         return tag;
     }
   }

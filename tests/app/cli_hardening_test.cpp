@@ -350,13 +350,23 @@ TEST(CliHardening, ProgramsEmptyHugeAndLongDwells) {
 
 TEST(CliHardening, NeverWritesOverAnInput) {
   const fs::path dir = TestDir("hard");
+  // `command INPUT --json INPUT` on a copy of a sample: refused, the input
+  // kept as it was.
+  const auto json_over_input = [&dir](const std::string& command,
+                                      const std::string& sample,
+                                      const std::string& name) {
+    const fs::path input = dir / name;
+    fs::copy_file(DataPath(sample), input);
+    const std::string before = FileBytes(input);
+    ExpectBadInput(RunTtp(command + " " + ShellQuoted(input) + " --json " +
+                          ShellQuoted(input)),
+                   {name.c_str(), "input"});
+    EXPECT_EQ(FileBytes(input), before);
+    return before;
+  };
   const fs::path log = dir / "same.csv";
-  fs::copy_file(DataPath("samples/run-a/talc.csv"), log);
-  const std::string before = FileBytes(log);
-  ExpectBadInput(
-      RunTtp("log " + ShellQuoted(log) + " --json " + ShellQuoted(log)),
-      {"same.csv", "input"});
-  EXPECT_EQ(FileBytes(log), before);
+  const std::string before =
+      json_over_input("log", "samples/run-a/talc.csv", "same.csv");
   // Through another name: a symbolic link to the input.
   fs::create_symlink(log, dir / "link.json");
   ExpectBadInput(RunTtp("log " + ShellQuoted(log) + " --json " +
@@ -364,13 +374,7 @@ TEST(CliHardening, NeverWritesOverAnInput) {
                  {"input"});
   EXPECT_EQ(FileBytes(log), before);
 
-  const fs::path ply = dir / "same.ply";
-  fs::copy_file(DataPath("samples/run-a/piece.ply"), ply);
-  const std::string ply_before = FileBytes(ply);
-  ExpectBadInput(
-      RunTtp("inspect " + ShellQuoted(ply) + " --json " + ShellQuoted(ply)),
-      {"same.ply", "input"});
-  EXPECT_EQ(FileBytes(ply), ply_before);
+  json_over_input("inspect", "samples/run-a/piece.ply", "same.ply");
 
   const fs::path nc = dir / "same.nc";
   ASSERT_EQ(RunTtp("gcode cycle -o " + ShellQuoted(nc)).exit_code, 0);
