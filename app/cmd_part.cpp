@@ -61,15 +61,10 @@ void RegisterPart(CLI::App& root, GlobalOptions& global) {
         !std::filesystem::is_directory(dir, ec)) {
       throw InputError("-o", 0, "output", dir.string() + " is not a folder");
     }
-    std::filesystem::create_directories(dir, ec);
-    if (ec || !std::filesystem::is_directory(dir)) {
-      throw InputError("-o", 0, "output",
-                       "cannot create folder " + dir.string() +
-                           (ec ? ": " + ec.message() : std::string()));
-    }
     PartMeshOptions mesh_options;
     mesh_options.chord_error_mm = opts->chord_error_mm;
-    StagedFolder staged(dir);  // every mesh or none
+    // Every mesh or none; the folder is made only when they are all written.
+    StagedFolder staged(dir);
     auto files =
         WritePartMeshes(config, staged.path(), stages, formats, mesh_options);
     staged.Commit();

@@ -416,7 +416,23 @@ void RegisterRun(CLI::App& root, GlobalOptions& global) {
         std::cout << fmt::format("[{}/{}] {} ...", i + 1, stages.size(),
                                  stages[i].name)
                   << std::flush;
-      stages[i].run(ctx);
+      try {
+        stages[i].run(ctx);
+      } catch (const InputError& e) {
+        // A file the job made itself (the twin's log or cloud) that it
+        // cannot read back: the configuration passed every check, so this
+        // is ttp's fault, not the user's input (exit 3).
+        const std::string staging = staged.path().string();
+        if (e.source().rfind(staging, 0) != 0) throw;
+        const fs::path shown =
+            fs::path(args->out_dir) /
+            fs::path(e.source()).lexically_relative(staged.path());
+        throw std::runtime_error(fmt::format(
+            "stage '{}' could not read back the job's own {}: {} (please "
+            "report it with the configuration; nothing was written)",
+            stages[i].name, shown.string(),
+            FormatInputError("", e.line(), e.field(), e.problem())));
+      }
       if (progress) {
         const double s =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)

@@ -45,6 +45,18 @@ int main(int argc, char** argv) {
     const int rc = root.exit(e);
     return rc == 0 ? kExitOk : kExitBadInput;
   } catch (const ttp::InputError& e) {
+    // The checks that need a program or the part's solid (a waiting
+    // position inside the route, reference cylinders with a gap) run where
+    // those are built, which know the configuration only as "config" or
+    // "part": name the file it came from.
+    if (!global.config_path.empty() &&
+        (e.source() == "config" || e.source() == "part")) {
+      std::cerr << "ttp: error: "
+                << ttp::FormatInputError(global.config_path, e.line(),
+                                         e.field(), e.problem())
+                << "\n";
+      return kExitBadInput;
+    }
     std::cerr << "ttp: error: " << e.what() << "\n";
     return kExitBadInput;
   } catch (const ttp::OutputError& e) {

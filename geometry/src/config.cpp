@@ -1,9 +1,11 @@
 #include "ttp/geometry/config.h"
 
+#include <fmt/format.h>
 #include <toml++/toml.h>
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -407,6 +409,21 @@ void ValidateFeatureFit(const PartSpec& p, const std::string& source) {
   Require(p.facets_per_segment * p.facet_step_deg <= p.segment_span_deg + 1e-9,
           source, "part.facet_step_deg",
           "facets_per_segment * facet_step_deg exceeds segment_span_deg");
+  // Facet j's normal lies at (j - reference_index) x facet_step_deg from
+  // its segment's centre; every facet must lie inside the segment.
+  {
+    const int farthest = std::max(p.reference_index - 1,
+                                  p.facets_per_segment - p.reference_index);
+    Require(
+        (farthest + 0.5) * p.facet_step_deg <= p.segment_span_deg / 2 + 1e-9,
+        source, "part.reference_index",
+        fmt::format("facets reach {:.3f} deg from the segment centre, "
+                    "outside the segment (segment_span_deg/2 = {:.3f}): "
+                    "the reference facet must leave room for the others "
+                    "on both sides",
+                    (farthest + 0.5) * p.facet_step_deg,
+                    p.segment_span_deg / 2));
+  }
   // Segments must not overlap each other nor reach into the notches.
   for (size_t i = 0; i < p.segment_centre_deg.size(); ++i) {
     const std::string f = "part.segment_centre_deg[" + std::to_string(i) + "]";
@@ -426,6 +443,44 @@ void ValidateFeatureFit(const PartSpec& p, const std::string& source) {
     Require(
         std::floor(lo / (M_PI / 2)) == std::floor((hi - 1e-12) / (M_PI / 2)),
         source, f, "segment crosses a notch (it must lie in one quadrant)");
+    // The outermost facets end at their outer corners (radius
+    // facet_final_distance_mm / cos(facet_step_deg / 2)): a corner inside a
+    // notch leaves that facet cut by the notch.
+    const double corner_r =
+        facet_d / std::cos(p.facet_step_deg / 2 * M_PI / 180);
+    for (const int j : {1, p.facets_per_segment}) {
+      const double side = j == 1 ? -0.5 : 0.5;
+      const double a =
+          (c + (j - p.reference_index + side) * p.facet_step_deg) * M_PI / 180;
+      const double x = corner_r * std::cos(a), y = corner_r * std::sin(a);
+      Require(std::abs(y) >= p.big_notch_half_width_mm - 1e-9 &&
+                  std::abs(x) >= p.small_notch_half_width_mm - 1e-9,
+              source, f,
+              fmt::format("facet {} ends at W ({:.3f}, {:.3f}) mm, inside a "
+                          "notch (|y| < big_notch_half_width_mm or |x| < "
+                          "small_notch_half_width_mm): the notch would cut it",
+                          j, x, y));
+    }
+  }
+  // The mark (a groove mark_width_mm wide from mark_r_start_mm to
+  // mark_r_end_mm along mark_phi_deg) must stay out of both notches: the
+  // notches are slabs, so its four corners decide.
+  {
+    const double phi = p.mark_phi_deg * M_PI / 180;
+    const double ux = std::cos(phi), uy = std::sin(phi);
+    const double w = p.mark_width_mm / 2;
+    for (double r : {p.mark_r_start_mm, p.mark_r_end_mm})
+      for (double side : {-1.0, 1.0}) {
+        const double x = r * ux - side * w * uy, y = r * uy + side * w * ux;
+        Require(std::abs(y) >= p.big_notch_half_width_mm &&
+                    std::abs(x) >= p.small_notch_half_width_mm,
+                source, "part.mark_phi_deg",
+                fmt::format("the mark reaches into a notch at W ({:.2f}, "
+                            "{:.2f}) mm: move it (mark_phi_deg, "
+                            "mark_r_start_mm, mark_r_end_mm) onto the "
+                            "segment's top face",
+                            x, y));
+      }
   }
   // The mark lies on the top face of a segment.
   bool on_segment = false;
@@ -531,6 +586,16 @@ void ValidateConfig(const Config& c, const std::string& source) {
             "z_bottom_mm must be below z_top_mm");
     Require(rc.z_bottom_mm >= -p.height_mm() - 1e-9, source, f + ".z_bottom_mm",
             "below the bottom of the piece");
+    for (size_t j = 0; j < i; ++j) {
+      const auto& other = p.ref_cylinders[j];
+      Require(rc.z_top_mm <= other.z_bottom_mm + 1e-9 ||
+                  rc.z_bottom_mm >= other.z_top_mm - 1e-9,
+              source, f,
+              fmt::format("z [{:g}, {:g}] overlaps part.ref_cylinders[{}] "
+                          "(z [{:g}, {:g}]): each height has one diameter",
+                          rc.z_bottom_mm, rc.z_top_mm, j, other.z_bottom_mm,
+                          other.z_top_mm));
+    }
   }
   Require(p.big_notch_floor_z_mm < 0 && p.big_notch_floor_z_mm > -p.height_mm(),
           source, "part.big_notch_floor_z_mm", "must lie inside the piece");
@@ -554,14 +619,52 @@ void ValidateConfig(const Config& c, const std::string& source) {
           source, "part.facet_bottom_z_mm", "must lie inside the piece");
   positive(p.strip_pitch_mm, "strip_pitch_mm");
   positive(p.strip_width_mm, "strip_width_mm");
+  // Strip k lies at (k - reference_index) x strip_pitch_mm.
+  const int farthest_index =
+      std::max(p.reference_index - 1, p.facets_per_segment - p.reference_index);
   const double strip_reach =
-      (p.facets_per_segment - 1) / 2.0 * p.strip_pitch_mm +
-      p.strip_width_mm / 2;
-  Require(strip_reach <= p.big_notch_half_width_mm + 1e-9, source,
+      farthest_index * p.strip_pitch_mm + p.strip_width_mm / 2;
+  // Neighbouring strips overlap (0.25 mm on the drawing); each must keep a
+  // band of its own floor that no later strip cuts.
+  Require(2 * p.strip_pitch_mm - p.strip_width_mm > 0, source,
           "part.strip_pitch_mm",
-          "outer strips reach into the big-notch flanks");
+          fmt::format("below half the strip width ({:g} mm): the neighbouring "
+                      "strips would cut each strip away entirely",
+                      p.strip_width_mm / 2));
+  const bool reference_in_middle =
+      2 * p.reference_index == p.facets_per_segment + 1;
+  Require(strip_reach <= p.big_notch_half_width_mm + 1e-9, source,
+          reference_in_middle ? "part.strip_pitch_mm" : "part.reference_index",
+          "outer strips reach into the big-notch flanks (strip k lies at "
+          "(k - reference_index) x strip_pitch_mm)");
   Require(p.strip_floor_z_mm < p.big_notch_floor_z_mm, source,
           "part.strip_floor_z_mm", "must be below the big-notch floor");
+  // The notches cross at the axis: where they do, the deeper one's floor
+  // is what remains, so the small notch's floor must be the deeper.
+  Require(p.small_notch_floor_z_mm < p.big_notch_floor_z_mm, source,
+          "part.small_notch_floor_z_mm",
+          "must be below the big-notch floor (the notches cross at the "
+          "axis)");
+  // The reference cylinders are turned by C with an end mill from the side,
+  // its flutes reaching over the segments above: a cylinder inside the
+  // facets' corners would cut the segments away.
+  {
+    const double corner_mm =
+        p.facet_pre_distance_mm / std::cos(p.facet_step_deg / 2 * M_PI / 180);
+    for (size_t i = 0; i < p.ref_cylinders.size(); ++i)
+      Require(p.ref_cylinders[i].diameter_mm / 2 > corner_mm, source,
+              "part.ref_cylinders[" + std::to_string(i) + "].diameter_mm",
+              fmt::format("inside the pre-cut facets' corners (radius {:.3f} "
+                          "mm): turning it would cut the segments away",
+                          corner_mm));
+  }
+  // The big notch runs across the whole piece: a reference cylinder above
+  // its floor would be cut away inside the notch.
+  for (size_t i = 0; i < p.ref_cylinders.size(); ++i)
+    Require(p.ref_cylinders[i].z_top_mm <= p.big_notch_floor_z_mm + 1e-9,
+            source, "part.ref_cylinders[" + std::to_string(i) + "].z_top_mm",
+            "above the big-notch floor (the notch runs across the piece "
+            "and would cut the cylinder away inside it)");
   Require(p.mark_r_start_mm > 0 && p.mark_r_start_mm < p.mark_r_end_mm &&
               p.mark_r_end_mm < p.facet_final_distance_mm,
           source, "part.mark_r_end_mm",
@@ -581,8 +684,33 @@ void ValidateConfig(const Config& c, const std::string& source) {
   ValidateTool(pr.engraver, source, "engraver", m);
   ValidateTool(pr.notch, source, "notch", m);
   ValidateTool(pr.finishing, source, "finishing", m);
+  // The roughing, notch and finishing cutters make floors with their end
+  // (the top face, the notch floors, the strips): only a flat end does.
+  for (const auto& [tool, name] :
+       {std::pair{&pr.roughing, "roughing"}, std::pair{&pr.notch, "notch"},
+        std::pair{&pr.finishing, "finishing"}})
+    Require(tool->tip_angle_deg == 0, source,
+            std::string("process.") + name + ".tip_angle_deg",
+            "must be 0: this cutter makes floors with its end, which only a "
+            "flat end mill cuts flat");
   Require(pr.probe.number >= 1 && pr.probe.number <= 99, source,
           "process.probe.number", "must be 1..99");
+  {
+    // Each tool has its own pocket and length offset (T and H numbers).
+    const std::vector<std::pair<const char*, int>> numbers = {
+        {"roughing", pr.roughing.number},
+        {"engraver", pr.engraver.number},
+        {"notch", pr.notch.number},
+        {"finishing", pr.finishing.number},
+        {"probe", pr.probe.number}};
+    for (std::size_t i = 0; i < numbers.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        Require(numbers[i].second != numbers[j].second, source,
+                std::string("process.") + numbers[i].first + ".number",
+                fmt::format("T{} is also process.{}.number: each tool needs "
+                            "its own number (pocket and length offset H)",
+                            numbers[i].second, numbers[j].first));
+  }
   Require(pr.probe.diameter_mm > 0, source, "process.probe.diameter_mm",
           "must be positive (stylus ball diameter)");
   Require(pr.probe.length_mm > 0, source, "process.probe.length_mm",
@@ -718,12 +846,56 @@ void ValidateConfig(const Config& c, const std::string& source) {
             source, "machine.tool_change_position_m_mm[2]",
             "the longest tool would not clear the piece and the sphere");
   }
-  Require(
-      m.m_b_clamp >= 0 && m.m_b_unclamp >= 0 && m.m_b_clamp != m.m_b_unclamp,
-      source, "machine.m_b_clamp", "must be distinct M-codes");
-  Require(
-      m.m_probe_on >= 0 && m.m_probe_off >= 0 && m.m_probe_on != m.m_probe_off,
-      source, "machine.m_probe_on", "must be distinct M-codes");
+  {
+    // The FANUC programs switch each machine function with the profile's
+    // M-code and the reader tells the functions apart by it: two functions
+    // on one code, or one on a code the programs use with its standard
+    // meaning (M8 is coolant on), would make a program that does something
+    // else on the machine than it says.
+    const std::map<int, std::string> standard = {
+        {0, "program stop"},
+        {1, "optional stop"},
+        {2, "program end"},
+        {3, "spindle on clockwise"},
+        {4, "spindle on counter-clockwise"},
+        {5, "spindle stop"},
+        {6, "tool change"},
+        {8, "coolant on"},
+        {9, "coolant off"},
+        {19, "spindle orientation"},
+        {30, "program end and rewind"},
+        {98, "subprogram call"},
+        {99, "subprogram return"}};
+    std::vector<std::pair<std::string, int>> codes = {
+        {"machine.m_table_clamp", m.m_table_clamp},
+        {"machine.m_table_unclamp", m.m_table_unclamp},
+        {"machine.m_b_clamp", m.m_b_clamp},
+        {"machine.m_b_unclamp", m.m_b_unclamp},
+        {"machine.m_c_turning_on", m.m_c_turning_on},
+        {"machine.m_c_turning_off", m.m_c_turning_off},
+        {"machine.m_probe_on", m.m_probe_on},
+        {"machine.m_probe_off", m.m_probe_off}};
+    if (m.fanuc_sync_block.size() > 1 && m.fanuc_sync_block[0] == 'M' &&
+        m.fanuc_sync_block.size() < 10 &&
+        m.fanuc_sync_block.find_first_not_of("0123456789", 1) ==
+            std::string::npos)
+      codes.emplace_back("machine.fanuc_sync_block",
+                         std::stoi(m.fanuc_sync_block.substr(1)));
+    for (std::size_t i = 0; i < codes.size(); ++i) {
+      const auto& [field, code] = codes[i];
+      Require(code >= 0, source, field, "must be an M-code >= 0");
+      const auto it = standard.find(code);
+      Require(it == standard.end(), source, field,
+              fmt::format("M{} is {} in every program (a standard M-code); "
+                          "give the machine's own M-code for this function",
+                          code, it == standard.end() ? "" : it->second));
+      for (std::size_t j = 0; j < i; ++j)
+        Require(codes[j].second != code, source, field,
+                fmt::format("M{} is also {}: each machine function needs "
+                            "its own M-code",
+                            code, codes[j].first));
+    }
+  }
   Require(m.linuxcnc_c_clamp_output >= 0 && m.linuxcnc_b_clamp_output >= 0 &&
               m.linuxcnc_c_clamp_output != m.linuxcnc_b_clamp_output,
           source, "machine.linuxcnc_b_clamp_output",

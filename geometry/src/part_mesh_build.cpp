@@ -12,6 +12,7 @@
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -357,7 +358,10 @@ PartMesh BuildPartMesh(const PartSpec& p, Stage stage,
         }
       }
       if (b.base < 0) {
-        Bad("ref_cylinders", "leave a gap at z = " + std::to_string(z));
+        Bad("ref_cylinders",
+            fmt::format("leave a gap at z = {:.3f} mm (no reference "
+                        "cylinder and not above them)",
+                        z));
       }
       if (z < bolt_top_z) {
         b.removals.insert(b.removals.end(), bolt_holes.begin(),

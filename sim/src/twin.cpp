@@ -174,9 +174,11 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
   auto sign = [&] { return uniform(0, 1) < 0.5 ? -1.0 : 1.0; };
   std::normal_distribution<double> gauss(0.0, 1.0);
 
-  // --- schedule (test-piece.md section 3; times as in the sample runs) ---
+  // --- schedule (test-piece.md section 3; the first cut and the cuts'
+  // offsets as in the sample runs, the cycle period and the warm-up from the
+  // configuration, as in the programs) ---
   const int cycles = part.cycles();
-  const double first_cut_s = 320, cycle_s = 3600;
+  const double first_cut_s = 320, cycle_s = config.process.cycle_period_s;
   struct PlannedCut {
     FeatureId feature;
     double t_s, c_rad;
@@ -196,7 +198,7 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
     cut_windows.push_back({t0 - 30, t0 + 45});
   }
   const double warmup_from_s = cut_windows[0].second;
-  const double warmup_to_s = cut_windows[4].first;
+  const double warmup_to_s = cut_windows[config.process.warmup_cycles].first;
   const double t_final_s = cuts.back().t_s + 280;
 
   std::vector<double> rtest_end;

@@ -122,7 +122,14 @@ INSTANTIATE_TEST_SUITE_P(
                   "part.blank_diameter_mm"},
         BadConfig{"unknown_field", "[part]\nblank_diamter_mm = 203.0\n",
                   "blank_diamter_mm"},
-        BadConfig{"unreadable_profile", "[machine\ntravel = 1\n", ":1"}),
+        BadConfig{"unreadable_profile", "[machine\ntravel = 1\n", ":1"},
+        // Checked where the program is laid out, and still named by file.
+        BadConfig{"waiting_in_route",
+                  "[machine]\nwaiting_position_w_mm = [100.0, 0.0, 50.0]\n",
+                  "waiting_in_route.toml: machine.waiting_position_w_mm"},
+        BadConfig{"m_code_shared", "[machine]\nm_probe_off = 600\n",
+                  "m_code_shared.toml: machine.m_probe_off: M600 is also "
+                  "machine.m_c_turning_on"}),
     [](const ::testing::TestParamInfo<BadConfig>& info) {
       return std::string(info.param.name);
     });

@@ -172,5 +172,21 @@ TEST(CliPart, BadOutputOrFormatIsExit2) {
   EXPECT_FALSE(fs::exists(dir / "out" / "part-finished.step"));
 }
 
+// A part whose solid cannot be built (a band of its side no reference
+// cylinder covers) is refused naming the configuration file and the field.
+TEST(CliPart, AnUncoveredBandNamesTheConfigurationFile) {
+  const fs::path dir = test::TestDir("part_gap");
+  const fs::path config = dir / "tall.toml";
+  std::ofstream(config) << "[part]\nblank_height_mm = 31.25\n";
+  const auto r = test::RunTtp("--config " + config.string() +
+                              " part export -o " + (dir / "out").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("tall.toml: part.ref_cylinders: leave a gap at z = "
+                          "-27.125 mm"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 }  // namespace
 }  // namespace ttp

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
+#include <vector>
 
 #include "run_ttp.h"
 
@@ -60,6 +62,52 @@ TEST(CliRun, WritesEveryStageAndNamesTheHiddenCause) {
   EXPECT_EQ(truth["cause"], "workpiece_expansion");
   const auto diagnosis = test::ReadJson(dir / "diagnosis.json");
   EXPECT_EQ(diagnosis["cause"], "workpiece_expansion") << diagnosis.dump(1);
+}
+
+// Another process: a 45-minute cycle, C spinning only between cycles 0 and
+// 2, seven facets per segment. The twin's log follows the programs'
+// schedule (every planned cut found on it), and C turns only in the
+// warm-up the configuration asks for.
+TEST(CliRun, TheTwinFollowsTheConfiguredCycle) {
+  const fs::path dir = test::TestDir("run_cycle");
+  const fs::path config = dir / "process.toml";
+  fs::create_directories(dir);
+  std::ofstream(config) << "[part]\nfacets_per_segment = 7\n"
+                           "reference_index = 4\n"
+                           "[process]\ncycle_period_s = 2700.0\n"
+                           "warmup_cycles = 2\n";
+  const fs::path out = dir / "out";
+  const auto r = test::RunTtp("--config " + config.string() + " run -o " +
+                              out.string() + " --seed 3");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto schedule = test::ReadJson(out / "schedule.json");
+  ASSERT_EQ(schedule["cuts"].size(), 35u);  // cycles 0..6, five cuts each
+  const auto check = test::ReadJson(out / "check.json");
+  EXPECT_EQ(check["schedule"]["matched_cuts"].get<size_t>(),
+            schedule["cuts"].size())
+      << check["schedule"].dump(1);
+  // The log's cut rows are 2700 s apart, and C turns only between the
+  // first cut of cycle 0 and that of cycle 2.
+  std::ifstream log(out / "twin/talc.csv");
+  std::string line;
+  std::vector<double> z_cuts;
+  double last_turning_s = -1;
+  while (std::getline(log, line)) {
+    if (line.empty() || line[0] == '#' || line.rfind("t_s", 0) == 0) continue;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    ASSERT_GE(f.size(), 6u) << line;
+    const double t = std::stod(f[0]);
+    if (f[1] == "cut" && line.find(",Z") != std::string::npos)
+      z_cuts.push_back(t);
+    if (f[1] == "sample" && std::stod(f[5]) > 0) last_turning_s = t;
+  }
+  ASSERT_EQ(z_cuts.size(), 7u);
+  for (size_t i = 1; i < z_cuts.size(); ++i)
+    EXPECT_NEAR(z_cuts[i] - z_cuts[i - 1], 2700.0, 1.0);
+  EXPECT_GT(last_turning_s, z_cuts[1]);
+  EXPECT_LT(last_turning_s, z_cuts[2]);
 }
 
 TEST(CliRun, SameInputSameOutput) {

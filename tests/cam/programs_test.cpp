@@ -500,7 +500,8 @@ TEST(ProgramsConfigTest, BadInputsNameTheField) {
 
 TEST(ProgramsConfigTest, ProgramsFollowTheConfig) {
   Config c;
-  c.part.facet_final_distance_mm = 97.0;
+  // Closer facets, their outer corners still out of the notches.
+  c.part.facet_final_distance_mm = 97.2;
   c.process.cycle_period_s = 1800;
   c.process.warmup_cycles = 2;
   const auto canon = ReadBack(BuildTestCycleProgram(c), Dialect::kFanuc, c);
@@ -516,8 +517,10 @@ TEST(ProgramsConfigTest, ProgramsFollowTheConfig) {
   EXPECT_EQ(spins, 2);
   const auto cuts = ReportedCuts(canon);
   ASSERT_EQ(cuts.size(), 45u);
-  EXPECT_NEAR(cuts[1].from.x(), 97.0 + c.process.finishing.diameter_mm / 2,
-              kWrittenMm);
+  EXPECT_NEAR(
+      cuts[1].from.x(),
+      c.part.facet_final_distance_mm + c.process.finishing.diameter_mm / 2,
+      kWrittenMm);
 }
 
 }  // namespace

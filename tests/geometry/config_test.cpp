@@ -97,10 +97,60 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"segment_in_notch",
                 "[part]\nsegment_centre_deg = [40.0, 120.0, 240.0, 300.0]\n",
                 "part.segment_centre_deg[0]"},
+        // A smaller piece whose last facets' corners fall in the small
+        // notch (77.41 mm at 87 deg: |x| = 4.05 mm < 5 mm).
+        BadCase{"facet_corner_in_notch",
+                "[part]\nblank_diameter_mm = 163.0\nrim_diameter_mm = 162.0\n"
+                "facet_pre_distance_mm = 77.4\nfacet_final_distance_mm = 77.3\n"
+                "big_notch_half_width_mm = 42.0\nstrip_pitch_mm = 9.0\n"
+                "mark_r_start_mm = 52.0\nmark_r_end_mm = 70.0\n"
+                "[[part.ref_cylinders]]\ndiameter_mm = 161.0\n"
+                "z_bottom_mm = -24.0\nz_top_mm = -12.0\n",
+                "part.segment_centre_deg[0]: facet 9 ends at W (4.051, "
+                "77.300) mm, inside a notch"},
         BadCase{"mark_off_segment", "[part]\nmark_phi_deg = 0.0\n",
                 "part.mark_phi_deg"},
         BadCase{"facet_above_floor", "[part]\nfacet_bottom_z_mm = -11.0\n",
                 "part.facet_bottom_z_mm"},
+        BadCase{"mark_in_big_notch", "[part]\nmark_phi_deg = 48.0\n",
+                "part.mark_phi_deg: the mark reaches into a notch"},
+        BadCase{"mark_start_in_big_notch", "[part]\nmark_r_start_mm = 56.0\n",
+                "part.mark_phi_deg: the mark reaches into a notch"},
+        BadCase{"reference_off_centre", "[part]\nreference_index = 4\n",
+                "part.reference_index: outer strips reach into the big-notch"},
+        BadCase{"reference_off_centre_facets",
+                "[part]\nreference_index = 4\nstrip_pitch_mm = 7.0\n",
+                "part.reference_index: facets reach 33.000 deg"},
+        BadCase{"small_notch_shallow",
+                "[part]\nsmall_notch_floor_z_mm = -11.2\n",
+                "part.small_notch_floor_z_mm"},
+        BadCase{"cylinder_above_notch_floor",
+                "[[part.ref_cylinders]]\ndiameter_mm = 199.0\n"
+                "z_bottom_mm = -16.0\nz_top_mm = -9.6\n"
+                "[[part.ref_cylinders]]\ndiameter_mm = 200.0\n"
+                "z_bottom_mm = -24.0\nz_top_mm = -16.0\n",
+                "part.ref_cylinders[0].z_top_mm: above the big-notch floor"},
+        BadCase{"cylinders_overlap",
+                "[[part.ref_cylinders]]\ndiameter_mm = 199.0\n"
+                "z_bottom_mm = -16.0\nz_top_mm = -12.0\n"
+                "[[part.ref_cylinders]]\ndiameter_mm = 200.0\n"
+                "z_bottom_mm = -20.0\nz_top_mm = -12.8\n",
+                "part.ref_cylinders[1]: z [-20, -12.8] overlaps "
+                "part.ref_cylinders[0]"},
+        BadCase{"cylinder_inside_facets",
+                "[[part.ref_cylinders]]\ndiameter_mm = 189.0\n"
+                "z_bottom_mm = -24.0\nz_top_mm = -12.0\n",
+                "part.ref_cylinders[0].diameter_mm: inside the pre-cut "
+                "facets' corners (radius 97.534 mm)"},
+        BadCase{"strips_overlap_entirely", "[part]\nstrip_pitch_mm = 5.875\n",
+                "part.strip_pitch_mm: below half the strip width (6 mm)"},
+        BadCase{"finishing_pointed",
+                "[process.finishing]\ntip_angle_deg = 2.5\n",
+                "process.finishing.tip_angle_deg: must be 0"},
+        BadCase{"tool_numbers_shared", "[process.finishing]\nnumber = 3\n",
+                "process.finishing.number: T3 is also process.notch.number"},
+        BadCase{"probe_number_shared", "[process.probe]\nnumber = 1\n",
+                "process.probe.number: T1 is also process.roughing.number"},
         // Machine profile.
         BadCase{"rapids", "[machine]\nrapid_semantics = \"diagonal\"\n",
                 "machine.rapid_semantics"},
@@ -120,6 +170,18 @@ INSTANTIATE_TEST_SUITE_P(
                 "machine.tool_change_position_m_mm[2]"},
         BadCase{"sync_block", "[machine]\nfanuc_sync_block = \"G04\"\n",
                 "machine.fanuc_sync_block"},
+        // M-codes: two functions on one code, or a function on a code
+        // the programs use with its standard meaning (M8 coolant on).
+        BadCase{"m_code_shared", "[machine]\nm_b_unclamp = 10\n",
+                "machine.m_b_unclamp: M10 is also machine.m_table_clamp"},
+        BadCase{"m_code_probe_on_c", "[machine]\nm_probe_on = 601\n",
+                "machine.m_probe_on: M601 is also machine.m_c_turning_off"},
+        BadCase{"m_code_coolant", "[machine]\nm_table_clamp = 8\n",
+                "machine.m_table_clamp: M8 is coolant on"},
+        BadCase{"m_code_sync", "[machine]\nfanuc_sync_block = \"M12\"\n",
+                "machine.fanuc_sync_block: M12 is also machine.m_b_clamp"},
+        BadCase{"m_code_negative", "[machine]\nm_c_turning_on = -1\n",
+                "machine.m_c_turning_on"},
         BadCase{"skip_var",
                 "[machine]\nfanuc_skip_variables = [5061, 5062, 5063, 5099]\n",
                 "machine.fanuc_skip_variables[3]"},
