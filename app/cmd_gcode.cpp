@@ -158,12 +158,17 @@ void RegisterGcode(CLI::App& root, GlobalOptions& global) {
     const std::string text = ReadTextFile(opts->program_path);
     const Dialect dialect =
         ChooseDialect(opts->dialect, text, opts->program_path);
-    const auto ours = ReadProgram(text, dialect, config, opts->program_path);
+    auto ours = ReadProgram(text, dialect, config, opts->program_path);
     std::string ngc = text;
     if (dialect == Dialect::kFanuc) {
       ngc = WriteProgram(ProgramFromCanon(ours, "translated", 1, "translated",
                                           opts->program_path),
                          Dialect::kLinuxCnc, config);
+      // The probing log's rows become LinuxCNC LOG lines, which rs274 does
+      // not report: they are not part of the compared toolpath.
+      for (CanonStatement& s : ours)
+        if (s.kind == CanonKind::kReport && IsProbeLogReport(s.text))
+          s.kind = CanonKind::kComment;
     }
     Rs274Result rs;
     try {

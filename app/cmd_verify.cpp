@@ -8,6 +8,7 @@
 
 #include "command.h"
 #include "dialect_option.h"
+#include "ttp/gcode/execution.h"
 #include "ttp/gcode/reader.h"
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
@@ -102,6 +103,25 @@ void RegisterVerify(CLI::App& root, GlobalOptions& global) {
         ChooseDialect(opts->dialect, text, opts->program_path);
     const auto statements =
         gcode::ReadProgram(text, dialect, config, opts->program_path);
+    // The probing program (`ttp plan probe`) touches the finished piece
+    // with the probe: verify simulates cutting programs and would take
+    // every touch for a cut. Say what checks it instead.
+    {
+      const auto states = gcode::ExecutionStates(statements);
+      for (size_t i = 0; i < statements.size(); ++i)
+        if (statements[i].kind == gcode::CanonKind::kProbe &&
+            states[i].tool == config.process.probe.number)
+          throw InputError(
+              opts->program_path, statements[i].source_line, "program",
+              fmt::format(
+                  "a probing program (a probe move with the probe, T{}): "
+                  "ttp verify simulates the cutting programs (pre-machining "
+                  "and test cycle). A probing program written by ttp plan "
+                  "probe had its touches checked against the piece when it "
+                  "was written; ttp gcode check compares it with LinuxCNC's "
+                  "rs274",
+                  config.process.probe.number));
+    }
     verify::VerifyOptions options;
     options.stage = opts->stage == "auto"
                         ? verify::DetectStage(statements)

@@ -219,8 +219,14 @@ class Writer {
       // #5065 on an XYZBC machine).
       const auto& v = config_.machine.fanuc_skip_variables;
       const std::string pass = Upper(p.pass);
+      // A probe move read from a LinuxCNC program carries no nominal
+      // contact: the touch check below cannot be written.
+      if (!std::isfinite(p.nominal_mm))
+        Fail(
+            "a probe move without its nominal contact (read from a G38.2): "
+            "the FANUC touch check after G31 cannot be written");
       // #var - nominal with the sign folded into the operator (no "--").
-      const double nominal = Finite(p.nominal_mm, "nominal") + 0.0;
+      const double nominal = p.nominal_mm + 0.0;
       Line(
           fmt::format("IF [ABS[#{}{}{}] GT {:.4f}] THEN #3000={} (NO TOUCH "
                       "{} {})",

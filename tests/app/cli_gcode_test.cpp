@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "run_ttp.h"
 
@@ -187,6 +189,52 @@ TEST(CliGcode, CheckNamesTheProgramWhenRs274RefusesIt) {
       << r.output;
   EXPECT_NE(r.output.find("percent"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("error: rs274"), std::string::npos) << r.output;
+}
+
+std::vector<std::string> LinesWith(const fs::path& path,
+                                   const std::string& needle) {
+  std::ifstream in(path);
+  std::vector<std::string> out;
+  for (std::string line; std::getline(in, line);)
+    if (line.find(needle) != std::string::npos) out.push_back(line);
+  return out;
+}
+
+// The FANUC probing program is checked by rs274 through its LinuxCNC
+// translation: each G31 becomes a G38.2 whose log row (from the DPRNT after
+// it) is the one the LinuxCNC probing program writes itself. Back to FANUC
+// the touch check cannot be written (a G38.2 has no nominal contact).
+TEST(CliGcode, TheFanucProbingProgramIsCheckedAndTranslated) {
+  const fs::path dir = GcodeDir();
+  const fs::path nc = dir / "probe.nc", ngc = dir / "probe.ngc";
+  ASSERT_EQ(test::RunTtp("plan probe --dialect fanuc -o " + nc.string() +
+                         " --points-csv " + (dir / "probe_nc.csv").string())
+                .exit_code,
+            0);
+  ASSERT_EQ(test::RunTtp("plan probe --dialect linuxcnc -o " + ngc.string() +
+                         " --points-csv " + (dir / "probe_ngc.csv").string())
+                .exit_code,
+            0);
+  auto r = test::RunTtp("gcode check " + nc.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("same toolpath"), std::string::npos) << r.output;
+  const fs::path translated = dir / "probe_translated.ngc";
+  r = test::RunTtp("gcode translate " + nc.string() + " --to linuxcnc -o " +
+                   translated.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto logged = LinesWith(translated, "LOG");
+  EXPECT_EQ(logged.size(), LinesWith(ngc, "LOG").size());
+  EXPECT_EQ(logged, LinesWith(ngc, "LOG"));
+  EXPECT_EQ(LinesWith(translated, "G38.2").size(), LinesWith(nc, "G31").size());
+  r = test::RunTtp("gcode translate " + ngc.string() + " --to fanuc");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("touch check"), std::string::npos) << r.output;
+  // ttp verify simulates cutting programs: it says what checks a probing
+  // program instead of taking every touch for a cut.
+  r = test::RunTtp("verify " + nc.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("probe.nc:"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("a probing program"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -59,6 +59,37 @@ TEST(CanonToProgramTest, ReportsKeepFeatureAndAngle) {
   EXPECT_EQ(r.c_deg, -12.5);
 }
 
+// A FANUC probe move becomes a probe along its one moving axis, named by
+// the log row printed after it; a diagonal one has no such statement.
+TEST(CanonToProgramTest, ProbeMovesTakeTheirLogRow) {
+  const Config config;
+  const auto canon = ReadProgram(
+      "O0001\nPOPEN\nG0 X10. Y0 Z5.\nG31 Z-2. F100.\n"
+      "DPRNT[MEASURE*12*X1-5*X#5061[44]*Y#5062[44]*Z#5063[44]*C#5065[33]]\n"
+      "PCLOS\nM30\n",
+      Dialect::kFanuc, config, "f");
+  const Program p = ProgramFromCanon(canon, "t", 1, "t", "f");
+  const Probe* probe = nullptr;
+  int reports = 0;
+  for (const auto& st : p.statements) {
+    if (const auto* q = std::get_if<Probe>(&st)) probe = q;
+    if (std::holds_alternative<Report>(st)) ++reports;
+  }
+  ASSERT_NE(probe, nullptr);
+  EXPECT_FALSE(probe->to.x_mm.has_value());
+  EXPECT_FALSE(probe->to.y_mm.has_value());
+  ASSERT_TRUE(probe->to.z_mm.has_value());
+  EXPECT_DOUBLE_EQ(*probe->to.z_mm, -2.0);
+  EXPECT_EQ(probe->point_id, 12);
+  EXPECT_EQ(probe->feature, "X1-5");
+  EXPECT_EQ(probe->pass, "measure");
+  EXPECT_EQ(reports, 0);  // the row is the probe's log line, not a report
+  const auto diagonal =
+      ReadProgram("O0001\nG0 X10. Y0 Z5.\nG31 X9. Z-2. F100.\nM30\n",
+                  Dialect::kFanuc, config, "f");
+  EXPECT_THROW(ProgramFromCanon(diagonal, "t", 1, "t", "f"), InputError);
+}
+
 TEST(CanonToProgramTest, RejectsWhatTheIrCannotSay) {
   const Config config;
   const auto probe =
