@@ -422,14 +422,25 @@ void RegisterRun(CLI::App& root, GlobalOptions& global) {
         // A file the job made itself (the twin's log or cloud) that it
         // cannot read back: the configuration passed every check, so this
         // is ttp's fault, not the user's input (exit 3).
-        const std::string staging = staged.path().string();
-        if (e.source().rfind(staging, 0) != 0) throw;
-        const fs::path shown =
-            fs::path(args->out_dir) /
-            fs::path(e.source()).lexically_relative(staged.path());
+        // Stages name the job's files by the staging folder or by the
+        // output folder they will be shown in.
+        const std::string staging = staged.path().string() + "/";
+        const std::string output =
+            (fs::path(args->out_dir) / "").lexically_normal().string();
+        fs::path shown;
+        if (e.source().rfind(staging, 0) == 0)
+          shown = fs::path(args->out_dir) /
+                  fs::path(e.source()).lexically_relative(staged.path());
+        else if (fs::path(e.source())
+                     .lexically_normal()
+                     .string()
+                     .rfind(output, 0) == 0)
+          shown = e.source();
+        else
+          throw;
         throw std::runtime_error(fmt::format(
-            "stage '{}' could not read back the job's own {}: {} (please "
-            "report it with the configuration; nothing was written)",
+            "stage '{}' refused the job's own {}: {} (please report it "
+            "with the configuration; nothing was written)",
             stages[i].name, shown.string(),
             FormatInputError("", e.line(), e.field(), e.problem())));
       }

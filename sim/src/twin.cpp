@@ -13,6 +13,7 @@
 
 #include "ttp/geometry/features.h"
 #include "ttp/geometry/file_io.h"
+#include "ttp/geometry/frames.h"
 #include "ttp/geometry/json_text.h"
 #include "ttp/geometry/part_mesh.h"
 #include "ttp/geometry/rigid_table.h"
@@ -188,8 +189,13 @@ TwinRun RunTwin(const Config& config, const TwinOptions& options) {
   for (int cycle = 0; cycle <= cycles; ++cycle) {
     const int j = IndexForCycle(part, cycle);
     const double t0 = first_cut_s + cycle * cycle_s;
-    const double c_x = FacetPhiDeg(part, Segment::kX1, j) * M_PI / 180;
-    const double c_y = c_x - 30 * M_PI / 180;
+    // The table angles the programs cut at (the X facets' normals on
+    // machine +X, the Y facets' on +Y), in the machine's C sense.
+    const int sense = config.machine.c_sense;
+    const double c_x = TableAngleFor(
+        FacetPhiDeg(part, Segment::kX1, j) * M_PI / 180, 0.0, sense);
+    const double c_y = TableAngleFor(
+        FacetPhiDeg(part, Segment::kY1, j) * M_PI / 180, M_PI / 2, sense);
     cuts.push_back({FeatureId::Strip(j), t0, 0.0});
     cuts.push_back({FeatureId::Facet(Segment::kX1, j), t0 + 10, c_x});
     cuts.push_back({FeatureId::Facet(Segment::kX2, j), t0 + 17, c_x});

@@ -64,16 +64,18 @@ TEST(CliRun, WritesEveryStageAndNamesTheHiddenCause) {
   EXPECT_EQ(diagnosis["cause"], "workpiece_expansion") << diagnosis.dump(1);
 }
 
-// Another process: a 45-minute cycle, C spinning only between cycles 0 and
-// 2, seven facets per segment. The twin's log follows the programs'
-// schedule (every planned cut found on it), and C turns only in the
-// warm-up the configuration asks for.
+// Another machine and process: C turning the other way (c_sense -1: the
+// log's table angles, such as -60 deg, are the program's 300 deg), a
+// 45-minute cycle, C spinning only between cycles 0 and 2, seven facets per
+// segment. The twin's log follows the programs' schedule (every planned cut
+// found on it), and C turns only in the warm-up the configuration asks for.
 TEST(CliRun, TheTwinFollowsTheConfiguredCycle) {
   const fs::path dir = test::TestDir("run_cycle");
   const fs::path config = dir / "process.toml";
   fs::create_directories(dir);
   std::ofstream(config) << "[part]\nfacets_per_segment = 7\n"
                            "reference_index = 4\n"
+                           "[machine]\nc_sense = -1\n"
                            "[process]\ncycle_period_s = 2700.0\n"
                            "warmup_cycles = 2\n";
   const fs::path out = dir / "out";

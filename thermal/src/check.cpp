@@ -439,7 +439,10 @@ ScheduleCheck CheckLogAgainstSchedule(const TalcLog& log,
     }
     out.max_deviation_s = std::max(out.max_deviation_s, std::abs(deviation));
     const double c_deg = c.c_rad * 180.0 / 3.14159265358979323846;
-    if (std::abs(c_deg - p.c_deg) > options.angle_tolerance_deg) {
+    // A table angle is an angle: a controller may log -60 deg where the
+    // program commands 300 deg (another display range, roll-over).
+    if (std::abs(std::remainder(c_deg - p.c_deg, 360.0)) >
+        options.angle_tolerance_deg) {
       throw InputError(log.source, c.line, "c_deg",
                        fmt::format("cut {} at table angle {:.3f} deg, the "
                                    "program cuts it at {:.3f} deg",
