@@ -849,9 +849,9 @@ void ValidateConfig(const Config& c, const std::string& source) {
   {
     // The FANUC programs switch each machine function with the profile's
     // M-code and the reader tells the functions apart by it: two functions
-    // on one code, or one on a code the programs use with its standard
-    // meaning (M8 is coolant on), would make a program that does something
-    // else on the machine than it says.
+    // on one code, or one on a standard M-code (which the control reads
+    // with its standard meaning: M8 is coolant on), would make a program
+    // that does something else on the machine than it says.
     const std::map<int, std::string> standard = {
         {0, "program stop"},
         {1, "optional stop"},
@@ -886,8 +886,8 @@ void ValidateConfig(const Config& c, const std::string& source) {
       Require(code >= 0, source, field, "must be an M-code >= 0");
       const auto it = standard.find(code);
       Require(it == standard.end(), source, field,
-              fmt::format("M{} is {} in every program (a standard M-code); "
-                          "give the machine's own M-code for this function",
+              fmt::format("M{} is {}, a standard M-code: give the "
+                          "machine's own M-code for this function",
                           code, it == standard.end() ? "" : it->second));
       for (std::size_t j = 0; j < i; ++j)
         Require(codes[j].second != code, source, field,
