@@ -425,10 +425,24 @@ void ValidateFeatureFit(const PartSpec& p, const std::string& source) {
                     p.segment_span_deg / 2));
   }
   // Segments must not overlap each other nor reach into the notches.
+  static const char* const kSegmentNames[] = {"X1", "Y1", "X2", "Y2"};
   for (size_t i = 0; i < p.segment_centre_deg.size(); ++i) {
     const std::string f = "part.segment_centre_deg[" + std::to_string(i) + "]";
     const double c = p.segment_centre_deg[i];
     Require(c > 0 && c < 360, source, f, "must be in (0, 360)");
+    // The programs go round the piece X1, Y1, X2, Y2, one per quadrant,
+    // and cut facet X1-j with X2-j (Y1-j with Y2-j) at one table angle.
+    Require(std::floor(c / 90) == static_cast<double>(i), source, f,
+            fmt::format("segment {} must lie in quadrant {} (centre between "
+                        "{} and {} deg)",
+                        kSegmentNames[i], i + 1, 90 * i, 90 * (i + 1)));
+    if (i >= 2)
+      Require(std::abs(c - p.segment_centre_deg[i - 2] - 180) < 1e-9, source, f,
+              fmt::format("must be segment_centre_deg[{}] + 180 ({} opposite "
+                          "{}): the test cycle cuts facets {}-j and {}-j at "
+                          "one table angle",
+                          i - 2, kSegmentNames[i], kSegmentNames[i - 2],
+                          kSegmentNames[i - 2], kSegmentNames[i]));
     const double lo = (c - p.segment_span_deg / 2) * M_PI / 180;
     const double hi = (c + p.segment_span_deg / 2) * M_PI / 180;
     // The segment lies between the small notch (|x| <= xs) and the big

@@ -108,6 +108,18 @@ INSTANTIATE_TEST_SUITE_P(
                 "z_bottom_mm = -24.0\nz_top_mm = -12.0\n",
                 "part.segment_centre_deg[0]: facet 9 ends at W (4.051, "
                 "77.300) mm, inside a notch"},
+        // The programs go round X1, Y1, X2, Y2 and cut X1-j with X2-j at
+        // one table angle.
+        BadCase{
+            "segments_overlap",
+            "[part]\nsegment_centre_deg = [60.0, 60.0, 240.0, 300.0]\n",
+            "part.segment_centre_deg[1]: segment Y1 must lie in quadrant 2"},
+        BadCase{"segments_not_opposite",
+                "[part]\nfacets_per_segment = 7\nreference_index = 4\n"
+                "segment_span_deg = 42.0\n"
+                "segment_centre_deg = [60.0, 120.0, 246.0, 300.0]\n",
+                "part.segment_centre_deg[2]: must be segment_centre_deg[0] + "
+                "180 (X2 opposite X1)"},
         BadCase{"mark_off_segment", "[part]\nmark_phi_deg = 0.0\n",
                 "part.mark_phi_deg"},
         BadCase{"facet_above_floor", "[part]\nfacet_bottom_z_mm = -11.0\n",
