@@ -1,11 +1,11 @@
 #include "ttp/gcode/canon_to_program.h"
 
-#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <string>
 #include <vector>
 
+#include "ttp/geometry/csv.h"
 #include "ttp/geometry/error.h"
 
 namespace ttp::gcode {
@@ -15,6 +15,9 @@ Axes AllAxes(const CanonStatement& s) {
   return Axes{s.end_mm.x(), s.end_mm.y(), s.end_mm.z(),
               s.end_c_rad * 180.0 / M_PI};
 }
+
+// The header row of ttp's probing log (FANUC DPRNT after POPEN), as read.
+constexpr const char* kProbeLogHeader = "TTP,PROBE,LOG,";
 
 std::vector<std::string> SplitCommas(const std::string& text) {
   std::vector<std::string> out(1);
@@ -39,9 +42,7 @@ bool ParseProbeRow(const std::string& text, Probe* probe) {
   if (f[1].empty() || *end != '\0' || id < 0 || id > 1000000000) return false;
   probe->point_id = static_cast<int>(id);
   probe->feature = f[2];
-  probe->pass = f[0];
-  for (char& ch : probe->pass)
-    ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  probe->pass = Lower(f[0]);
   return true;
 }
 
@@ -49,7 +50,7 @@ bool ParseProbeRow(const std::string& text, Probe* probe) {
 
 bool IsProbeLogReport(const std::string& text) {
   Probe probe{};
-  return text.rfind("TTP,PROBE,LOG,", 0) == 0 || ParseProbeRow(text, &probe);
+  return text.rfind(kProbeLogHeader, 0) == 0 || ParseProbeRow(text, &probe);
 }
 
 Program ProgramFromCanon(const std::vector<CanonStatement>& statements,
@@ -168,8 +169,7 @@ Program ProgramFromCanon(const std::vector<CanonStatement>& statements,
         p.statements.push_back(TableClamp{s.value > 0});
         break;
       case CanonKind::kReport: {
-        // The header row of ttp's probing log (FANUC DPRNT after POPEN).
-        if (s.text.rfind("TTP,PROBE,LOG,", 0) == 0) {
+        if (s.text.rfind(kProbeLogHeader, 0) == 0) {
           p.statements.push_back(ProbeLog{true, "ttp-probe-log.csv"});
           probe_log_open = true;
           break;

@@ -365,6 +365,18 @@ void Require(bool ok, const std::string& source, const std::string& field,
   if (!ok) throw InputError(source, 0, field, why);
 }
 
+// Facet j and strip j lie j - reference_index steps from the reference: the
+// most steps any facet or strip lies from it, on either side.
+int StepsToFarthestFacet(const PartSpec& p) {
+  return std::max(p.reference_index - 1,
+                  p.facets_per_segment - p.reference_index);
+}
+
+// Where neighbouring facets at `distance_mm` from the axis meet.
+double FacetCornerRadiusMm(const PartSpec& p, double distance_mm) {
+  return distance_mm / std::cos(p.facet_step_deg / 2 * M_PI / 180);
+}
+
 void ValidateTool(const ToolSpec& t, const std::string& source,
                   const std::string& name, const MachineProfile& m) {
   const std::string f = "process." + name + ".";
@@ -412,8 +424,7 @@ void ValidateFeatureFit(const PartSpec& p, const std::string& source) {
   // Facet j's normal lies at (j - reference_index) x facet_step_deg from
   // its segment's centre; every facet must lie inside the segment.
   {
-    const int farthest = std::max(p.reference_index - 1,
-                                  p.facets_per_segment - p.reference_index);
+    const int farthest = StepsToFarthestFacet(p);
     Require(
         (farthest + 0.5) * p.facet_step_deg <= p.segment_span_deg / 2 + 1e-9,
         source, "part.reference_index",
@@ -460,8 +471,7 @@ void ValidateFeatureFit(const PartSpec& p, const std::string& source) {
     // The outermost facets end at their outer corners (radius
     // facet_final_distance_mm / cos(facet_step_deg / 2)): a corner inside a
     // notch leaves that facet cut by the notch.
-    const double corner_r =
-        facet_d / std::cos(p.facet_step_deg / 2 * M_PI / 180);
+    const double corner_r = FacetCornerRadiusMm(p, facet_d);
     for (const int j : {1, p.facets_per_segment}) {
       const double side = j == 1 ? -0.5 : 0.5;
       const double a =
@@ -634,10 +644,8 @@ void ValidateConfig(const Config& c, const std::string& source) {
   positive(p.strip_pitch_mm, "strip_pitch_mm");
   positive(p.strip_width_mm, "strip_width_mm");
   // Strip k lies at (k - reference_index) x strip_pitch_mm.
-  const int farthest_index =
-      std::max(p.reference_index - 1, p.facets_per_segment - p.reference_index);
   const double strip_reach =
-      farthest_index * p.strip_pitch_mm + p.strip_width_mm / 2;
+      StepsToFarthestFacet(p) * p.strip_pitch_mm + p.strip_width_mm / 2;
   // Neighbouring strips overlap (0.25 mm on the drawing); each must keep a
   // band of its own floor that no later strip cuts.
   Require(2 * p.strip_pitch_mm - p.strip_width_mm > 0, source,
@@ -663,8 +671,7 @@ void ValidateConfig(const Config& c, const std::string& source) {
   // its flutes reaching over the segments above: a cylinder inside the
   // facets' corners would cut the segments away.
   {
-    const double corner_mm =
-        p.facet_pre_distance_mm / std::cos(p.facet_step_deg / 2 * M_PI / 180);
+    const double corner_mm = FacetCornerRadiusMm(p, p.facet_pre_distance_mm);
     for (size_t i = 0; i < p.ref_cylinders.size(); ++i)
       Require(p.ref_cylinders[i].diameter_mm / 2 > corner_mm, source,
               "part.ref_cylinders[" + std::to_string(i) + "].diameter_mm",
@@ -860,6 +867,11 @@ void ValidateConfig(const Config& c, const std::string& source) {
             source, "machine.tool_change_position_m_mm[2]",
             "the longest tool would not clear the piece and the sphere");
   }
+  Require(m.fanuc_sync_block == "G53" ||
+              (m.fanuc_sync_block.size() > 1 && m.fanuc_sync_block[0] == 'M' &&
+               m.fanuc_sync_block.find_first_not_of("0123456789", 1) ==
+                   std::string::npos),
+          source, "machine.fanuc_sync_block", "must be G53 or M<number>");
   {
     // The FANUC programs switch each machine function with the profile's
     // M-code and the reader tells the functions apart by it: two functions
@@ -889,10 +901,9 @@ void ValidateConfig(const Config& c, const std::string& source) {
         {"machine.m_c_turning_off", m.m_c_turning_off},
         {"machine.m_probe_on", m.m_probe_on},
         {"machine.m_probe_off", m.m_probe_off}};
-    if (m.fanuc_sync_block.size() > 1 && m.fanuc_sync_block[0] == 'M' &&
-        m.fanuc_sync_block.size() < 10 &&
-        m.fanuc_sync_block.find_first_not_of("0123456789", 1) ==
-            std::string::npos)
+    // An M sync block (its form checked above) of at most 8 digits, which
+    // any int holds; a longer one is no code of this profile's functions.
+    if (m.fanuc_sync_block != "G53" && m.fanuc_sync_block.size() < 10)
       codes.emplace_back("machine.fanuc_sync_block",
                          std::stoi(m.fanuc_sync_block.substr(1)));
     for (std::size_t i = 0; i < codes.size(); ++i) {
@@ -919,11 +930,6 @@ void ValidateConfig(const Config& c, const std::string& source) {
               m.linuxcnc_probe_output != m.linuxcnc_b_clamp_output,
           source, "machine.linuxcnc_probe_output",
           "must be an output >= 0 other than the C and B clamps'");
-  Require(m.fanuc_sync_block == "G53" ||
-              (m.fanuc_sync_block.size() > 1 && m.fanuc_sync_block[0] == 'M' &&
-               m.fanuc_sync_block.find_first_not_of("0123456789", 1) ==
-                   std::string::npos),
-          source, "machine.fanuc_sync_block", "must be G53 or M<number>");
   for (int a = 0; a < 4; ++a) {
     Require(
         m.fanuc_skip_variables[a] >= 5061 && m.fanuc_skip_variables[a] <= 5068,
