@@ -279,7 +279,8 @@ void CheckStage(RunContext& ctx) {
                                   (ctx.shown_dir / "twin/talc.csv").string());
   const thermal::ScheduleCheck schedule =
       thermal::CheckLogAgainstSchedule(ctx.log, PlannedCuts(ctx.config));
-  ctx.estimator = thermal::MachineErrorEstimator::Fit(ctx.log);
+  ctx.estimator = thermal::MachineErrorEstimator::Fit(
+      ctx.log, thermal::EstimatorOptionsFor(ctx.config.machine));
   ctx.simulation =
       thermal::SimulatePiece(ctx.log, ctx.config, *ctx.estimator, {});
   const thermal::CheckResult check =

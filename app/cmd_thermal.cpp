@@ -51,7 +51,8 @@ void RegisterThermal(CLI::App& root, GlobalOptions& global) {
       // The simulated figures with the U `ttp check` gives them (the
       // estimator's leave-one-out error).
       const Config config = global.LoadConfig();
-      const auto estimator = thermal::MachineErrorEstimator::Fit(log);
+      const auto estimator = thermal::MachineErrorEstimator::Fit(
+          log, thermal::EstimatorOptionsFor(config.machine));
       thermal::Simulation sim =
           thermal::SimulatePiece(log, config, estimator, {});
       const std::vector<CycleFigures> u =
@@ -68,7 +69,8 @@ void RegisterThermal(CLI::App& root, GlobalOptions& global) {
       nlohmann::json j = thermal::SimulationToJson(sim, estimator);
       if (*compare) {
         const auto c = thermal::CompareInterpolation(log, *interval);
-        const auto dense = thermal::CompareAtLoadChanges(log);
+        const auto dense = thermal::CompareAtLoadChanges(
+            log, thermal::EstimatorOptionsFor(config.machine));
         text += "\n" + thermal::InterpolationText(c);
         text += fmt::format(
             "leave-one-R-test-out on the log's own R-tests, {} R-tests "

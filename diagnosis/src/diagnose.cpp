@@ -1920,7 +1920,8 @@ MeasuredPiece LoadMeasuredPiece(const Config& config, const std::string& path,
 PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
                        const MeasuredPiece& measured,
                        const DiagnosisOptions& options) {
-  const auto estimator = thermal::MachineErrorEstimator::Fit(log);
+  const auto estimator = thermal::MachineErrorEstimator::Fit(
+      log, thermal::EstimatorOptionsFor(config.machine));
   return PrepareRun(log, config, estimator,
                     thermal::SimulatePiece(log, config, estimator, {}),
                     measured, options);

@@ -13,6 +13,7 @@
 #include "ttp/geometry/error.h"
 #include "ttp/geometry/file_io.h"
 #include "ttp/geometry/json_text.h"
+#include "ttp/geometry/rigid_table.h"
 
 namespace ttp {
 namespace {
@@ -112,6 +113,8 @@ void VisitMachine(V& v, MachineProfile& m) {
   v("table_top_z_mm", m.table_top_z_mm);
   v("sphere_distance_mm", m.sphere_distance_mm);
   v("sphere_height_mm", m.sphere_height_mm);
+  v("rtest_u95_um", m.rtest_u95_um);
+  v("rtest_u95_urad", m.rtest_u95_urad);
   v("sphere_phi_deg", m.sphere_phi_deg);
   v("sphere_radius_mm", m.sphere_radius_mm);
   v("sphere_stem_diameter_mm", m.sphere_stem_diameter_mm);
@@ -796,6 +799,17 @@ void ValidateConfig(const Config& c, const std::string& source) {
           "must be 1 or -1");
   Require(m.sphere_distance_mm > 0, source, "machine.sphere_distance_mm",
           "must be positive");
+  // (an R-test that uncertain cannot show thermal errors of a few um)
+  for (size_t i = 0; i < m.rtest_u95_um.size(); ++i)
+    Require(m.rtest_u95_um[i] > 0 && m.rtest_u95_um[i] <= 100, source,
+            fmt::format("machine.rtest_u95_um[{}]", i),
+            fmt::format("the {} R-test uncertainty must be in (0, 100] um",
+                        kErrorNames[i]));
+  for (size_t i = 0; i < m.rtest_u95_urad.size(); ++i)
+    Require(m.rtest_u95_urad[i] > 0 && m.rtest_u95_urad[i] <= 1000, source,
+            fmt::format("machine.rtest_u95_urad[{}]", i),
+            fmt::format("the {} R-test uncertainty must be in (0, 1000] urad",
+                        kErrorNames[4 + i]));
   Require(m.program_number >= 1 && m.program_number <= 9998, source,
           "machine.program_number", "must be 1..9998");
   // The piece must fit the travel: the tool reaches radius R + tool radius.

@@ -320,7 +320,8 @@ BudgetCoverage MeasureBudgetCoverage(const Config& config,
                                      const TwinOptions& twin_options) {
   const TwinRun twin = RunTwin(config, twin_options);
   const thermal::TalcLog log = thermal::ParseTalcLog(twin.log_text, "twin");
-  const auto est = thermal::MachineErrorEstimator::Fit(log);
+  const auto est = thermal::MachineErrorEstimator::Fit(
+      log, thermal::EstimatorOptionsFor(config.machine));
   const diagnosis::PreparedRun run = diagnosis::PrepareRun(
       log, config, est, thermal::SimulatePiece(log, config, est, {}),
       diagnosis::MeasuredPieceFromFeatures(config.part, twin.true_results));

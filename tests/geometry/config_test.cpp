@@ -83,6 +83,15 @@ INSTANTIATE_TEST_SUITE_P(
                 "part.blank_diameter_mm"},
         BadCase{"syntax", "[part\nblank_diameter_mm = 1\n", "TOML"},
         BadCase{"sense", "[machine]\nc_sense = 0\n", "machine.c_sense"},
+        // The R-test's stated uncertainty (U, k = 2) per error.
+        BadCase{"rtest_u_zero",
+                "[machine]\nrtest_u95_um = [0.4, 0.5, 0.0, 0.6]\n",
+                "machine.rtest_u95_um[2]: the EZ0T R-test uncertainty"},
+        BadCase{"rtest_u_short", "[machine]\nrtest_u95_urad = [2.3, 2.5]\n",
+                "machine.rtest_u95_urad"},
+        BadCase{"rtest_u_huge",
+                "[machine]\nrtest_u95_urad = [2.3, 2.5, 2000.0]\n",
+                "machine.rtest_u95_urad[2]: the EC0C R-test uncertainty"},
         // Features that do not fit the piece or each other.
         BadCase{"big_notch_wide", "[part]\nbig_notch_half_width_mm = 200.0\n",
                 "part.big_notch_half_width_mm"},

@@ -127,8 +127,8 @@ std::vector<CycleFigures> SimulatedFigureUncertainty(
 CheckResult CheckPiece(const TalcLog& log, const Config& config,
                        const std::vector<CycleFigures>& measured,
                        const CheckOptions& options) {
-  const MachineErrorEstimator est =
-      MachineErrorEstimator::Fit(log, options.simulation.estimator);
+  const MachineErrorEstimator est = MachineErrorEstimator::Fit(
+      log, EstimatorOptionsFor(config.machine, options.simulation.estimator));
   const Simulation sim = SimulatePiece(log, config, est, options.simulation);
   return CheckPiece(log, config, est, sim, measured, options);
 }

@@ -112,7 +112,10 @@ FeatureResult ShiftsToFeatureResult(const PartSpec& part, const CutGeometry& g,
 Simulation SimulatePiece(const TalcLog& log, const Config& config,
                          const SimulationOptions& options) {
   return SimulatePiece(
-      log, config, MachineErrorEstimator::Fit(log, options.estimator), options);
+      log, config,
+      MachineErrorEstimator::Fit(
+          log, EstimatorOptionsFor(config.machine, options.estimator)),
+      options);
 }
 
 FeatureResult CutFeatureResult(const PartSpec& part,

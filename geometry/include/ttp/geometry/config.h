@@ -128,6 +128,13 @@ struct MachineProfile {
   double table_top_z_mm = 0.0;
   double sphere_distance_mm = 160.0;  // R-test sphere, d/2
   double sphere_height_mm = 80.0;     // centre above the table top
+  // The R-test's expanded uncertainty (k = 2) per error, as the lab
+  // measured it (thesis 5.3: the cycle repeated at one table angle):
+  // EX0C, EY0C, EZ0T, ER0T in um and EA0C, EB0C, EC0C in urad (um/m).
+  // Thesis table 5.4 by default. The machine-error estimator takes half of
+  // it as the R-tests' noise.
+  std::array<double, 4> rtest_u95_um = {0.4, 0.5, 0.4, 0.6};
+  std::array<double, 3> rtest_u95_urad = {2.3, 2.5, 2.6};
   // R-test sphere on the table (turns with C): its direction at C = 0 in
   // the table frame, ball radius, and the stem from the table up to the
   // ball.
