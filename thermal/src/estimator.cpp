@@ -221,8 +221,12 @@ bool PredictionReanchorsAtRTests(const TalcLog& log,
 // deviation, for white noise, is about 1.4 / sqrt(pseudo-residuals) (the
 // median's, with neighbouring pseudo-residuals sharing values; by
 // simulation). NaN for fewer than three values.
-double NoiseFromNeighbours(const std::vector<double>& t,
-                           const std::vector<double>& r, double* relative_sd) {
+struct NoiseReading {
+  double sigma = std::numeric_limits<double>::quiet_NaN();
+  double relative_sd = 0;
+};
+NoiseReading NoiseFromNeighbours(const std::vector<double>& t,
+                                 const std::vector<double>& r) {
   std::vector<double> pseudo;
   for (size_t k = 1; k + 1 < r.size(); ++k) {
     const double span = t[k + 1] - t[k - 1];
@@ -231,9 +235,9 @@ double NoiseFromNeighbours(const std::vector<double>& t,
     pseudo.push_back(std::abs(r[k] - a * r[k - 1] - b * r[k + 1]) /
                      std::sqrt(1 + a * a + b * b));
   }
-  if (pseudo.empty()) return std::numeric_limits<double>::quiet_NaN();
-  *relative_sd = 1.4 / std::sqrt(static_cast<double>(pseudo.size()));
-  return 1.4826 * Median(pseudo);
+  if (pseudo.empty()) return {};
+  return {1.4826 * Median(pseudo),
+          1.4 / std::sqrt(static_cast<double>(pseudo.size()))};
 }
 
 }  // namespace
@@ -539,8 +543,7 @@ MachineErrorEstimator MachineErrorEstimator::FitExcluding(
     est.models_[e].bandwidth_s = best_bandwidth;
   }
   // The R-tests' own noise: the stated one, or the log's where it shows
-  // more.
-  // Read from the model's residuals, which the load's dynamics leave
+  // more, read from the model's residuals, which the load's dynamics leave
   // smooth (the values themselves bend at the load changes).
   for (int e = 0; e < 7; ++e) {
     const double stated = options.rtest_noise_um_or_urad[e];
@@ -551,13 +554,12 @@ MachineErrorEstimator MachineErrorEstimator::FitExcluding(
       continue;
     std::vector<double> r(n);
     for (int k = 0; k < n; ++k) r[k] = est.residual_[k][e];
-    double relative_sd = 0;
-    const double from_log = NoiseFromNeighbours(est.rtest_t_, r, &relative_sd);
-    if (!std::isfinite(from_log)) continue;
-    est.rtest_noise_from_log_[e] = from_log;
+    const NoiseReading from_log = NoiseFromNeighbours(est.rtest_t_, r);
+    if (!std::isfinite(from_log.sigma)) continue;
+    est.rtest_noise_from_log_[e] = from_log.sigma;
     const double bound =
-        from_log *
-        std::max(0.0, 1 - options.rtest_noise_lower_bound_sd * relative_sd);
+        from_log.sigma * std::max(0.0, 1 - options.rtest_noise_lower_bound_sd *
+                                               from_log.relative_sd);
     est.rtest_noise_[e] = std::max(stated, bound);
   }
   if (cross_validate) est.CrossValidate();
