@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string_view>
 
@@ -540,7 +541,11 @@ PointCloud ReadPly(std::string_view data, const std::string& source,
 // PCL sizes its buffer from FIELDS x COUNT x SIZE x POINTS), then PCL's
 // PCDReader reads it (ascii, binary, binary_compressed; organised clouds)
 // into a PCLPointCloud2, whose x y z (and normals) are read field by field
-// in their own type: double stays double.
+// in their own type: double stays double. PCL is not given the file's
+// header but one written again from what was checked: PCL splits words and
+// matches keys by other rules (key prefixes, other whitespace, repeated
+// lines each acted on), and a header that reads one way here and another
+// way there could size PCL's buffer past every limit.
 
 // A read-only istream over memory (PCL reads its header from a stream and
 // asks where the body starts with tellg).
@@ -573,7 +578,8 @@ using internal::QuietPcl;  // PCL is kept quiet while it reads
 struct PcdHeader {
   long long points = 0, width = 0, height = 1, stride = 0;
   std::string data_kind;
-  size_t body = 0;
+  size_t body = 0;      // offset of the point data in the file
+  std::string for_pcl;  // the checked header, written again for PCL
 };
 
 PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
@@ -584,6 +590,7 @@ PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
   std::vector<std::string> fields, sizes, types, counts;
   long long points = -1;
   int fields_line = 0;
+  std::map<std::string, int> key_lines;  // header key -> its line
   while (NextLine(data, &pos, &line)) {
     ++line_no;
     auto w = Words(line);
@@ -597,6 +604,13 @@ PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
                            "of " +
                            std::to_string(limits::kMaxCloudFields) + " fields");
     if (key == "VERSION" || key == "VIEWPOINT") continue;
+    // Each line once: which of two POINTS (or FIELDS) lines would count is
+    // a guess, and PCL acts on each.
+    const auto [seen, first] = key_lines.emplace(key, line_no);
+    if (!first)
+      throw InputError(
+          source, line_no, key,
+          "given twice (first on line " + std::to_string(seen->second) + ")");
     if (key == "FIELDS") {
       fields = w;
       fields_line = line_no;
@@ -637,6 +651,7 @@ PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
     throw InputError(source, fields_line, "FIELDS/SIZE/TYPE/COUNT",
                      "missing or of different lengths");
   }
+  std::string size_line = "SIZE", type_line = "TYPE", count_line = "COUNT";
   for (size_t i = 0; i < fields.size(); ++i) {
     const long long size =
         HeaderInteger(sizes[i], source, 0, "SIZE of " + fields[i], 8);
@@ -651,6 +666,9 @@ PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
       throw InputError(source, 0, "field " + fields[i],
                        "unsupported TYPE/SIZE/COUNT " + types[i] + "/" +
                            sizes[i] + "/" + std::to_string(count));
+    size_line += " " + std::to_string(size);
+    type_line += " " + types[i];
+    count_line += " " + std::to_string(count);
     h.stride += size * count;
     if (h.stride > limits::kMaxRecordBytes)
       throw InputError(source, 0, "SIZE/COUNT",
@@ -670,6 +688,12 @@ PcdHeader CheckPcdHeader(std::string_view data, const std::string& source) {
   if (points <= 0)
     throw InputError(source, 0, "POINTS", "the cloud has no points");
   h.points = points;
+  h.for_pcl = "VERSION 0.7\nFIELDS";
+  for (const auto& f : fields) h.for_pcl += " " + f;
+  h.for_pcl += "\n" + size_line + "\n" + type_line + "\n" + count_line +
+               "\nWIDTH " + std::to_string(h.width) + "\nHEIGHT " +
+               std::to_string(h.height) + "\nPOINTS " + std::to_string(points) +
+               "\nDATA " + h.data_kind + "\n";
   const size_t have = data.size() - std::min(h.body, data.size());
   // PCL sizes its buffer from the header: the data must be there first.
   // Ascii needs two bytes a value at least; LZF expands at most about
@@ -761,10 +785,12 @@ PointCloud ReadPcd(std::string_view data, const std::string& source,
     Eigen::Quaternionf orientation;
     int version = 0, data_type = 0;
     unsigned int data_idx = 0;
-    MemoryBuffer header_buffer(data.data(), data.data() + h.body);
+    MemoryBuffer header_buffer(h.for_pcl.data(),
+                               h.for_pcl.data() + h.for_pcl.size());
     std::istream header_stream(&header_buffer);
-    // PCL's header reader indexes its fields unchecked (std::vector::at):
-    // a header whose lines disagree with each other throws out of it.
+    // PCL's header reader throws on what it cannot take (std::vector::at,
+    // its own messages); the header it is given was checked, so a throw
+    // here would be a rule of PCL's not known to the check.
     int header_rc = -1;
     try {
       header_rc = reader.readHeader(header_stream, pc, origin, orientation,

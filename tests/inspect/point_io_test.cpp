@@ -263,6 +263,23 @@ TEST_F(PointIoTest, ReadsEveryPcdThatPclWrites) {
   }
 }
 
+// PCL splits a header line on space, tab and CR only; the reader on any
+// white space. What PCL is given is the header as checked here, so a
+// vertical tab or form feed between words reads as a space does.
+TEST_F(PointIoTest, PclReadsTheHeaderAsChecked) {
+  const std::string spaced =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\n"
+      "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\n4 5 6.5\n";
+  const std::string odd =
+      "VERSION 0.7\nFIELDS x\vy\fz\nSIZE 8\v8 8\nTYPE F F\fF\n"
+      "COUNT 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\n4 5 6.5\n";
+  const PointCloud a = ReadPointCloud(Write("spaced.pcd", spaced));
+  const PointCloud b = ReadPointCloud(Write("odd.pcd", odd));
+  ASSERT_EQ(a.size(), 2);
+  ASSERT_EQ(b.size(), 2);
+  EXPECT_EQ((a.xyz_mm - b.xyz_mm).cwiseAbs().maxCoeff(), 0.0);
+}
+
 // Limits are checked from the header, before anything is allocated for
 // the data: a COUNT of 1e9 or POINTS beyond the limit are refused at once.
 TEST_F(PointIoTest, LimitsBeforeAllocation) {
@@ -298,6 +315,15 @@ TEST_F(PointIoTest, LimitsBeforeAllocation) {
                                               "HEIGHT 1\nPOINTS 50000000\n"
                                               "DATA ascii\n1 2 3\n"))
                 .find("too short"),
+            std::string::npos);
+  // A header line given twice: PCL sizes its buffer on every POINTS line,
+  // so a first POINTS of 50 million would cost 400 GB before the second
+  // is read; refused here, naming the line.
+  EXPECT_NE(ErrorOf(Write("twice.pcd", head + "COUNT 1 1 1024\nWIDTH 2\n"
+                                              "HEIGHT 1\nPOINTS 50000000\n"
+                                              "POINTS 2\nDATA ascii\n"
+                                              "1 2 3\n4 5 6\n"))
+                .find("twice.pcd:10: POINTS: given twice (first on line 9)"),
             std::string::npos);
   // Blank space only: no points (and no exception other than InputError).
   EXPECT_NE(ErrorOf(Write("blank.xyz", " \n\t\n")).find("blank"),
