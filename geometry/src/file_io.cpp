@@ -5,15 +5,18 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <system_error>
 
 #include "ttp/geometry/error.h"
+#include "ttp/geometry/limits.h"
 
 namespace ttp {
 namespace fs = std::filesystem;
@@ -25,6 +28,15 @@ struct NotedFiles {
   std::vector<fs::path> inputs;
   std::vector<fs::path> written;
 };
+// The bytes of the pipes read (ReadStreamOnce), by path.
+struct StreamsRead {
+  std::mutex mutex;
+  std::map<std::string, std::string> bytes;
+};
+StreamsRead& Streams() {
+  static StreamsRead streams;
+  return streams;
+}
 NotedFiles& Noted() {
   static NotedFiles noted;
   return noted;
@@ -185,11 +197,20 @@ void ClearNotedFiles() {
   std::lock_guard<std::mutex> lock(n.mutex);
   n.inputs.clear();
   n.written.clear();
+  StreamsRead& streams = Streams();
+  std::lock_guard<std::mutex> streams_lock(streams.mutex);
+  streams.bytes.clear();
 }
 
 namespace {
 
-std::ifstream OpenInput(const fs::path& path) {
+// What an input path is: a regular file, or a pipe (a FIFO, process
+// substitution `<(zcat cloud.xyz.gz)`, /dev/stdin fed by a pipe), which
+// can be read only once, front to back. Anything else (a device:
+// /dev/zero, /dev/urandom, a terminal) would be read without end.
+enum class InputKind { kRegular, kStream };
+
+InputKind CheckInput(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) {
     throw InputError(path.string(), 0, "", "file does not exist");
@@ -197,15 +218,60 @@ std::ifstream OpenInput(const fs::path& path) {
   if (fs::is_directory(path, ec)) {
     throw InputError(path.string(), 0, "", "is a folder, not a file");
   }
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    throw InputError(path.string(), 0, "", "cannot be opened");
+  if (S_ISREG(st.st_mode)) {
+    if (static_cast<std::uint64_t>(st.st_size) > limits::kMaxInputBytes)
+      throw InputError(path.string(), 0, "",
+                       std::to_string(st.st_size) +
+                           " bytes, beyond the limit of " +
+                           std::to_string(limits::kMaxInputBytes) + " bytes");
+    return InputKind::kRegular;
+  }
+  if (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode)) return InputKind::kStream;
+  throw InputError(path.string(), 0, "",
+                   "is a device, not a file: give a regular file or a pipe");
+}
+
+std::ifstream OpenInput(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "", "cannot be opened");
   NoteInput(path);
   return in;
 }
 
+// A pipe's bytes, read whole on first use and kept for the process: the
+// format is told from its head, then it is read again from the start (and
+// a command may read one input twice), which a pipe cannot do.
+std::string ReadStreamOnce(const fs::path& path) {
+  StreamsRead& streams = Streams();
+  std::lock_guard<std::mutex> lock(streams.mutex);
+  auto& read = streams.bytes;
+  const auto it = read.find(path.string());
+  if (it != read.end()) return it->second;
+  std::ifstream in = OpenInput(path);
+  std::string all;
+  std::vector<char> chunk(1 << 20);
+  while (in) {
+    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    all.append(chunk.data(), static_cast<size_t>(in.gcount()));
+    if (all.size() > limits::kMaxInputBytes)
+      throw InputError(path.string(), 0, "",
+                       "more than " + std::to_string(limits::kMaxInputBytes) +
+                           " bytes, beyond the limit");
+  }
+  return read.emplace(path.string(), std::move(all)).first->second;
+}
+
 }  // namespace
 
+bool IsRegularInput(const fs::path& path) {
+  return CheckInput(path) == InputKind::kRegular;
+}
+
 std::string ReadTextFile(const fs::path& path) {
+  if (CheckInput(path) == InputKind::kStream) return ReadStreamOnce(path);
   std::ifstream in = OpenInput(path);
   std::ostringstream ss;
   ss << in.rdbuf();
@@ -213,6 +279,8 @@ std::string ReadTextFile(const fs::path& path) {
 }
 
 std::string ReadFileHead(const fs::path& path, size_t max_bytes) {
+  if (CheckInput(path) == InputKind::kStream)
+    return ReadStreamOnce(path).substr(0, max_bytes);
   std::ifstream in = OpenInput(path);
   std::string head(max_bytes, '\0');
   in.read(head.data(), static_cast<std::streamsize>(head.size()));

@@ -23,13 +23,10 @@
 namespace ttp::inspect {
 namespace {
 
+// The whole file (ReadTextFile notes it as an input: never written over
+// by this command's outputs; a pipe is read once and kept).
 std::string ReadAll(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), 0, "", "cannot open the file");
-  NoteInput(path);  // never written over by this command's outputs
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return ReadTextFile(path);
 }
 
 // The first line that is not blank and not a `#` comment, lower case and
@@ -476,14 +473,7 @@ Measurement LoadMeasurement(const Config& config,
     throw InputError(m.source, 0, "", "no such file");
   if (std::filesystem::is_directory(path))
     throw InputError(m.source, 0, "", "is a directory, not a measurement");
-  std::string head;
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(m.source, 0, "", "cannot open the file");
-    head.resize(4096);
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    head.resize(static_cast<size_t>(in.gcount()));
-  }
+  const std::string head = ReadFileHead(path, 4096);
   if (head.find_first_not_of(" \t\r\n") == std::string::npos)
     throw InputError(m.source, 0, "", "the file is empty");
   // A log given where the piece goes (`ttp inspect talc.csv`, the

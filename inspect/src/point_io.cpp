@@ -953,6 +953,8 @@ const char* CloudFormatExtension(CloudFormat f) {
 
 PointCloud ReadPointCloud(const std::filesystem::path& path,
                           const ReadOptions& options) {
+  if (!IsRegularInput(path))  // a pipe: its bytes, read once
+    return ParsePointCloud(ReadTextFile(path), path.string(), options);
   const MappedFile file(path);
   NoteInput(path);  // never written over by this command's outputs
   return ParsePointCloud(file.view(), path.string(), options);

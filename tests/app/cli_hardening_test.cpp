@@ -11,6 +11,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "run_ttp.h"
 #include "test_dir.h"
@@ -421,6 +422,38 @@ TEST(CliHardening, WritesThroughLinksIntoDevicesAndFifos) {
     EXPECT_EQ(full.exit_code, 2) << full.output;
     EXPECT_TRUE(fs::is_character_file("/dev/full"));
   }
+}
+
+// Inputs are regular files or pipes. A device would be read without end
+// (ran the machine out of memory, exit 3); it is bad input naming the
+// path. A pipe (process substitution, /dev/stdin) is read once and whole:
+// the measurement's format is told from its head and the same bytes read,
+// so a piece and a log through pipes give what the files give.
+TEST(CliHardening, InputsFromDevicesAndPipes) {
+  const std::string log = DataPath("samples/run-a/talc.csv");
+  const std::string piece = DataPath("samples/run-a/piece.ply");
+  for (const std::string& cmd : std::vector<std::string>{
+           "inspect /dev/zero", "diagnose --log /dev/zero " + piece,
+           "diagnose --log " + log + " /dev/urandom",
+           "thermal fit /dev/zero -o " +
+               ShellQuoted(TestDir("hard-dev") / "m.json"),
+           "--config /dev/zero schedule"}) {
+    ExpectBadInput(RunTtp(cmd), {"/dev/", "is a device, not a file"});
+  }
+  const std::string ttp = std::string(TTP_BINARY_DIR) + "/app/ttp";
+  const RunResult files =
+      RunCommand(ttp + " diagnose --log " + log + " " + piece + " 2>&1");
+  const RunResult pipes = RunCommand(
+      "bash -c " + ShellQuoted(ttp + " diagnose --log <(cat " + log +
+                               ") /dev/stdin < <(cat " + piece + ") 2>&1"));
+  ASSERT_EQ(files.exit_code, 0) << files.output;
+  EXPECT_EQ(pipes.exit_code, 0) << pipes.output;
+  // Only the names differ (the report names its inputs).
+  const auto first_lines = [](const std::string& text) {
+    return text.substr(0, text.find("\n", text.find("\n") + 1));
+  };
+  EXPECT_EQ(first_lines(pipes.output), first_lines(files.output));
+  EXPECT_NE(files.output.find("workpiece_expansion"), std::string::npos);
 }
 
 TEST(CliHardening, SeveralOutputsAllOrNone) {

@@ -1,8 +1,11 @@
 #include "ttp/geometry/file_io.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
+#include <fstream>
+#include <thread>
 
 #include "test_dir.h"
 #include "ttp/geometry/error.h"
@@ -33,6 +36,37 @@ TEST(FileIo, ErrorsNameThePath) {
   }
   EXPECT_EQ(FormatInputError("a.csv", 3, "t_s", "not a number"),
             "a.csv:3: t_s: not a number");
+}
+
+// A device would be read without end: refused, naming the path. A FIFO
+// is read once, whole, and its bytes kept: its head and then all of it,
+// as a measurement is read (format from the head, then the whole).
+TEST(FileIo, DevicesRefusedPipesReadOnce) {
+  namespace fs = std::filesystem;
+  for (const char* device : {"/dev/zero", "/dev/null"}) {
+    try {
+      ReadTextFile(device);
+      FAIL() << device;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.source(), device);
+      EXPECT_NE(std::string(e.what()).find("is a device"), std::string::npos)
+          << e.what();
+    }
+  }
+  const fs::path dir = test::TestDir("fileio-fifo");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path fifo = dir / "in.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::string text;
+  for (int i = 0; i < 100000; ++i) text += std::to_string(i) + " 1 2\n";
+  std::thread writer([&] { std::ofstream(fifo) << text; });
+  const std::string head = ReadFileHead(fifo, 10);
+  const std::string all = ReadTextFile(fifo);
+  writer.join();
+  EXPECT_EQ(head, text.substr(0, 10));
+  EXPECT_EQ(all, text);
+  EXPECT_FALSE(IsRegularInput(fifo));
 }
 
 std::string Slurp(const std::filesystem::path& p) { return ReadTextFile(p); }

@@ -18,19 +18,28 @@
 namespace ttp {
 
 // Reads a whole file; throws InputError naming the path if it cannot.
-// The file is noted as an input (NoteInput).
+// The file is noted as an input (NoteInput). An input is a regular file
+// or a pipe (a FIFO, `<(...)`, /dev/stdin fed by a pipe), at most
+// limits::kMaxInputBytes; a device (/dev/zero, a terminal) is refused. A
+// pipe is read whole on first use and its bytes kept for the process, so
+// ReadFileHead and ReadTextFile may both read it.
 std::string ReadTextFile(const std::filesystem::path& path);
 
 // Reads the first `max_bytes` bytes of a file (all of a shorter one), to
 // tell its format; throws and notes the input as ReadTextFile does.
 std::string ReadFileHead(const std::filesystem::path& path, size_t max_bytes);
 
+// True for a regular file (which may be mapped), false for a pipe (read
+// it with ReadTextFile); throws as ReadTextFile does for anything else.
+bool IsRegularInput(const std::filesystem::path& path);
+
 // Notes `path` as an input of this process: WriteFileAtomic and OutputBatch
 // refuse to write over it (compared with filesystem::equivalent, so another
 // name, a hard link or a symbolic link to it is caught too). Files this
 // process wrote itself before reading them are not inputs.
 void NoteInput(const std::filesystem::path& path);
-// Forgets every noted input and written file (tests, long-lived callers).
+// Forgets every noted input and written file, and the pipes' bytes kept
+// (tests, long-lived callers).
 void ClearNotedFiles();
 
 // Writes `content` to `path` by the output policy above. Creates missing
