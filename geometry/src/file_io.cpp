@@ -234,6 +234,13 @@ InputKind CheckInput(const fs::path& path) {
                    "is a device, not a file: give a regular file or a pipe");
 }
 
+// The UTF-8 byte order mark that some programs write first (a
+// spreadsheet's "CSV UTF-8", editors on Windows) is not content: a dial
+// CSV beginning with it would not show its header.
+void DropByteOrderMark(std::string* text) {
+  if (text->compare(0, 3, "\xEF\xBB\xBF") == 0) text->erase(0, 3);
+}
+
 std::ifstream OpenInput(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path.string(), 0, "", "cannot be opened");
@@ -261,6 +268,7 @@ std::string ReadStreamOnce(const fs::path& path) {
                        "more than " + std::to_string(limits::kMaxInputBytes) +
                            " bytes, beyond the limit");
   }
+  DropByteOrderMark(&all);
   return read.emplace(path.string(), std::move(all)).first->second;
 }
 
@@ -275,7 +283,9 @@ std::string ReadTextFile(const fs::path& path) {
   std::ifstream in = OpenInput(path);
   std::ostringstream ss;
   ss << in.rdbuf();
-  return ss.str();
+  std::string text = std::move(ss).str();
+  DropByteOrderMark(&text);
+  return text;
 }
 
 std::string ReadFileHead(const fs::path& path, size_t max_bytes) {
@@ -285,6 +295,7 @@ std::string ReadFileHead(const fs::path& path, size_t max_bytes) {
   std::string head(max_bytes, '\0');
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   head.resize(static_cast<size_t>(in.gcount()));
+  DropByteOrderMark(&head);
   return head;
 }
 

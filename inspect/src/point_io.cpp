@@ -1054,6 +1054,8 @@ PointCloud ParseAnyPointCloud(std::string_view data, const std::string& source,
 
 PointCloud ParsePointCloud(std::string_view data, const std::string& source,
                            const ReadOptions& options) {
+  // A text cloud from a program that writes a UTF-8 byte order mark first.
+  if (data.substr(0, 3) == "\xEF\xBB\xBF") data.remove_prefix(3);
   PointCloud cloud = ParseAnyPointCloud(data, source, options);
   DropRepeatedPoints(&cloud);
   return cloud;

@@ -456,6 +456,33 @@ TEST(CliHardening, InputsFromDevicesAndPipes) {
   EXPECT_NE(files.output.find("workpiece_expansion"), std::string::npos);
 }
 
+// A UTF-8 byte order mark first (a spreadsheet's "CSV UTF-8") is not
+// content: the dial and probe CSVs and a text cloud read as without it.
+TEST(CliHardening, ByteOrderMarkFirst) {
+  for (const char* sample :
+       {"samples/run-c/dial.csv", "samples/run-c/probe.csv",
+        "samples/run-b/piece.xyz", "samples/run-c/talc.csv"}) {
+    const fs::path plain_dir = TestDir("bom-plain"), bom_dir = TestDir("bom");
+    const std::string name = fs::path(sample).filename().string();
+    const std::string bytes = FileBytes(DataPath(sample));
+    { std::ofstream(plain_dir / name, std::ios::binary) << bytes; }
+    {
+      std::ofstream(bom_dir / name, std::ios::binary)
+          << "\xEF\xBB\xBF" << bytes;
+    }
+    const std::string cmd = name == "talc.csv" ? "log " : "inspect ";
+    const RunResult plain = RunCommand("cd " + ShellQuoted(plain_dir) + " && " +
+                                       std::string(TTP_BINARY_DIR) +
+                                       "/app/ttp " + cmd + name + " 2>&1");
+    const RunResult bom = RunCommand("cd " + ShellQuoted(bom_dir) + " && " +
+                                     std::string(TTP_BINARY_DIR) + "/app/ttp " +
+                                     cmd + name + " 2>&1");
+    ASSERT_EQ(plain.exit_code, 0) << plain.output;
+    EXPECT_EQ(bom.exit_code, 0) << bom.output;
+    EXPECT_EQ(bom.output, plain.output) << sample;
+  }
+}
+
 TEST(CliHardening, SeveralOutputsAllOrNone) {
   const fs::path dir = TestDir("hard");
   // A folder stands where the second output goes.

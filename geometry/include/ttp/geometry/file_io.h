@@ -22,7 +22,8 @@ namespace ttp {
 // or a pipe (a FIFO, `<(...)`, /dev/stdin fed by a pipe), at most
 // limits::kMaxInputBytes; a device (/dev/zero, a terminal) is refused. A
 // pipe is read whole on first use and its bytes kept for the process, so
-// ReadFileHead and ReadTextFile may both read it.
+// ReadFileHead and ReadTextFile may both read it. A UTF-8 byte order
+// mark at the start is dropped (a spreadsheet's "CSV UTF-8" writes one).
 std::string ReadTextFile(const std::filesystem::path& path);
 
 // Reads the first `max_bytes` bytes of a file (all of a shorter one), to
