@@ -18,9 +18,9 @@ constexpr int kMaxCloudFields = 256;
 constexpr int kMaxFieldCount = 1024;  // PCD COUNT of one field
 constexpr int kMaxRecordBytes = 65'536;
 constexpr std::int64_t kMaxCloudBytes = 4'000'000'000;  // records x points
-// Bytes of one input read into memory (a text input, a pipe): a 50-million
-// point text cloud or a 5-million row log fits; a device or a pipe without
-// end does not run the machine out of memory.
+// Bytes of one input (a file or a pipe; most are read into memory): a
+// 50-million point text cloud or a 5-million row log fits; a device or a pipe
+// without end does not run the machine out of memory.
 constexpr std::uint64_t kMaxInputBytes = 4'000'000'000;
 // Coordinates of a measured point, mm (the piece is 200 mm, a CMM table a
 // few metres; 1e6 mm rules out 1e300 while leaving every unit mix-up to the
