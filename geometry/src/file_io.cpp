@@ -251,7 +251,8 @@ std::ifstream OpenInput(const fs::path& path) {
 // A pipe's bytes, read whole on first use and kept for the process: the
 // format is told from its head, then it is read again from the start (and
 // a command may read one input twice), which a pipe cannot do.
-std::string ReadStreamOnce(const fs::path& path) {
+// The reference stays valid until ClearNotedFiles (map nodes do not move).
+const std::string& ReadStreamOnce(const fs::path& path) {
   StreamsRead& streams = Streams();
   std::lock_guard<std::mutex> lock(streams.mutex);
   auto& read = streams.bytes;

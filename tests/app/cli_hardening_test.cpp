@@ -471,12 +471,13 @@ TEST(CliHardening, ByteOrderMarkFirst) {
           << "\xEF\xBB\xBF" << bytes;
     }
     const std::string cmd = name == "talc.csv" ? "log " : "inspect ";
-    const RunResult plain = RunCommand("cd " + ShellQuoted(plain_dir) + " && " +
-                                       std::string(TTP_BINARY_DIR) +
-                                       "/app/ttp " + cmd + name + " 2>&1");
-    const RunResult bom = RunCommand("cd " + ShellQuoted(bom_dir) + " && " +
-                                     std::string(TTP_BINARY_DIR) + "/app/ttp " +
-                                     cmd + name + " 2>&1");
+    const auto run_in = [&](const fs::path& dir) {
+      return RunCommand("cd " + ShellQuoted(dir) + " && " +
+                        std::string(TTP_BINARY_DIR) + "/app/ttp " + cmd + name +
+                        " 2>&1");
+    };
+    const RunResult plain = run_in(plain_dir);
+    const RunResult bom = run_in(bom_dir);
     ASSERT_EQ(plain.exit_code, 0) << plain.output;
     EXPECT_EQ(bom.exit_code, 0) << bom.output;
     EXPECT_EQ(bom.output, plain.output) << sample;
