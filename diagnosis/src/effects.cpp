@@ -89,17 +89,30 @@ EffectContext MakeEffectContext(const Config& config,
   context.c_sense = config.machine.c_sense;
   const PartSpec& part = config.part;
   // Path lengths of the finishing passes: a facet is cut across its width
-  // plus about 1 mm overrun on each side; a strip across the piece minus
-  // the small notch.
+  // plus about 1 mm overrun on each side; a strip along its centre line
+  // across the outer profile at the floor's height (the first reference
+  // cylinder, as the strip's nominal extent: features.cpp) minus the small
+  // notch. The chord shortens away from the axis: strip 1 or 9 is about
+  // 12 % shorter than strip 5, and a wear fitted with one length for
+  // every strip came out about 2 % low and left a drift in E_TTP.
   const double facet_width_mm =
       2 * part.facet_final_distance_mm *
       std::tan(part.facet_step_deg / 2 * M_PI / 180.0);
   const double facet_path_mm = facet_width_mm + 2.0;
-  const double strip_path_mm =
-      part.blank_diameter_mm - 2 * part.small_notch_half_width_mm;
+  const double floor_radius_mm =
+      part.ref_cylinders.empty() ? part.blank_diameter_mm / 2
+                                 : part.ref_cylinders.front().diameter_mm / 2;
+  auto strip_path_mm = [&](int k) {
+    const double y = StripY(part, k);
+    return std::max(
+        0.0, 2 * std::sqrt(
+                     std::max(0.0, floor_radius_mm * floor_radius_mm - y * y)) -
+                 2 * part.small_notch_half_width_mm);
+  };
   double cut_m = 0;
   for (CutState s : cuts_in_order) {
-    const double path_m = (s.is_facet ? facet_path_mm : strip_path_mm) / 1000;
+    const double path_m =
+        (s.is_facet ? facet_path_mm : strip_path_mm(s.id.index)) / 1000;
     s.cut_length_mid_m = cut_m + path_m / 2;
     cut_m += path_m;
     context.cuts.push_back(s);
