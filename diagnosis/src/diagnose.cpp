@@ -11,6 +11,7 @@
 #include <map>
 #include <numeric>
 #include <optional>
+#include <random>
 #include <stdexcept>
 
 #include "ttp/geometry/error.h"
@@ -1561,6 +1562,74 @@ std::string NamedCauseHolds(const DiagnosisReport& report, int chosen,
 
 }  // namespace
 
+namespace {
+
+// The workpiece expansion's regressor is the table temperature estimated
+// from the R-tests' E_R0T, lagged: the estimator's error between R-tests
+// enters the cause's columns as well as the observations, and the fit's
+// covariance holds only the second. Its share of the parameters'
+// uncertainty, measured: the fit repeated on temperature histories
+// perturbed by draws of that error (standard uncertainty per grid point,
+// correlated over the estimator's correlation time as the budget has it),
+// the covariance of the refitted parameters added to the fit's. Fixed
+// seed: the same input gives the same report.
+constexpr int kRegressorDraws = 24;
+Fit WithRegressorUncertainty(const Fit& chosen, const Observations& obs,
+                             const EffectContext& context, const PartSpec& part,
+                             const Problem& problem,
+                             const DiagnosisOptions& options) {
+  Fit out = chosen;
+  const size_t grid = context.machine_dT_K.size();
+  if (!chosen.ok || context.machine_dT_sigma_K.size() != grid || grid < 2)
+    return out;
+  const double rho =
+      std::exp(-context.grid_step_s /
+               std::max(context.machine_dT_correlation_s, context.grid_step_s));
+  const double innovation = std::sqrt(std::max(0.0, 1 - rho * rho));
+  // Each refit profiles tau on a grid about the chosen one (a factor of
+  // three either way, then the golden-section search between neighbours)
+  // and builds the C stop error's columns only up to the harmonics the
+  // chosen model holds: the draws cost a tenth of the diagnosis.
+  DiagnosisOptions local = options;
+  const double tau_s = FittedTauS(chosen);
+  if (tau_s > 0) {
+    local.tau_grid_s.clear();
+    for (double f : {1 / 3.0, 1 / 1.7, 1.0, 1.7, 3.0})
+      local.tau_grid_s.push_back(tau_s * f);
+  }
+  local.max_c_harmonics = 1;
+  for (int h : chosen.spec.c_harmonics)
+    local.max_c_harmonics = std::max(local.max_c_harmonics, h);
+  std::mt19937_64 rng(20261202);
+  std::normal_distribution<double> normal;
+  std::vector<std::vector<std::vector<double>>> draws;  // draw, cause, param
+  for (int d = 0; d < kRegressorDraws; ++d) {
+    EffectContext perturbed = context;
+    double a = normal(rng);
+    for (size_t i = 0; i < grid; ++i) {
+      if (i > 0) a = rho * a + innovation * normal(rng);
+      perturbed.machine_dT_K[i] += a * context.machine_dT_sigma_K[i];
+    }
+    const ColumnCache cache(obs, perturbed, part, local.max_c_harmonics);
+    const Fit f = Fitter(cache, problem, local).Run(chosen.spec);
+    if (f.ok) draws.push_back(f.params);
+  }
+  if (draws.size() < 2) return out;
+  for (size_t k = 0; k < chosen.params.size(); ++k) {
+    const int p = static_cast<int>(chosen.params[k].size());
+    if (out.covariance[k].rows() != p) continue;
+    Eigen::MatrixXd x(static_cast<int>(draws.size()), p);
+    for (size_t d = 0; d < draws.size(); ++d)
+      for (int i = 0; i < p; ++i) x(static_cast<int>(d), i) = draws[d][k][i];
+    const Eigen::MatrixXd centred = x.rowwise() - x.colwise().mean();
+    out.covariance[k] +=
+        centred.transpose() * centred / static_cast<double>(draws.size() - 1);
+  }
+  return out;
+}
+
+}  // namespace
+
 DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
                          const PartSpec& part,
                          const DiagnosisOptions& options) {
@@ -1655,6 +1724,16 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
   report.figure_after_um.assign(after.data(), after.data() + nf);
   if (sel.status == DiagnosisStatus::kNamed) {
     report.cause = chosen.spec.Name();
+    if (std::count(chosen.spec.causes.begin(), chosen.spec.causes.end(),
+                   Cause::kWorkpieceExpansion) > 0) {
+      // The uncertainties with the regressor's own error added.
+      const std::vector<ParamEstimate> wider =
+          ReportParams(WithRegressorUncertainty(chosen, obs, context, part,
+                                                problem, options));
+      for (ParamEstimate& p : report.candidates[sel.chosen].report_params)
+        for (const ParamEstimate& w : wider)
+          if (w.name == p.name) p.uncertainty = w.uncertainty;
+    }
     report.params = report.candidates[sel.chosen].report_params;
     report.extended_rms_um = report.candidates[sel.chosen].rms_um;
     report.extended_rms_urad = report.candidates[sel.chosen].rms_urad;
@@ -1954,7 +2033,11 @@ PreparedRun PrepareRun(const thermal::TalcLog& log, const Config& config,
     run.context.machine_dT_K.push_back(
         TemperatureChangeK(estimator.MachineErrorsAt(tc).er0t_mm,
                            kTableAlphaPerK, log.sphere_distance_mm));
+    run.context.machine_dT_sigma_K.push_back(std::abs(TemperatureChangeK(
+        estimator.ErrorSigmaAt(3, tc) * options.estimator_sigma_scale * 1e-3,
+        kTableAlphaPerK, log.sphere_distance_mm)));
   }
+  run.context.machine_dT_correlation_s = estimator.CorrelationTimeS();
 
   // Every measured feature must have been cut in the log: otherwise the
   // log does not cover the measured piece (or belongs to another piece).

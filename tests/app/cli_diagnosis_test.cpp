@@ -272,6 +272,109 @@ TEST(CliDiagnosis, SampleRunAMirroredIsRefusedWithASignHint) {
       << mirrored["reason"];
 }
 
+// A sample's log with its R-tests thinned to production spacing: the
+// reference R-test, then the first one at least `spacing_s` after the last
+// kept (the first of them `first_after_s` after the reference when given:
+// another phase of the test cycle), and the first after the last cut (the
+// log closes with one). Written to `out`; returns the R-tests kept.
+int ThinnedLog(const fs::path& log, double spacing_s, double first_after_s,
+               const fs::path& out) {
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(log);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  double last_cut_s = 0;
+  for (const std::string& l : lines)
+    if (l.find(",cut,") != std::string::npos)
+      last_cut_s = std::max(last_cut_s, std::stod(l));
+  std::ofstream o(out);
+  int kept = 0;
+  bool closed = false;
+  double due_s = -1e300;
+  for (const std::string& l : lines) {
+    if (l.find(",rtest,") != std::string::npos) {
+      const double t = std::stod(l);
+      const bool closing = t > last_cut_s && !closed;
+      if (kept > 0 && t < due_s && !closing) continue;
+      closed = closed || t > last_cut_s;
+      due_s = t + (kept == 0 && first_after_s > 0 ? first_after_s : spacing_s);
+      ++kept;
+    }
+    o << l << "\n";
+  }
+  return kept;
+}
+
+// The samples (made outside the project, R-tests every 5 min) with their
+// R-tests 30 min to 2 h apart, at two phases of the test cycle: the hidden
+// expansion is still named and the piece without an effect is still
+// `none`; each piece next to the other's log is refused. The gain's stated
+// uncertainty holds the estimator's error between R-tests in the
+// expansion's regressor: measured over the six logs, the gain lies within
+// 3.8 of it from the truth, RMS 2.0 (with the fit's covariance alone 5.0
+// and 3.0); the limits below are those figures rounded up.
+TEST(CliDiagnosis, SamplesAtProductionSpacings) {
+  const fs::path dir = test::TestDir("diag_spacings");
+  const fs::path a = dir / "a", b = dir / "b";
+  fs::create_directories(a);
+  fs::create_directories(b);
+  ASSERT_NO_FATAL_FAILURE(InspectSample("run-a", "piece.ply", a));
+  ASSERT_NO_FATAL_FAILURE(InspectSample("run-b", "piece.xyz", b));
+  const nlohmann::json truth_a = test::ReadJson(kSamples / "run-a/truth.json");
+  const double gain = truth_a["params"]["gain"];
+  double worst_z = 0, sum_z2 = 0;
+  int logs = 0;
+  for (double spacing_s : {1800.0, 3600.0, 7200.0}) {
+    for (double phase_s : {0.0, 1500.0}) {
+      const std::string tag = fmt::format("{:.0f}_{:.0f}", spacing_s, phase_s);
+      SCOPED_TRACE(tag);
+      const fs::path log_a = dir / ("a_" + tag + ".csv");
+      const fs::path log_b = dir / ("b_" + tag + ".csv");
+      const int kept =
+          ThinnedLog(kSamples / "run-a/talc.csv", spacing_s, phase_s, log_a);
+      ASSERT_LE(kept, 8 * 3600 / spacing_s + 3);
+      ASSERT_GE(kept, 5);
+      ThinnedLog(kSamples / "run-b/talc.csv", spacing_s, phase_s, log_b);
+      const auto ra = test::RunTtp("diagnose --log " + log_a.string() + " " +
+                                   (a / "m.json").string() + " --json " +
+                                   (a / "d.json").string());
+      ASSERT_EQ(ra.exit_code, 0) << ra.output;
+      const nlohmann::json da = test::ReadJson(a / "d.json");
+      EXPECT_EQ(da["status"], "named") << ra.output;
+      ASSERT_EQ(da["cause"], truth_a["cause"]) << ra.output;
+      const double z =
+          std::abs(da["extended"]["params"]["gain_K_per_K"].get<double>() -
+                   gain) /
+          da["extended"]["uncertainty"]["gain_K_per_K"].get<double>();
+      worst_z = std::max(worst_z, z);
+      sum_z2 += z * z;
+      ++logs;
+      const auto rb = test::RunTtp("diagnose --log " + log_b.string() + " " +
+                                   (b / "m.json").string() + " --json " +
+                                   (b / "d.json").string());
+      ASSERT_EQ(rb.exit_code, 0) << rb.output;
+      EXPECT_EQ(test::ReadJson(b / "d.json")["status"], "none") << rb.output;
+      if (phase_s == 0) {
+        const auto swapped_a = test::RunTtp("diagnose --log " + log_b.string() +
+                                            " " + (a / "m.json").string());
+        EXPECT_EQ(swapped_a.exit_code, 1) << swapped_a.output;
+        EXPECT_NE(swapped_a.output.find("status: refused"), std::string::npos)
+            << swapped_a.output;
+        const auto swapped_b = test::RunTtp("diagnose --log " + log_a.string() +
+                                            " " + (b / "m.json").string());
+        EXPECT_EQ(swapped_b.exit_code, 1) << swapped_b.output;
+        EXPECT_NE(swapped_b.output.find("status: refused"), std::string::npos)
+            << swapped_b.output;
+      }
+    }
+  }
+  ASSERT_EQ(logs, 6);
+  EXPECT_LT(worst_z, 4.0);
+  EXPECT_LT(std::sqrt(sum_z2 / logs), 2.5);
+  RecordProperty("worst_gain_z", fmt::format("{:.2f}", worst_z));
+}
+
 TEST(CliDiagnosis, SampleRunBNamesNone) {
   const fs::path dir = test::TestDir("diag_b");
   const nlohmann::json d = InspectAndDiagnose("run-b", "piece.xyz", dir);

@@ -51,6 +51,11 @@ struct EffectContext {
   // uniform time grid: E_R0T / (alpha_table * sphere distance).
   double grid_t0_s = 0, grid_step_s = 10;
   std::vector<double> machine_dT_K;
+  // Standard uncertainty of machine_dT_K on the same grid (the estimator's
+  // error of E_R0T) and the time over which that error stays correlated:
+  // what the workpiece expansion's regressor inherits (empty: not known).
+  std::vector<double> machine_dT_sigma_K;
+  double machine_dT_correlation_s = 0;
   double piece_alpha_per_k = 23.4e-6;
   int c_sense = 1;
 };
