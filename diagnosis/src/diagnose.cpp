@@ -1291,7 +1291,9 @@ Selection Select(const ColumnCache& cache, const Problem& problem,
   return sel;
 }
 
-std::vector<ParamEstimate> ReportParams(const Fit& fit) {
+// `wear_path_rel`: DiagnosisOptions::wear_path_relative_uncertainty, added
+// in quadrature to the wear's statistical uncertainty.
+std::vector<ParamEstimate> ReportParams(const Fit& fit, double wear_path_rel) {
   std::vector<ParamEstimate> out;
   for (size_t k = 0; k < fit.spec.causes.size(); ++k) {
     const Cause cause = fit.spec.causes[k];
@@ -1321,8 +1323,11 @@ std::vector<ParamEstimate> ReportParams(const Fit& fit) {
         out.push_back({"harmonics",
                        static_cast<double>(fit.spec.c_harmonics.size()), 0.0});
     }
-    for (size_t i = 0; i < names.size() && i < p.size(); ++i)
-      out.push_back({names[i], p[i], sd(static_cast<int>(i))});
+    for (size_t i = 0; i < names.size() && i < p.size(); ++i) {
+      double u = sd(static_cast<int>(i));
+      if (cause == Cause::kToolWear) u = std::hypot(u, wear_path_rel * p[i]);
+      out.push_back({names[i], p[i], u});
+    }
     if (cause == Cause::kWorkpieceExpansion && fit.spec.wp_initial_state)
       out.push_back({"initial_dT_K", p[2], sd(2)});
   }
@@ -1370,6 +1375,9 @@ bool DiagnosisOptions::IsValid(std::string* error) const {
     if (!(tau_s > 0) || !std::isfinite(tau_s))
       return fail(
           "other_machine_tau_s: every time constant must be > 0 and finite");
+  if (!(wear_path_relative_uncertainty >= 0 &&
+        wear_path_relative_uncertainty < 1))
+    return fail("wear_path_relative_uncertainty: must be in [0, 1)");
   if (!(min_heldout_gain_pct < 100))
     return fail("min_heldout_gain_pct: must be < 100");
   if (!(trend_chi2 > 0)) return fail("trend_chi2: must be > 0");
@@ -1673,7 +1681,8 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
     c.bic = Bic(f, n);
     c.delta_bic = c.bic - none_bic;
     c.note = f.note;
-    if (f.ok) c.report_params = ReportParams(f);
+    if (f.ok)
+      c.report_params = ReportParams(f, options.wear_path_relative_uncertainty);
     // What the piece shows of a fitted C stop error: its variation over the
     // facets' cut angles (the constant part is the piece's yaw). Over the
     // 78 degrees cut, the harmonics' amplitudes are an extrapolation to the
@@ -1729,7 +1738,8 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
       // The uncertainties with the regressor's own error added.
       const std::vector<ParamEstimate> wider =
           ReportParams(WithRegressorUncertainty(chosen, obs, context, part,
-                                                problem, options));
+                                                problem, options),
+                       options.wear_path_relative_uncertainty);
       for (ParamEstimate& p : report.candidates[sel.chosen].report_params)
         for (const ParamEstimate& w : wider)
           if (w.name == p.name) p.uncertainty = w.uncertainty;

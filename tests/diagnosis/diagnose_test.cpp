@@ -555,6 +555,10 @@ TEST(DiagnoseUnexplained, OptionsOfTheNameTestsValidate) {
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("min_heldout_gain_pct"), std::string::npos);
   o = DiagnosisOptions{};
+  o.wear_path_relative_uncertainty = -0.1;
+  EXPECT_FALSE(o.IsValid(&error));
+  EXPECT_NE(error.find("wear_path_relative_uncertainty"), std::string::npos);
+  o = DiagnosisOptions{};
   o.max_tau_relative_uncertainty = 0;
   EXPECT_FALSE(o.IsValid(&error));
   EXPECT_NE(error.find("max_tau_relative_uncertainty"), std::string::npos);

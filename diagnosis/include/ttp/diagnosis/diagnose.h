@@ -199,6 +199,13 @@ struct DiagnosisOptions {
   std::vector<double> other_machine_tau_s = {600, 1800, 5400};
   std::vector<double> tau_grid_s = {300,  450,  700,  1000,  1500, 2200,
                                     3300, 5000, 7500, 11000, 17000};
+  // Relative standard uncertainty of the path length the wear is referred
+  // to (reported with `wear_um_per_m`, not used in the decision): the
+  // length a finishing cutter "has cut" is a model (a strip's chord under
+  // the floor, with or without the small notch, the overruns); two
+  // independent counts of it (the twin's cut simulation, the outside
+  // generator's chords) give wears 1.5 and 3.5 % off the diagnosis's.
+  double wear_path_relative_uncertainty = 0.03;
 
   // False with a message naming the field when the options cannot be used.
   bool IsValid(std::string* error) const;
