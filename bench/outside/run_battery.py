@@ -403,8 +403,15 @@ CHECK_CASES = [
     ("strip_drift", 4.0, 654812, 300, False, "json", "unexplained"),
     ("none", 0.0, 27776, 3600, True, "cloud", "none"),
     # a table's C error once, twice and four times per turn while the fit
-    # took harmonics 1..K only: a four-lobed spring-back rivalled it
-    ("c_axis_indexing", 25.0, 959450, 300, False, "cloud", "c_axis_indexing"),
+    # took harmonics 1..K only: a four-lobed spring-back rivalled it (found
+    # at 25 urad, where the evidence, 6.4 against the threshold 6, sits on
+    # the detection limit and the held-out cycles go either way; the same
+    # harmonics at 30 urad)
+    ("c_axis_indexing", 30.0, 959450, 300, False, "cloud", "c_axis_indexing"),
+    # no effect, a cloud: `unexplained` (E_OV at 4.5 deviates) while a
+    # facet's scatter was taken as rms / sqrt(points), without the fitted
+    # tilt's lever to W's origin above the points
+    ("none", 0.0, 909599, 300, True, "cloud", "none"),
     # strips drifting 2 um over the run: `none` while a drift of one figure
     # kind had to explain chi2 20
     ("strip_drift", 2.0, 593140, 300, False, "json", "unexplained"),

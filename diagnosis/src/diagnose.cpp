@@ -1832,9 +1832,13 @@ DiagnosisReport Diagnose(const Observations& obs, const EffectContext& context,
 }
 
 namespace {
-// The instrument's error of a feature: the scatter of its points (rms /
-// sqrt(points), over their spread for the angle) when it was fitted to
-// points, else the variances it comes with (probe, dial, DMIS); plus
+// The instrument's error of a feature: the scatter of its points when it
+// was fitted to points - the plane fit's covariance carried to where d is
+// taken, as the inspection gives it (a facet's d is taken at W's origin,
+// 1-11 mm above its points, so the fit's tilt moves it: in a 20k-point
+// cloud that doubles the error of rms / sqrt(points)); without it, rms /
+// sqrt(points), over their spread for the angle -, else the variances it
+// comes with (probe, dial, DMIS); plus
 // the form error, a fraction of the fit's residual RMS that does not
 // average out over the points. The instrument's error limit is common to
 // the cycles and cancels in the figures' differences (and the per-figure
@@ -1848,7 +1852,11 @@ void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
   // offsets absorb those, so a fitted feature is judged by its own
   // scatter.
   if (fitted) {
-    const FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
+    FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
+    if (r->scatter_var_d_mm2 > 0 && r->scatter_var_angle_rad2 > 0) {
+      s.d_mm = std::sqrt(r->scatter_var_d_mm2);
+      s.angle_rad = std::sqrt(r->scatter_var_angle_rad2);
+    }
     // A few touches (a probe's 4-6 points) leave one to three degrees of
     // freedom: their scatter is no estimate of the instrument's noise, and
     // their positions are not spread over the facet as a cloud's are. The

@@ -110,11 +110,12 @@ FittedFeatures FitFeatures(const PartSpec& part, const Eigen::Matrix3Xd& w,
             // uncertainty moves the plane along its normal (common to all
             // facets; taken independent: conservative).
             const Eigen::Vector2d n2 = pl.normal.head<2>();
-            r->var_d_mm2 = height_variance(pl, Eigen::Vector3d::Zero()) +
-                           n2.dot(origin_cov_w * n2) +
+            r->scatter_var_d_mm2 = height_variance(pl, Eigen::Vector3d::Zero());
+            r->scatter_var_angle_rad2 = pl.summary.covariance(1, 1);
+            r->var_d_mm2 = r->scatter_var_d_mm2 + n2.dot(origin_cov_w * n2) +
                            std::pow(instrument_u(d_facet), 2);
             r->var_angle_rad2 =
-                pl.summary.covariance(1, 1) + std::pow(instrument_u_angle, 2);
+                r->scatter_var_angle_rad2 + std::pow(instrument_u_angle, 2);
           });
     }
   }
@@ -128,11 +129,13 @@ FittedFeatures FitFeatures(const PartSpec& part, const Eigen::Matrix3Xd& w,
           set_shape(FeatureResultFromPlane(nom, {pl.point, pl.normal}), r);
           // The depth is taken at (0, y_k, -d), vertically.
           const Eigen::Vector3d at(0, nom.point.y(), -r->d_mm);
+          r->scatter_var_d_mm2 = height_variance(pl, at) / (nn.z() * nn.z());
+          r->scatter_var_angle_rad2 = pl.summary.covariance(1, 1);
           r->var_d_mm2 =
-              height_variance(pl, at) / (nn.z() * nn.z()) +
+              r->scatter_var_d_mm2 +
               std::pow(instrument_u(std::abs(part.strip_floor_z_mm)), 2);
           r->var_angle_rad2 =
-              pl.summary.covariance(1, 1) + std::pow(instrument_u_angle, 2);
+              r->scatter_var_angle_rad2 + std::pow(instrument_u_angle, 2);
         });
   }
   return out;

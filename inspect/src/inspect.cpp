@@ -153,6 +153,12 @@ nlohmann::json InspectionToJson(const InspectionResult& r) {
                                       : nlohmann::json(nullptr)},
           {"points", fr.points},
           {"rms_um", fr.rms_mm * 1e3}};
+      if (fr.present && fr.scatter_var_d_mm2 > 0) {
+        facets[id]["U_scatter_distance_um"] =
+            Num(2e3 * std::sqrt(fr.scatter_var_d_mm2));
+        facets[id]["U_scatter_angle_urad"] =
+            Num(2e6 * std::sqrt(fr.scatter_var_angle_rad2));
+      }
     } else {
       strips[id] = {
           {"depth_mm", fr.present ? Num(fr.d_mm) : nlohmann::json(nullptr)},
@@ -164,6 +170,12 @@ nlohmann::json InspectionToJson(const InspectionResult& r) {
                                      : nlohmann::json(nullptr)},
           {"points", fr.points},
           {"rms_um", fr.rms_mm * 1e3}};
+      if (fr.present && fr.scatter_var_d_mm2 > 0) {
+        strips[id]["U_scatter_depth_um"] =
+            Num(2e3 * std::sqrt(fr.scatter_var_d_mm2));
+        strips[id]["U_scatter_beta_urad"] =
+            Num(2e6 * std::sqrt(fr.scatter_var_angle_rad2));
+      }
     }
   }
   // A result of figures only (read from such a JSON) stays one when read

@@ -176,7 +176,8 @@ double VarFromU(double u_micro) {
 
 void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
                       const char* d_key, const char* a_key, const char* ud_key,
-                      const char* ua_key, const std::string& source,
+                      const char* ua_key, const char* scatter_ud_key,
+                      const char* scatter_ua_key, const std::string& source,
                       const PartSpec& part, InspectionResult* r) {
   if (!doc.contains(block)) return;
   const nlohmann::json& obj = doc.at(block);
@@ -237,6 +238,24 @@ void ReadFeatureBlock(const nlohmann::json& doc, const char* block,
         Within(NumberOrNaN(v, "rms_um", source, where), limits::kMaxFigureMicro,
                source, where + ".rms_um", "um");
     fr.rms_mm = std::isfinite(rms) ? rms * 1e-3 : 0.0;
+    // The fit's own part of U (`ttp inspect --json` of a cloud): optional,
+    // and never more than the whole.
+    const auto scatter_var = [&](const char* key, double whole, double unit) {
+      const double u = Uncertainty(NumberOrNaN(feature, key, source, where),
+                                   source, where + "." + key);
+      if (std::isnan(u)) return 0.0;
+      const double var = VarFromU(u) * unit;
+      if (var > whole * (1 + 1e-9) + 1e-30)
+        throw InputError(source, 0, where + "." + key,
+                         fmt::format("{:g} is larger than the whole "
+                                     "uncertainty it is a part of",
+                                     u));
+      return var;
+    };
+    fr.scatter_var_d_mm2 = scatter_var(scatter_ud_key, fr.var_d_mm2, 1e6);
+    if (fr.scatter_var_d_mm2 > 0 && std::isfinite(fr.var_angle_rad2))
+      fr.scatter_var_angle_rad2 =
+          scatter_var(scatter_ua_key, fr.var_angle_rad2, 1.0);
     r->features[fid] = fr;
   }
 }
@@ -386,9 +405,11 @@ InspectionResult FromInspectionJson(const PartSpec& part,
   r.source = source;
   if (doc.contains("facets") || doc.contains("strips")) {
     ReadFeatureBlock(doc, "facets", "distance_mm", "angle_error_urad",
-                     "U_distance_um", "U_angle_urad", source, part, &r);
+                     "U_distance_um", "U_angle_urad", "U_scatter_distance_um",
+                     "U_scatter_angle_urad", source, part, &r);
     ReadFeatureBlock(doc, "strips", "depth_mm", "beta_urad", "U_depth_um",
-                     "U_beta_urad", source, part, &r);
+                     "U_beta_urad", "U_scatter_depth_um", "U_scatter_beta_urad",
+                     source, part, &r);
     CompleteFeatures(part, &r);
     ComputeResultFigures(part, &r);
     if (doc.contains("figures")) WarnOnStaleFigures(doc, source, part, &r);

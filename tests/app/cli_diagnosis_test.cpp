@@ -383,6 +383,63 @@ TEST(CliDiagnosis, SampleRunBNamesNone) {
   EXPECT_EQ(d["cause"], "none");
 }
 
+// A cloud and its inspection JSON (`ttp inspect --json`) are judged alike:
+// the JSON carries each fitted feature's own scatter (`U_scatter_*`), which
+// the diagnosis's budget takes for it, so every candidate's chi2 is the
+// same by either route. Without those fields the JSON's features fall back
+// to rms / sqrt(points), less than half of a facet's scatter (its d is
+// taken at W's origin, above its points).
+TEST(CliDiagnosis, ACloudAndItsInspectionJsonGiveOneBudget) {
+  const fs::path dir = test::TestDir("diag_routes");
+  const fs::path in = kSamples / "run-a";
+  InspectSample("run-a", "piece.ply", dir);
+  const auto by_json = test::RunTtp(
+      "diagnose --log " + (in / "talc.csv").string() + " " +
+      (dir / "m.json").string() + " --json " + (dir / "j.json").string());
+  ASSERT_EQ(by_json.exit_code, 0) << by_json.output;
+  const auto by_cloud = test::RunTtp(
+      "diagnose --log " + (in / "talc.csv").string() + " " +
+      (in / "piece.ply").string() + " --json " + (dir / "c.json").string());
+  ASSERT_EQ(by_cloud.exit_code, 0) << by_cloud.output;
+  const nlohmann::json j = test::ReadJson(dir / "j.json");
+  const nlohmann::json c = test::ReadJson(dir / "c.json");
+  ASSERT_EQ(j["candidates"].size(), c["candidates"].size());
+  for (size_t i = 0; i < j["candidates"].size(); ++i) {
+    const double a = j["candidates"][i]["chi2"].get<double>();
+    const double b = c["candidates"][i]["chi2"].get<double>();
+    EXPECT_NEAR(a, b, 1e-6 * std::max(1.0, b)) << j["candidates"][i]["cause"];
+  }
+  EXPECT_EQ(j["status"], c["status"]);
+  // The facets' scatter is in the JSON, and more than rms / sqrt(points).
+  nlohmann::json m = test::ReadJson(dir / "m.json");
+  const auto& f = m["facets"]["X1-5"];
+  ASSERT_TRUE(f.contains("U_scatter_distance_um")) << f.dump();
+  EXPECT_GT(f["U_scatter_distance_um"].get<double>(),
+            1.8 * 2 * f["rms_um"].get<double>() /
+                std::sqrt(f["points"].get<double>()));
+  // Read without them, the JSON's budget is narrower: the nominal
+  // model's chi2 grows.
+  for (auto& [id, v] : m["facets"].items()) {
+    v.erase("U_scatter_distance_um");
+    v.erase("U_scatter_angle_urad");
+  }
+  for (auto& [id, v] : m["strips"].items()) {
+    v.erase("U_scatter_depth_um");
+    v.erase("U_scatter_beta_urad");
+  }
+  {
+    std::ofstream out(dir / "m-bare.json");
+    out << m.dump(1);
+  }
+  const auto bare = test::RunTtp(
+      "diagnose --log " + (in / "talc.csv").string() + " " +
+      (dir / "m-bare.json").string() + " --json " + (dir / "b.json").string());
+  ASSERT_EQ(bare.exit_code, 0) << bare.output;
+  const nlohmann::json b = test::ReadJson(dir / "b.json");
+  EXPECT_GT(b["candidates"][0]["chi2"].get<double>(),
+            1.05 * c["candidates"][0]["chi2"].get<double>());
+}
+
 TEST(CliDiagnosis, TwinRoundTripThroughACloud) {
   const fs::path dir = test::TestDir("diag_twin");
   const auto t = test::RunTtp(

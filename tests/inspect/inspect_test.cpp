@@ -106,6 +106,39 @@ TEST(InspectCloudTest, UncertaintyCoversTheTruth) {
   std::printf("coverage %.4f of %d (misses:%s)\n", coverage, total, by.c_str());
 }
 
+// Each facet's own scatter (`scatter_var_d_mm2`, what the diagnosis judges
+// a fitted feature by) holds its distance's error: d is taken at W's
+// origin, above the facet's points, so the fitted tilt's scatter moves it
+// and rms / sqrt(points) alone covers far less. Datum and instrument terms
+// are not in it; the datum's error, common to all facets, is small here.
+TEST(InspectCloudTest, FacetScatterCoversItsDistanceError) {
+  const PartSpec part;
+  InspectOptions io;
+  io.instrument = Instrument::kNone;
+  int inside = 0, inside_naive = 0, total = 0;
+  for (uint32_t seed = 200; seed < 230; ++seed) {
+    const SynthPiece s = RandomSynthPiece(seed, 20000);
+    const InspectionResult r = InspectCloud(part, s.cloud, io);
+    for (const auto& [id, got] : r.features) {
+      if (id.kind != FeatureKind::kFacet || !got.present) continue;
+      const FeatureResult& want = s.truth.features.at(id);
+      const double err = std::abs(got.d_mm - want.d_mm);
+      ASSERT_GT(got.scatter_var_d_mm2, 0) << id.ToString();
+      ASSERT_LE(got.scatter_var_d_mm2, got.var_d_mm2) << id.ToString();
+      ++total;
+      inside += err <= 2 * std::sqrt(got.scatter_var_d_mm2);
+      inside_naive += err <= 2 * got.rms_mm / std::sqrt(got.points);
+    }
+  }
+  const double coverage = static_cast<double>(inside) / total;
+  const double naive = static_cast<double>(inside_naive) / total;
+  EXPECT_GE(coverage, 0.93);
+  EXPECT_LE(coverage, 0.995);
+  EXPECT_LT(naive, 0.85);
+  std::printf("facet scatter coverage %.4f of %d (rms / sqrt(points): %.4f)\n",
+              coverage, total, naive);
+}
+
 // Missing features: their figures are null (NaN), everything else is still
 // computed and accurate; the diagnostics say which are missing.
 TEST(InspectCloudTest, MissingFeaturesLeaveTheRestComputed) {

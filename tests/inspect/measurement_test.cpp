@@ -110,6 +110,9 @@ TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
     fr.var_d_mm2 = std::pow(u(rng), 2);
     fr.angle_rad = dev(rng) * 1e-2;
     fr.var_angle_rad2 = std::pow(u(rng) * 1e-2, 2);
+    // The fit's own part of them, as a cloud's inspection gives it.
+    fr.scatter_var_d_mm2 = fr.var_d_mm2 * 0.3;
+    fr.scatter_var_angle_rad2 = fr.var_angle_rad2 * 0.9;
     r.features[f.Key()] = fr;
   }
   r.features[FeatureId::Facet(Segment::kY2, 3)].present =
@@ -119,6 +122,15 @@ TEST_F(MeasurementTest, InspectionJsonRoundTrip) {
   const fs::path p = Write("inspection.json", doc.dump(1));
   const Measurement m = LoadMeasurement(config_, p);
   EXPECT_EQ(m.kind, MeasurementKind::kInspectionJson);
+  for (const auto& [id, want] : r.features) {
+    if (!want.present) continue;
+    const FeatureResult& got = m.result.features.at(id);
+    EXPECT_NEAR(got.scatter_var_d_mm2 / want.scatter_var_d_mm2, 1.0, 1e-9)
+        << id.ToString();
+    EXPECT_NEAR(got.scatter_var_angle_rad2 / want.scatter_var_angle_rad2, 1.0,
+                1e-9)
+        << id.ToString();
+  }
   ASSERT_EQ(m.result.figures.size(), r.figures.size());
   int missing = 0;
   for (size_t i = 0; i < r.figures.size(); ++i) {
@@ -290,6 +302,13 @@ TEST_F(MeasurementTest, BadFilesNameTheProblem) {
                           R"({"facets": {"X1-1": {"distance_mm": 97.3,
                           "U_distance_um": 1, "angle_error_urad": 5}}})"))
                 .find("facets.X1-1.U_angle_urad: missing"),
+            std::string::npos);
+  // The fit's own part of U is optional, and not more than the whole.
+  EXPECT_NE(ErrorOf(Write("scatter.json",
+                          R"({"facets": {"X1-1": {"distance_mm": 97.3,
+                          "U_distance_um": 1, "U_scatter_distance_um": 1.5}}})"))
+                .find("facets.X1-1.U_scatter_distance_um: 1.5 is larger than "
+                      "the whole uncertainty"),
             std::string::npos);
   EXPECT_NE(ErrorOf(Write("cycle.json", R"({"figures": [{"cycle": 9}]})"))
                 .find("figures[0].cycle: outside 1..8"),

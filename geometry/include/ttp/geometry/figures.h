@@ -27,6 +27,14 @@ struct FeatureResult {
   double tilt_rad = 0;
   int points = 0;
   double rms_mm = 0;
+  // The part of var_d_mm2 and var_angle_rad2 that the fitted points' own
+  // scatter gives: the plane fit's covariance carried to where d is taken
+  // (W's origin for a facet, whose points lie 1-11 mm below it, so the
+  // fit's tilt moves d; (0, y_k) for a strip), without the datums' and the
+  // instrument's parts, which are common to every feature. 0 when the
+  // result did not come from a fit to points.
+  double scatter_var_d_mm2 = 0;
+  double scatter_var_angle_rad2 = 0;
 };
 
 // Keyed by the typed id; the names ("X1-5", "Z3") appear only where
