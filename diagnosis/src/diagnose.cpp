@@ -1835,10 +1835,10 @@ namespace {
 // The instrument's error of a feature: the scatter of its points when it
 // was fitted to points - the plane fit's covariance carried to where d is
 // taken, as the inspection gives it (a facet's d is taken at W's origin,
-// 1-11 mm above its points, so the fit's tilt moves it: in a 20k-point
-// cloud that doubles the error of rms / sqrt(points)); without it, rms /
-// sqrt(points), over their spread for the angle -, else the variances it
-// comes with (probe, dial, DMIS); plus
+// 1-11 mm above its points, so the fit's tilt moves it: 2.3 times rms /
+// sqrt(points)); without it, FeatureFitScatter's, for points spread
+// evenly over the feature -, else the variances it comes with (probe,
+// dial, DMIS); plus
 // the form error, a fraction of the fit's residual RMS that does not
 // average out over the points. The instrument's error limit is common to
 // the cycles and cancels in the figures' differences (and the per-figure
@@ -1867,16 +1867,18 @@ void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
     const double stated_d = std::isfinite(r->var_d_mm2) ? r->var_d_mm2 : 0.0;
     const double stated_a =
         std::isfinite(r->var_angle_rad2) ? r->var_angle_rad2 : 0.0;
+    // (The stated variances hold the touches' positions, the lever of
+    // their tilt included; the scatter is held against them as rms /
+    // sqrt(points), the touches' own noise.)
+    if (few) s.d_mm = r->rms_mm / std::sqrt(r->points);
     r->var_d_mm2 = few ? std::max(stated_d, s.d_mm * s.d_mm) : s.d_mm * s.d_mm;
     r->var_angle_rad2 = few ? std::max(stated_a, s.angle_rad * s.angle_rad)
                             : s.angle_rad * s.angle_rad;
   }
   if (fitted) {
-    const FitScatter form =
-        FeatureFitScatter(part, kind, form_fraction * r->rms_mm, 1);
     // (On the distance only: a form error that does not average out
     // shifts the plane more than it turns it.)
-    r->var_d_mm2 += form.d_mm * form.d_mm;
+    r->var_d_mm2 += std::pow(form_fraction * r->rms_mm, 2);
   }
 }
 // The reference cycle's part of each figure kind's error (the common

@@ -129,6 +129,16 @@ FitScatter FeatureFitScatter(const PartSpec& part, FeatureKind kind,
                              double rms_mm, int points) {
   FitScatter s;
   s.d_mm = rms_mm / std::sqrt(points);
+  if (kind == FeatureKind::kFacet) {
+    // A facet's d is taken at W's origin (z = 0), its points spread over
+    // its height inside the inspection's 1 mm margins: the fitted tilt's
+    // scatter (rms / sqrt(points) over that spread) moves d by the
+    // centroid's depth, about 2.3 times rms / sqrt(points) in all.
+    const double depth_mm = -part.facet_bottom_z_mm / 2;
+    const double height_mm =
+        std::max(2.0, -part.facet_bottom_z_mm - 2.0) / std::sqrt(12.0);
+    s.d_mm *= std::hypot(1.0, depth_mm / height_mm);
+  }
   // Facets: across the facet; strips: along x over the piece (~180 mm).
   const double spread_mm =
       (kind == FeatureKind::kFacet
@@ -138,7 +148,7 @@ FitScatter FeatureFitScatter(const PartSpec& part, FeatureKind kind,
                            1.0))
            : 180.0) /
       std::sqrt(12.0);
-  s.angle_rad = s.d_mm / spread_mm;
+  s.angle_rad = rms_mm / std::sqrt(points) / spread_mm;
   return s;
 }
 

@@ -72,8 +72,12 @@ FitNoise CloudFitNoise(const PartSpec& part, double point_noise_um,
   // The synthetic CMM (sim/synth.h) puts 45 % of the points on the 36
   // facets and 25 % on the 9 strips; the inspection keeps those inside the
   // edge margins: about 1/100 of the cloud per facet, 1/40 per strip. A
-  // plane through N points spread uniformly over a width w: distance
-  // sigma / sqrt(N), angle sigma / sqrt(N) / (w / sqrt(12)).
+  // plane through N points spread uniformly over a width w: distance at
+  // the points' centroid sigma / sqrt(N), angle sigma / sqrt(N) / (w /
+  // sqrt(12)). A facet's distance is the plane's at W's origin, on the top
+  // face: its points lie from 1 mm above its foot to 1 mm below the top,
+  // and the plane's tilt about the horizontal, as scattered as its angle
+  // over that height, carries the centroid's error up to the origin.
   FitNoise n;
   n.facet_points = std::max(10, cloud_points / 100);
   n.strip_points = std::max(10, cloud_points / 40);
@@ -83,9 +87,14 @@ FitNoise CloudFitNoise(const PartSpec& part, double point_noise_um,
           std::tan(part.facet_step_deg / 2 * M_PI / 180) -
       2.0;
   const double strip_length_mm = 0.9 * part.blank_diameter_mm;
-  n.facet_d_mm = s / std::sqrt(n.facet_points);
+  const double at_centroid_mm = s / std::sqrt(n.facet_points);
   n.facet_angle_rad =
-      n.facet_d_mm / (std::max(2.0, facet_width_mm) / std::sqrt(12.0));
+      at_centroid_mm / (std::max(2.0, facet_width_mm) / std::sqrt(12.0));
+  const double facet_height_mm = -part.facet_bottom_z_mm - 2.0;
+  const double tilt_rad =
+      at_centroid_mm / (std::max(2.0, facet_height_mm) / std::sqrt(12.0));
+  const double centroid_depth_mm = -part.facet_bottom_z_mm / 2;
+  n.facet_d_mm = std::hypot(at_centroid_mm, tilt_rad * centroid_depth_mm);
   n.strip_d_mm = s / std::sqrt(n.strip_points);
   n.strip_angle_rad = n.strip_d_mm / (strip_length_mm / std::sqrt(12.0));
   return n;

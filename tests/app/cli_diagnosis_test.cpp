@@ -386,9 +386,11 @@ TEST(CliDiagnosis, SampleRunBNamesNone) {
 // A cloud and its inspection JSON (`ttp inspect --json`) are judged alike:
 // the JSON carries each fitted feature's own scatter (`U_scatter_*`), which
 // the diagnosis's budget takes for it, so every candidate's chi2 is the
-// same by either route. Without those fields the JSON's features fall back
-// to rms / sqrt(points), less than half of a facet's scatter (its d is
-// taken at W's origin, above its points).
+// same by either route. Without those fields (an inspection of another
+// program) the features' rms and points give it for points spread evenly
+// over each feature, a facet's d taken at W's origin above its points:
+// close to the fit's own for this cloud (with rms / sqrt(points) alone the
+// nominal model's chi2 was more than 5 % larger).
 TEST(CliDiagnosis, ACloudAndItsInspectionJsonGiveOneBudget) {
   const fs::path dir = test::TestDir("diag_routes");
   const fs::path in = kSamples / "run-a";
@@ -417,8 +419,7 @@ TEST(CliDiagnosis, ACloudAndItsInspectionJsonGiveOneBudget) {
   EXPECT_GT(f["U_scatter_distance_um"].get<double>(),
             1.8 * 2 * f["rms_um"].get<double>() /
                 std::sqrt(f["points"].get<double>()));
-  // Read without them, the JSON's budget is narrower: the nominal
-  // model's chi2 grows.
+  // Read without them.
   for (auto& [id, v] : m["facets"].items()) {
     v.erase("U_scatter_distance_um");
     v.erase("U_scatter_angle_urad");
@@ -436,8 +437,10 @@ TEST(CliDiagnosis, ACloudAndItsInspectionJsonGiveOneBudget) {
       (dir / "m-bare.json").string() + " --json " + (dir / "b.json").string());
   ASSERT_EQ(bare.exit_code, 0) << bare.output;
   const nlohmann::json b = test::ReadJson(dir / "b.json");
-  EXPECT_GT(b["candidates"][0]["chi2"].get<double>(),
-            1.05 * c["candidates"][0]["chi2"].get<double>());
+  EXPECT_NEAR(b["candidates"][0]["chi2"].get<double>() /
+                  c["candidates"][0]["chi2"].get<double>(),
+              1.0, 0.02);
+  EXPECT_EQ(b["status"], c["status"]);
 }
 
 TEST(CliDiagnosis, TwinRoundTripThroughACloud) {

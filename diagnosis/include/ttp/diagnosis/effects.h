@@ -92,10 +92,12 @@ EffectDeltas PredictEffect(Cause cause, const std::vector<double>& params,
                            const EffectContext& context);
 
 // Standard uncertainty of a plane fitted to `points` points scattered by
-// rms_mm on a test feature: its distance, and its angle from the points'
-// spread across the facet (inside the inspection's 1 mm margins) or along
-// the strip (~180 mm across the piece). The twin's noise and the
-// diagnosis's judgement both come from here.
+// rms_mm on a test feature, its points spread evenly over it: its distance
+// (a facet's at W's origin, above its points, where the fitted tilt moves
+// it too), and its angle from the points' spread across the facet (inside
+// the inspection's 1 mm margins) or along the strip (~180 mm across the
+// piece). What the diagnosis takes for a fitted feature whose result does
+// not carry its fit's own scatter (FeatureResult::scatter_var_d_mm2).
 struct FitScatter {
   double d_mm = 0, angle_rad = 0;
 };
