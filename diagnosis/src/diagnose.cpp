@@ -1845,41 +1845,38 @@ namespace {
 // offsets of every model absorb what is left).
 void SetFeatureVariance(const PartSpec& part, FeatureKind kind,
                         double form_fraction, FeatureResult* r) {
-  if (!r->present) return;
-  const bool fitted = r->rms_mm > 0 && r->points >= 3;
+  const bool fitted = r->present && r->rms_mm > 0 && r->points >= 3;
+  if (!fitted) return;  // its stated variances stand
   // The inspection's plane covariance also holds the datum alignment and
   // the instrument's error limit, common to every feature: the per-figure
   // offsets absorb those, so a fitted feature is judged by its own
   // scatter.
-  if (fitted) {
-    FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
-    if (r->scatter_var_d_mm2 > 0 && r->scatter_var_angle_rad2 > 0) {
-      s.d_mm = std::sqrt(r->scatter_var_d_mm2);
-      s.angle_rad = std::sqrt(r->scatter_var_angle_rad2);
-    }
-    // A few touches (a probe's 4-6 points) leave one to three degrees of
-    // freedom: their scatter is no estimate of the instrument's noise, and
-    // their positions are not spread over the facet as a cloud's are. The
-    // variances the instrument states (from its trigger noise and the
-    // touch positions) then stand, unless the scatter is larger.
-    constexpr int kFewPoints = 30;
-    const bool few = r->points < kFewPoints;
+  FitScatter s = FeatureFitScatter(part, kind, r->rms_mm, r->points);
+  if (r->scatter_var_d_mm2 > 0 && r->scatter_var_angle_rad2 > 0) {
+    s.d_mm = std::sqrt(r->scatter_var_d_mm2);
+    s.angle_rad = std::sqrt(r->scatter_var_angle_rad2);
+  }
+  // A few touches (a probe's 4-6 points) leave one to three degrees of
+  // freedom: their scatter is no estimate of the instrument's noise, and
+  // their positions are not spread over the facet as a cloud's are. The
+  // variances the instrument states (from its trigger noise and the
+  // touch positions, the lever of their tilt included) then stand, unless
+  // the scatter, as rms / sqrt(points), is larger.
+  constexpr int kFewPoints = 30;
+  if (r->points < kFewPoints) {
+    const double plain_d = r->rms_mm / std::sqrt(r->points);
     const double stated_d = std::isfinite(r->var_d_mm2) ? r->var_d_mm2 : 0.0;
     const double stated_a =
         std::isfinite(r->var_angle_rad2) ? r->var_angle_rad2 : 0.0;
-    // (The stated variances hold the touches' positions, the lever of
-    // their tilt included; the scatter is held against them as rms /
-    // sqrt(points), the touches' own noise.)
-    if (few) s.d_mm = r->rms_mm / std::sqrt(r->points);
-    r->var_d_mm2 = few ? std::max(stated_d, s.d_mm * s.d_mm) : s.d_mm * s.d_mm;
-    r->var_angle_rad2 = few ? std::max(stated_a, s.angle_rad * s.angle_rad)
-                            : s.angle_rad * s.angle_rad;
+    r->var_d_mm2 = std::max(stated_d, plain_d * plain_d);
+    r->var_angle_rad2 = std::max(stated_a, s.angle_rad * s.angle_rad);
+  } else {
+    r->var_d_mm2 = s.d_mm * s.d_mm;
+    r->var_angle_rad2 = s.angle_rad * s.angle_rad;
   }
-  if (fitted) {
-    // (On the distance only: a form error that does not average out
-    // shifts the plane more than it turns it.)
-    r->var_d_mm2 += std::pow(form_fraction * r->rms_mm, 2);
-  }
+  // (The form error on the distance only: a form error that does not
+  // average out shifts the plane more than it turns it.)
+  r->var_d_mm2 += std::pow(form_fraction * r->rms_mm, 2);
 }
 // The reference cycle's part of each figure kind's error (the common
 // variance of Observations::figure_reference_var_um2): the reference
