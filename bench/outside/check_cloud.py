@@ -37,8 +37,10 @@ below the piece's bottom under its axis); 'both' alternates adapter and
 table, 'fixtures' vise, angle plate and tilted table.
 --limits: exit 1 also when a figure or a facet distance is off the truth
 by more than 1 um or a facet angle by more than 100 urad (the clouds'
-noise gives at most about 0.25 um and 40 urad); always exit 1 when ttp
-inspect refuses a cloud. The ctest outside.inspect_clouds_in_fixtures
+noise gives at most about 0.25 um and 40 urad), or when the features'
+errors over their own scatter (U_scatter / 2, the part common to a run
+taken out) have an RMS outside 0.75-1.33 for a kind with 100 features or
+more; always exit 1 when ttp inspect refuses a cloud. The ctest outside.inspect_clouds_in_fixtures
 runs `--runs 12 --seed 11 --surroundings fixtures --limits`.
 The table holds --table-share (default 2) times, the adapter a fifth as
 many points as the piece, with the piece's noise; the table's points under
@@ -99,6 +101,44 @@ def compare(truth, got):
             if g and g.get(k) is not None:
                 diff[k].append(g[k] - f[k])
     return diff
+
+
+# (measured - truth) / u_scatter per kind; the part common to a run (the
+# datum's: the top face's height and tilt for strips, the notch's direction
+# for facet angles, the centre for nothing that is common) taken out first,
+# since U_scatter is by its definition what differs from one feature to the
+# next. The fields are U = 2u.
+SCATTER_KINDS = [("facet d", "facets", "distance_mm", 1e3, "U_scatter_distance_um"),
+                 ("facet angle", "facets", "angle_error_urad", 1.0, "U_scatter_angle_urad"),
+                 ("strip depth", "strips", "depth_mm", 1e3, "U_scatter_depth_um"),
+                 ("strip beta", "strips", "beta_urad", 1.0, "U_scatter_beta_urad")]
+TRUTH_KEY = {"distance_mm": "distance_mm", "angle_error_urad": "angle_error_urad",
+             "depth_mm": "depth_mm", "beta_urad": "beta_urad"}
+# --limits: RMS of those z over at least this many features must lie in
+# this band (a scatter 2.3 times too small, a facet's d without its tilt's
+# lever, gives 2.3; the sampling spread of the RMS over 400 features is
+# about 0.04)
+SCATTER_MIN_FEATURES = 100
+SCATTER_RMS_Z_BAND = (0.75, 1.33)
+
+
+def scatter_z(truth, got):
+    """Per kind the z of each feature against its U_scatter, the run's mean
+    error taken out (with the n / (n - 1) that taking it out costs)."""
+    out = {}
+    for kind, sect, field, scale, ufield in SCATTER_KINDS:
+        errs = []
+        for name, t in (truth.get(sect) or {}).items():
+            g = (got.get(sect) or {}).get(name) or {}
+            if g.get(field) is None or not g.get(ufield) or t.get(TRUTH_KEY[field]) is None:
+                continue
+            errs.append(((g[field] - t[TRUTH_KEY[field]]) * scale, g[ufield] / 2.0))
+        if len(errs) < 3:
+            continue
+        mean = sum(e for e, _ in errs) / len(errs)
+        f = math.sqrt(len(errs) / (len(errs) - 1.0))
+        out[kind] = [(e - mean) / u * f for e, u in errs]
+    return out
 
 
 def stats(v):
@@ -321,6 +361,7 @@ def main():
                 dirs.append(d)
         total = {}
         bad = refused = 0
+        zs = {}
         for d in dirs:
             truth = json.load(open(os.path.join(d, "truth.json")))
             cloud = [f for f in os.listdir(d) if f.startswith("piece.") and f[-3:] in ("ply", "xyz")][0]
@@ -349,6 +390,8 @@ def main():
                 bad += 1
             for k, v in diff.items():
                 total.setdefault(k, []).extend(v)
+            for k, v in scatter_z(truth, got).items():
+                zs.setdefault(k, []).extend(v)
         print("measured - truth over %d runs (%d refused; %d beyond the limits):" % (
             len(dirs) - refused, refused, bad - refused))
         pairs = total.pop("angle pairs", [])
@@ -358,7 +401,19 @@ def main():
             st = sum(t * t for t, _ in pairs)
             print("  facet angles: truth RMS %.1f urad, slope of measured on truth %.3f" % (
                 math.sqrt(st / len(pairs)), sum(t * m for t, m in pairs) / st if st else float("nan")))
-        return 1 if bad else 0
+        scatter_bad = 0
+        if zs:
+            print("each feature against its own scatter (U_scatter / 2), the run's common part out:")
+        for k, v in zs.items():
+            rms = math.sqrt(sum(z * z for z in v) / len(v))
+            cover = sum(1 for z in v if abs(z) <= 2.0) / len(v)
+            off = (a.limits and len(v) >= SCATTER_MIN_FEATURES and
+                   not SCATTER_RMS_Z_BAND[0] <= rms <= SCATTER_RMS_Z_BAND[1])
+            scatter_bad += off
+            print("  %-18s n %4d  RMS z %.2f  within 2u %.1f %%%s" % (
+                k, len(v), rms, 100 * cover,
+                "  beyond the band %.2f-%.2f" % SCATTER_RMS_Z_BAND if off else ""))
+        return 1 if bad or scatter_bad else 0
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
