@@ -40,8 +40,9 @@ by more than 1 um or a facet angle by more than 100 urad (the clouds'
 noise gives at most about 0.25 um and 40 urad), or when the features'
 errors over their own scatter (U_scatter / 2, the part common to a run
 taken out) have an RMS outside 0.75-1.33 for a kind with 100 features or
-more; always exit 1 when ttp inspect refuses a cloud. The ctest outside.inspect_clouds_in_fixtures
-runs `--runs 12 --seed 11 --surroundings fixtures --limits`.
+more; always exit 1 when ttp inspect refuses a cloud. The ctest
+outside.inspect_clouds_in_fixtures runs `--runs 12 --seed 11
+--surroundings fixtures --limits`.
 The table holds --table-share (default 2) times, the adapter a fifth as
 many points as the piece, with the piece's noise; the table's points under
 the piece's rim are not seen (a scanner looks from above).
@@ -103,17 +104,15 @@ def compare(truth, got):
     return diff
 
 
-# (measured - truth) / u_scatter per kind; the part common to a run (the
+# (measured - truth) / u_scatter per kind, the part common to a run (the
 # datum's: the top face's height and tilt for strips, the notch's direction
-# for facet angles, the centre for nothing that is common) taken out first,
-# since U_scatter is by its definition what differs from one feature to the
-# next. The fields are U = 2u.
+# for facet angles) taken out first: U_scatter is by its definition what
+# differs from one feature to the next. The fields are U = 2u; the truth
+# and the inspection name each value alike.
 SCATTER_KINDS = [("facet d", "facets", "distance_mm", 1e3, "U_scatter_distance_um"),
                  ("facet angle", "facets", "angle_error_urad", 1.0, "U_scatter_angle_urad"),
                  ("strip depth", "strips", "depth_mm", 1e3, "U_scatter_depth_um"),
                  ("strip beta", "strips", "beta_urad", 1.0, "U_scatter_beta_urad")]
-TRUTH_KEY = {"distance_mm": "distance_mm", "angle_error_urad": "angle_error_urad",
-             "depth_mm": "depth_mm", "beta_urad": "beta_urad"}
 # --limits: RMS of those z over at least this many features must lie in
 # this band (a scatter 2.3 times too small, a facet's d without its tilt's
 # lever, gives 2.3; the sampling spread of the RMS over 400 features is
@@ -128,11 +127,12 @@ def scatter_z(truth, got):
     out = {}
     for kind, sect, field, scale, ufield in SCATTER_KINDS:
         errs = []
+        measured = got.get(sect) or {}
         for name, t in (truth.get(sect) or {}).items():
-            g = (got.get(sect) or {}).get(name) or {}
-            if g.get(field) is None or not g.get(ufield) or t.get(TRUTH_KEY[field]) is None:
+            g = measured.get(name) or {}
+            if g.get(field) is None or not g.get(ufield) or t.get(field) is None:
                 continue
-            errs.append(((g[field] - t[TRUTH_KEY[field]]) * scale, g[ufield] / 2.0))
+            errs.append(((g[field] - t[field]) * scale, g[ufield] / 2.0))
         if len(errs) < 3:
             continue
         mean = sum(e for e, _ in errs) / len(errs)
